@@ -1,0 +1,103 @@
+#include "cli_common.hpp"
+
+#include <cctype>
+#include <cmath>
+#include <sstream>
+
+namespace ctr::cli {
+
+double parseNumber(const std::string& text0, const std::string& what, bool angle) {
+  std::string text = text0;
+  while (!text.empty() && std::isspace(static_cast<unsigned char>(text.back()))) text.pop_back();
+  while (!text.empty() && std::isspace(static_cast<unsigned char>(text.front()))) text.erase(text.begin());
+  double scale = 1.0;
+  if (angle && text.size() > 3 && text.compare(text.size() - 3, 3, "deg") == 0) {
+    scale = M_PI / 180.0;
+    text.resize(text.size() - 3);
+  } else if (angle && text.size() > 3 && text.compare(text.size() - 3, 3, "rad") == 0) {
+    text.resize(text.size() - 3);
+  }
+  std::size_t used = 0;
+  double v = 0.0;
+  try {
+    v = std::stod(text, &used);
+  } catch (const std::exception&) {
+    used = 0;
+  }
+  if (text.empty() || used != text.size() || !std::isfinite(v))
+    throw UsageError(what + ": '" + text0 + "' is not a finite number" + (angle ? " (rad, or with a deg suffix)" : ""));
+  return v * scale;
+}
+
+std::vector<double> parseList(const std::string& text, const std::string& what, bool angle) {
+  std::vector<double> out;
+  std::stringstream ss(text);
+  std::string item;
+  int k = 0;
+  while (std::getline(ss, item, ',')) {
+    ++k;
+    out.push_back(parseNumber(item, what + " item " + std::to_string(k), angle));
+  }
+  if (out.empty()) throw UsageError(what + ": empty list");
+  return out;
+}
+
+void ConfigOptions::add(CLI::App* app) {
+  app->add_option("--alpha", alpha, "Tube rotations a1,a2,.. (rad, or e.g. 90deg); default 0");
+  app->add_option("--beta", beta, "Tube translations b1,b2,.. (m, <= 0); default: straight parts retracted");
+}
+
+Configuration defaultConfiguration(const Robot& robot) {
+  const int n = robot.size();
+  Configuration q = Configuration::zeros(n);
+  // beta_i = -straight_length_i, then enforce beta_{i+1} <= beta_i and ordered distal ends.
+  for (int i = 0; i < n; ++i) q.beta[i] = -robot.tube(i).straight_length;
+  for (int i = 1; i < n; ++i) q.beta[i] = std::min(q.beta[i], q.beta[i - 1]);
+  for (int i = 1; i < n; ++i) {
+    const double need = q.beta[i - 1] + robot.tube(i - 1).length() - robot.tube(i).length();
+    if (q.beta[i] < need) q.beta[i] = std::min(need, q.beta[i - 1]);
+  }
+  return q;
+}
+
+Configuration ConfigOptions::resolve(const Robot& robot) const {
+  const int n = robot.size();
+  Configuration q = defaultConfiguration(robot);
+  if (!alpha.empty()) {
+    auto a = parseList(alpha, "--alpha", true);
+    if (static_cast<int>(a.size()) != n)
+      throw UsageError("--alpha: " + std::to_string(a.size()) + " values given, robot '" + robot.name() + "' has " +
+                       std::to_string(n) + " tubes");
+    for (int i = 0; i < n; ++i) q.alpha[i] = a[static_cast<std::size_t>(i)];
+  }
+  if (!beta.empty()) {
+    auto b = parseList(beta, "--beta", false);
+    if (static_cast<int>(b.size()) != n)
+      throw UsageError("--beta: " + std::to_string(b.size()) + " values given, robot '" + robot.name() + "' has " +
+                       std::to_string(n) + " tubes");
+    for (int i = 0; i < n; ++i) q.beta[i] = b[static_cast<std::size_t>(i)];
+  }
+  return q;
+}
+
+std::vector<std::string> normalizeArguments(int argc, char** argv) {
+  std::vector<std::string> out;
+  for (int i = 0; i < argc; ++i) {
+    std::string a = argv[i];
+    const bool is_long_option = a.size() > 2 && a[0] == '-' && a[1] == '-' && a.find('=') == std::string::npos;
+    if (is_long_option && i + 1 < argc) {
+      const std::string next = argv[i + 1];
+      const bool negative_number =
+          next.size() > 1 && next[0] == '-' && (std::isdigit(static_cast<unsigned char>(next[1])) || next[1] == '.');
+      if (negative_number) {
+        out.push_back(a + "=" + next);
+        ++i;
+        continue;
+      }
+    }
+    out.push_back(a);
+  }
+  return out;
+}
+
+}  // namespace ctr::cli

@@ -1,0 +1,46 @@
+// Shared helpers of the `ctr` command: exit codes, number lists with units, configuration options, output files.
+#pragma once
+
+#include <CLI/CLI.hpp>
+#include <functional>
+#include <string>
+#include <vector>
+
+#include "ctr/io/input_error.hpp"
+#include "ctr/model/configuration.hpp"
+#include "ctr/model/robot.hpp"
+
+namespace ctr::cli {
+
+/// Exit codes of every subcommand.
+enum Exit : int { kOk = 0, kRuntimeFailure = 1, kUsage = 2 };
+
+/// The action a subcommand runs after parsing; returns the exit code.
+using Action = std::function<int()>;
+
+/// Usage error (bad option value): exit code 2.
+struct UsageError : std::runtime_error {
+  using std::runtime_error::runtime_error;
+};
+
+/// Parses one number; an angle accepts a `deg` suffix (`90deg`). `what` names the option in errors.
+double parseNumber(const std::string& text, const std::string& what, bool angle);
+/// Parses "a,b,c" (angles with optional `deg` suffix per item).
+std::vector<double> parseList(const std::string& text, const std::string& what, bool angle);
+
+/// Options --alpha/--beta shared by fk, sweep, env check.
+struct ConfigOptions {
+  std::string alpha, beta;
+  void add(CLI::App* app);
+  /// Configuration for the robot: missing alpha -> zeros; missing beta -> -straight_length of each tube, clamped
+  /// to the nesting rules. Throws UsageError for wrong counts.
+  Configuration resolve(const Robot& robot) const;
+};
+
+/// Default translations: each tube's straight part inside the actuation unit where admissible.
+Configuration defaultConfiguration(const Robot& robot);
+
+/// argv with negative-number values joined to their option ("--beta -0.01,-0.02" -> "--beta=-0.01,-0.02").
+std::vector<std::string> normalizeArguments(int argc, char** argv);
+
+}  // namespace ctr::cli

@@ -1,0 +1,48 @@
+// The `ctr` command: forward kinematics, sweeps, simulation, environments, diagnosis, planning.
+#include <iostream>
+
+#include "commands.hpp"
+
+int main(int argc, char** argv) {
+  using namespace ctr::cli;
+  CLI::App app{"ctr -- friction-aware modeling and motion planning of concentric tube robots"};
+  app.require_subcommand(1);
+  app.set_help_all_flag("--help-all", "Help for all subcommands");
+  Action action;
+  registerFk(app, action);
+  registerSweep(app, action);
+  registerSimulate(app, action);
+#ifdef CTR_WITH_ENVIRONMENTS
+  registerEnv(app, action);
+#endif
+#ifdef CTR_WITH_DIAGNOSIS
+  registerDiagnose(app, action);
+  registerRecording(app, action);
+#endif
+#ifdef CTR_WITH_PLANNER
+  registerPlan(app, action);
+#endif
+  std::vector<std::string> args = normalizeArguments(argc, argv);
+  try {
+    std::vector<std::string> rev(args.rbegin(), args.rend() - 1);
+    app.parse(rev);
+  } catch (const CLI::ParseError& e) {
+    return app.exit(e) == 0 ? kOk : kUsage;
+  }
+  if (!action) return kOk;
+  try {
+    return action();
+  } catch (const ctr::io::InputError& e) {
+    std::cerr << "error: " << e.what() << "\n";
+    return kUsage;
+  } catch (const UsageError& e) {
+    std::cerr << "error: " << e.what() << "\n";
+    return kUsage;
+  } catch (const std::invalid_argument& e) {
+    std::cerr << "error: " << e.what() << "\n";
+    return kUsage;
+  } catch (const std::exception& e) {
+    std::cerr << "error: " << e.what() << "\n";
+    return kRuntimeFailure;
+  }
+}

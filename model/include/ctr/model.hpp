@@ -1,0 +1,9 @@
+/// @file model.hpp
+/// @brief Umbrella header of ctr::model.
+#pragma once
+
+#include "ctr/model/backbone.hpp"
+#include "ctr/model/configuration.hpp"
+#include "ctr/model/kinematics.hpp"
+#include "ctr/model/robot.hpp"
+#include "ctr/model/friction.hpp"

@@ -1,0 +1,42 @@
+/// @file configuration.hpp
+/// @brief Actuator configuration (rotations alpha, translations beta) and its admissibility.
+#pragma once
+
+#include <Eigen/Core>
+#include <string>
+
+#include "ctr/model/robot.hpp"
+
+namespace ctr {
+
+/// @brief Actuator values of all tubes: rotations alpha_i (rad) and translations beta_i (m, <= 0).
+struct Configuration {
+  Eigen::VectorXd alpha;  ///< Rotation of each tube's proximal end about +z (rad).
+  Eigen::VectorXd beta;   ///< Translation: tube i occupies s in [beta_i, beta_i + L_i] (m).
+
+  Configuration() = default;
+  Configuration(Eigen::VectorXd a, Eigen::VectorXd b) : alpha(std::move(a)), beta(std::move(b)) {}
+  /// @brief All rotations zero and every tube's proximal end at its most retracted admissible position
+  /// that keeps the straight parts in the actuation unit (beta_i = -straight_length_i when admissible).
+  static Configuration zeros(int n);
+  int size() const { return static_cast<int>(alpha.size()); }
+};
+
+/// @brief Result of an admissibility check: ok, or a message saying which constraint is violated.
+struct Admissibility {
+  bool ok = true;
+  std::string message;
+  explicit operator bool() const { return ok; }
+};
+
+/// @brief Checks sizes, finiteness, beta_n <= ... <= beta_1 <= 0, ordered distal ends
+/// beta_1 + L_1 <= ... <= beta_n + L_n (formats.md), the innermost tube protruding (beta_n + L_n > 0),
+/// and the per-tube limits of the robot description.
+Admissibility checkAdmissible(const Robot& robot, const Configuration& q, double tolerance = 1e-12);
+
+/// @brief Distal end s_i = beta_i + L_i of tube i (0-based).
+inline double distalEnd(const Robot& robot, const Configuration& q, int i) {
+  return q.beta[i] + robot.tube(i).length();
+}
+
+}  // namespace ctr

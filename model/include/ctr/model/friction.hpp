@@ -1,0 +1,101 @@
+/// @file friction.hpp
+/// @brief Lumped Coulomb friction at concentrated moments (Lock & Dupont 2011 §II.D) with stick-slip memory:
+/// an explicit hysteresis state carried along a path, a quasi-static stepping function and the friction band.
+#pragma once
+
+#include <string>
+#include <vector>
+
+#include "ctr/model/kinematics.hpp"
+
+namespace ctr {
+
+/// @brief How the friction torque at a contact is determined.
+enum class FrictionMode {
+  StickSlip,  ///< Coulomb friction with memory: each contact sticks or slips (default).
+  Paper,      ///< Always slipping, sign from the commanded direction of relative rotation (paper eq. 34-35).
+};
+
+/// @brief State of one contact: stuck, or slipping with the torque at the bound.
+enum class ContactMode { Stick, SlipPositive, SlipNegative };
+
+/// @brief Memory of one contact site.
+struct ContactMemory {
+  ContactSite site;
+  ContactMode mode = ContactMode::Stick;
+  double relative_twist = 0.0;  ///< theta_inner - theta_outer at the site at the last step (rad).
+  double torque = 0.0;          ///< Friction torque on the inner tube at the last step (N m).
+  double bound = 0.0;           ///< mu' |m| at the last step (N m).
+};
+
+/// @brief Everything the friction model remembers of the path so far. A plain value: copy it to branch a path.
+struct HysteresisState {
+  Configuration q;                      ///< Last commanded configuration.
+  Eigen::VectorXd base_twist_rate;      ///< Equilibrium branch: u_iz(0) at the last step (warm start).
+  std::vector<ContactMemory> contacts;  ///< One per contact site at the last step.
+  Eigen::VectorXd direction;            ///< Paper mode: last commanded rotation direction per tube (-1, 0, +1).
+  bool valid = false;                   ///< False until initialised by initialState / a step.
+};
+
+/// @brief Options of the friction stepping.
+struct FrictionOptions {
+  FrictionMode mode = FrictionMode::StickSlip;
+  double max_rotation_step = 0.0175;   ///< Sub-step size in rotation (rad, 1 deg).
+  double max_translation_step = 1e-3;  ///< Sub-step size in translation (m).
+  int max_active_set_iterations = 16;  ///< Return-mapping iterations before enumerating contact modes.
+  double snap_threshold = 0.5;         ///< Tip twist jump in one sub-step flagged as snap (rad).
+  KinematicsOptions kinematics;        ///< Options of the underlying equilibrium solves.
+};
+
+/// @brief Summary of one quasi-static step.
+struct StepSummary {
+  bool converged = false;
+  int substeps = 0;
+  int active_set_iterations = 0;
+  bool snapped = false;
+  bool enumerated = false;  ///< The active set cycled and contact modes were enumerated.
+  std::string message;
+};
+
+/// @brief Result of a step: the equilibrium at the target, the new memory, and how it went.
+struct StepResult {
+  Solution solution;
+  HysteresisState state;
+  StepSummary summary;
+};
+
+/// @brief Memory of a robot at rest at q without friction torques (all contacts stuck at zero torque).
+/// Uses the robot's boundary coefficient from robot.friction().
+StepResult initialState(const Robot& robot, const Configuration& q, Workspace& ws, const FrictionOptions& options = {});
+
+/// @brief Quasi-static move from the state `from` to the command q, sub-stepped so that the result does not depend
+/// on how the caller slices a path (see docs/friction.md for the tolerance rule at stick/slip changes).
+StepResult step(const Robot& robot, const HysteresisState& from, const Configuration& q, Workspace& ws,
+                const FrictionOptions& options = {});
+
+/// @brief Replays a sequence of commands from a frictionless start at the first one; returns one solution per row.
+std::vector<StepResult> replay(const Robot& robot, const std::vector<Configuration>& commands, Workspace& ws,
+                               const FrictionOptions& options = {});
+
+/// @brief Options of the friction band query.
+struct FrictionBandOptions {
+  int interior_samples = 1;  ///< Extra samples per contact between the extremes (0 = vertices only).
+  KinematicsOptions kinematics;
+};
+
+/// @brief The set of equilibria at one configuration reachable under some history: every combination of contact
+/// torques within their bounds. Extreme shapes are the vertices of the torque box.
+struct FrictionBand {
+  bool converged = false;
+  std::vector<Solution> shapes;           ///< Vertex (and interior) shapes; [0] = frictionless.
+  std::vector<std::vector<double>> torque_fractions;  ///< Per shape, torque / bound per contact.
+  Eigen::VectorXd twist_min, twist_max;   ///< Extremes of each twist over the shapes (rad).
+  double tip_spread = 0.0;                ///< Largest tip distance from the frictionless tip (m).
+  std::string message;
+};
+
+/// @brief Computes the friction band at q.
+FrictionBand frictionBand(const Robot& robot, const Configuration& q, Workspace& ws,
+                          const FrictionBandOptions& options = {});
+
+}  // namespace ctr

@@ -1,0 +1,164 @@
+/// @file kinematics.hpp
+/// @brief Torsionally compliant kinematics (Lock & Dupont 2011 §II.A) solved by shooting with an exact
+/// Jacobian, with optional concentrated friction torques at contact sites (§II.D).
+#pragma once
+
+#include <Eigen/Core>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "ctr/model/configuration.hpp"
+#include "ctr/model/robot.hpp"
+
+namespace ctr {
+
+/// @brief Kind of a place where a concentrated bending moment acts.
+enum class MomentKind {
+  TubeEnd,                 ///< Distal end of a tube.
+  CurvatureDiscontinuity,  ///< Start of a tube's precurved part (outside the actuation unit).
+};
+
+/// @brief A place where a concentrated bending moment acts between two neighbouring tubes, and so where
+/// the lumped friction torque of §II.D acts. Identified by (kind, tube) along a path.
+struct ContactSite {
+  MomentKind kind = MomentKind::TubeEnd;
+  int tube = 0;   ///< Tube whose end / discontinuity it is (0-based).
+  int outer = 0;  ///< Outer tube of the neighbouring pair carrying the friction torque (0-based).
+  int inner = 1;  ///< Inner tube of the pair (0-based, = outer + 1).
+  double s = 0;   ///< Arc length (m).
+  bool operator==(const ContactSite& o) const { return kind == o.kind && tube == o.tube; }
+};
+
+/// @brief The law imposed at a contact site by the friction layer.
+struct ContactCondition {
+  enum class Law {
+    Free,    ///< No torque (frictionless).
+    Stick,   ///< Relative twist theta_inner - theta_outer at the site held at `value` (rad).
+    Torque,  ///< Torque on the inner tube = value * mu' * |m| (value in [-1, 1]; +-1 = slipping).
+  };
+  Law law = Law::Free;
+  double value = 0.0;
+};
+
+/// @brief Options of the kinematics solver.
+struct KinematicsOptions {
+  double max_step = 4e-3;          ///< Largest RK4 step along s (m); segments are split evenly.
+  int max_iterations = 40;         ///< Newton iterations per solve.
+  double tolerance = 1e-10;        ///< Converged when every scaled residual (1/m or rad) is below this.
+  bool record_backbone = true;     ///< Store the backbone (theta, u_z, position, frame) at integration nodes.
+  bool homotopy = true;            ///< On failure of a cold start, continue from zero precurvature.
+  int homotopy_steps = 8;          ///< Steps of that continuation.
+  double max_rotation_step = 0.035;     ///< Largest rotation change per continuation step (rad, 2 deg).
+  double max_translation_step = 2e-3;   ///< Largest translation change per continuation step (m).
+  double snap_threshold = 0.5;     ///< A tip twist change above this in one continuation step is a snap (rad).
+};
+
+/// @brief Outcome of a solve.
+enum class SolveStatus {
+  Converged,     ///< Boundary conditions met to tolerance.
+  NotConverged,  ///< Newton (and the fallbacks) failed; the shape is not valid.
+  Inadmissible,  ///< The configuration violates nesting or limits; nothing was solved.
+};
+
+/// @brief Human-readable name of a status.
+const char* toString(SolveStatus s);
+
+/// @brief Summary of a solve (Ceres-style): status, iterations, stability, snapping.
+struct SolveSummary {
+  SolveStatus status = SolveStatus::NotConverged;
+  int iterations = 0;          ///< Newton iterations (all attempts).
+  double residual_norm = 0.0;  ///< Max-norm of the scaled boundary residual at the returned point.
+  double stability = 0.0;      ///< det of d(distal torsion conditions)/d(base twist rates); > 0 stable.
+  bool stable = false;         ///< stability > 0 (and converged).
+  bool snapped = false;        ///< A continuation jumped to another equilibrium branch.
+  int continuation_steps = 0;  ///< Sub-steps taken by continueTo / homotopy.
+  std::string message;         ///< Why it failed, when it failed.
+  bool converged() const { return status == SolveStatus::Converged; }
+};
+
+/// @brief State of the backbone at one arc length.
+struct BackbonePoint {
+  double s = 0.0;
+  Eigen::Vector3d position = Eigen::Vector3d::Zero();
+  Eigen::Matrix3d frame = Eigen::Matrix3d::Identity();  ///< Bishop frame F0(s); column 2 is the tangent.
+  Eigen::VectorXd theta;  ///< Twist angle of each tube relative to F0 (rad); frozen past the tube's end.
+  Eigen::VectorXd uz;     ///< Torsional curvature of each tube (1/m).
+  Eigen::Vector2d u0 = Eigen::Vector2d::Zero();  ///< Bending curvature of the backbone (x, y) (1/m).
+  int outermost = 0;      ///< Outermost tube present at s (0-based).
+};
+
+/// @brief A concentrated bending moment: jump of a tube's bending moment at its end or curvature discontinuity.
+struct ConcentratedMoment {
+  MomentKind kind = MomentKind::TubeEnd;
+  int tube = 0;
+  double s = 0.0;
+  double magnitude = 0.0;  ///< N m
+};
+
+/// @brief Result at one contact site.
+struct ContactResult {
+  ContactSite site;
+  ContactCondition condition;
+  double relative_twist = 0.0;  ///< theta_inner - theta_outer at the site (rad).
+  double torque = 0.0;          ///< Friction torque acting on the inner tube (N m); opposite on the outer tube.
+  double moment = 0.0;          ///< |m| of the concentrated moment at the site (N m).
+};
+
+/// @brief A solved (or failed) equilibrium.
+struct Solution {
+  SolveSummary summary;
+  Configuration q;
+  Eigen::VectorXd base_twist_rate;  ///< u_iz(0): the shooting unknowns (1/m).
+  Eigen::VectorXd theta0;           ///< theta_i(0) = alpha_i - beta_i u_iz(0) (rad).
+  Eigen::VectorXd twist;            ///< twist_k = theta_k(s1) - theta_1(s1), k = 2..n (size n-1).
+  Eigen::Vector3d tip_position = Eigen::Vector3d::Zero();
+  Eigen::Matrix3d tip_frame = Eigen::Matrix3d::Identity();
+  std::vector<BackbonePoint> backbone;       ///< At integration nodes, if recorded.
+  std::vector<ConcentratedMoment> moments;   ///< Every tube end and curvature discontinuity at s > 0.
+  std::vector<ContactResult> contacts;       ///< Contact sites with friction unknowns (empty if frictionless).
+  Eigen::VectorXd contact_unknowns;          ///< Internal: scaled torques of the contacts (warm start).
+
+  bool converged() const { return summary.converged(); }
+  /// @brief Unit tangent at the tip.
+  Eigen::Vector3d tipTangent() const { return tip_frame.col(2); }
+  /// @brief Length of the robot outside the actuation unit (tip arc length, m).
+  double tipArcLength() const { return backbone.empty() ? 0.0 : backbone.back().s; }
+};
+
+/// @brief Mutable per-thread buffers of the solver. Reuse one per thread; never share between threads.
+class Workspace {
+public:
+  Workspace();
+  ~Workspace();
+  Workspace(Workspace&&) noexcept;
+  Workspace& operator=(Workspace&&) noexcept;
+  Workspace(const Workspace&) = delete;
+  Workspace& operator=(const Workspace&) = delete;
+  struct Impl;
+  Impl& impl() { return *impl_; }
+
+private:
+  std::unique_ptr<Impl> impl_;
+};
+
+/// @brief Contact sites (concentrated moments between neighbours at s > 0) of a configuration, ordered by s.
+std::vector<ContactSite> contactSites(const Robot& robot, const Configuration& q);
+
+/// @brief Frictionless forward kinematics. With `warm` (a nearby solution) Newton starts from it.
+/// Never throws for a bad configuration: returns status Inadmissible with the reason in summary.message.
+Solution solve(const Robot& robot, const Configuration& q, Workspace& ws, const KinematicsOptions& options = {},
+               const Solution* warm = nullptr);
+
+/// @brief Equilibrium with a law at each contact site (one per contactSites(robot, q), same order).
+/// The friction layer (friction.hpp) uses this; mu' is robot.friction().boundary.
+Solution solveWithContacts(const Robot& robot, const Configuration& q,
+                           const std::vector<ContactCondition>& conditions, Workspace& ws,
+                           const KinematicsOptions& options = {}, const Solution* warm = nullptr);
+
+/// @brief Frictionless quasi-static continuation from `from` to q in small steps, following the branch.
+/// summary.snapped is set when the branch ended (fold) and the solution jumped to another branch.
+Solution continueTo(const Robot& robot, const Solution& from, const Configuration& q, Workspace& ws,
+                    const KinematicsOptions& options = {});
+
+}  // namespace ctr

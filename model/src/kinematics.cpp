@@ -1,0 +1,730 @@
+// Torsionally compliant CTR kinematics (Lock & Dupont 2011 §II.A, Dupont et al. TRO 2010, Rucker et al. IJRR 2010)
+// solved by shooting on the base twist rates u_iz(0) with an exact Jacobian: the variational equations are
+// integrated with the same RK4 scheme as the state, which makes the Jacobian the exact derivative of the
+// discrete shooting map (so Newton converges quadratically). Optional contact unknowns (concentrated friction
+// torques of §II.D) enter as point torques at contact sites.
+#include "ctr/model/kinematics.hpp"
+
+#include <Eigen/Cholesky>
+#include <Eigen/Geometry>
+#include <Eigen/LU>
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <sstream>
+
+#include "workspace_impl.hpp"
+
+namespace ctr {
+
+const char* toString(SolveStatus s) {
+  switch (s) {
+    case SolveStatus::Converged: return "converged";
+    case SolveStatus::NotConverged: return "not_converged";
+    case SolveStatus::Inadmissible: return "inadmissible";
+  }
+  return "unknown";
+}
+
+Workspace::Workspace() : impl_(std::make_unique<Impl>()) {}
+Workspace::~Workspace() = default;
+Workspace::Workspace(Workspace&&) noexcept = default;
+Workspace& Workspace::operator=(Workspace&&) noexcept = default;
+
+namespace {
+
+constexpr double kSameS = 1e-12;
+
+double disconStart(const Robot& r, const Configuration& q, int i) {
+  return q.beta[i] + r.tube(i).straight_length;
+}
+
+bool hasDiscontinuity(const Robot& r, const Configuration& q, int i) {
+  const Tube& t = r.tube(i);
+  const double sd = disconStart(r, q, i);
+  return t.curvature != 0.0 && t.curved_length > 0.0 && t.straight_length > 0.0 && sd > kSameS &&
+         sd < distalEnd(r, q, i) - kSameS;
+}
+
+}  // namespace
+
+std::vector<ContactSite> contactSites(const Robot& robot, const Configuration& q) {
+  std::vector<ContactSite> sites;
+  const int n = robot.size();
+  if (n < 2) return sites;
+  for (int i = 0; i + 1 < n; ++i) {
+    const double e = distalEnd(robot, q, i);
+    if (e > kSameS) sites.push_back({MomentKind::TubeEnd, i, i, i + 1, e});
+  }
+  for (int j = 0; j < n; ++j) {
+    if (!hasDiscontinuity(robot, q, j)) continue;
+    const double sd = disconStart(robot, q, j);
+    int outer = -1, inner = -1;
+    if (j > 0 && distalEnd(robot, q, j - 1) > sd + kSameS) {
+      outer = j - 1;
+      inner = j;
+    } else if (j + 1 < n) {
+      outer = j;
+      inner = j + 1;
+    }
+    if (outer >= 0) sites.push_back({MomentKind::CurvatureDiscontinuity, j, outer, inner, sd});
+  }
+  std::stable_sort(sites.begin(), sites.end(), [](const ContactSite& a, const ContactSite& b) { return a.s < b.s; });
+  return sites;
+}
+
+namespace detail {
+
+// ---------------------------------------------------------------------------------------------------------------
+// Problem set-up: segments between discontinuities, breakpoints with their events, active contacts.
+// ---------------------------------------------------------------------------------------------------------------
+void Problem::setup(const Robot& robot, const Configuration& q, const std::vector<ContactCondition>* conditions,
+                    double max_step, double kappa_scale) {
+  n = robot.size();
+  mu_boundary = robot.friction().boundary;
+  kb.resize(n);
+  kt.resize(n);
+  kappa.resize(n);
+  alpha = q.alpha;
+  beta = q.beta;
+  end.resize(n);
+  disc.resize(n);
+  for (int i = 0; i < n; ++i) {
+    const Tube& t = robot.tube(i);
+    kb[i] = t.bending_stiffness;
+    kt[i] = t.torsional_stiffness;
+    kappa[i] = t.curvature * kappa_scale;
+    end[i] = distalEnd(robot, q, i);
+    disc[i] = disconStart(robot, q, i);
+  }
+  s_tip = end.maxCoeff();
+  s_twist = end[0];
+
+  // Active contacts (those with an unknown torque).
+  contacts.clear();
+  if (conditions) {
+    const std::vector<ContactSite> sites = contactSites(robot, q);
+    for (std::size_t c = 0; c < sites.size() && c < conditions->size(); ++c) {
+      const ContactCondition& cc = (*conditions)[c];
+      if (cc.law == ContactCondition::Law::Free) continue;
+      if (cc.law == ContactCondition::Law::Torque && (cc.value == 0.0 || mu_boundary == 0.0)) continue;
+      ActiveContact ac;
+      ac.site = sites[c];
+      ac.condition = cc;
+      ac.site_index = static_cast<int>(c);
+      contacts.push_back(ac);
+    }
+  }
+  m = n + static_cast<int>(contacts.size());
+
+  // Breakpoints.
+  std::vector<double> pts;
+  pts.push_back(0.0);
+  for (int i = 0; i < n; ++i) {
+    if (end[i] > kSameS) pts.push_back(end[i]);
+    if (hasDiscontinuity(robot, q, i)) pts.push_back(disc[i]);
+  }
+  std::sort(pts.begin(), pts.end());
+  std::vector<double> uniq;
+  for (double p : pts)
+    if (uniq.empty() || p > uniq.back() + kSameS) uniq.push_back(p);
+
+  segments.clear();
+  breakpoints.clear();
+  for (std::size_t b = 0; b + 1 < uniq.size(); ++b) {
+    Segment sg;
+    sg.s0 = uniq[b];
+    sg.s1 = uniq[b + 1];
+    const double mid = 0.5 * (sg.s0 + sg.s1);
+    sg.steps = std::max(1, static_cast<int>(std::ceil((sg.s1 - sg.s0) / max_step - 1e-9)));
+    sg.h = (sg.s1 - sg.s0) / sg.steps;
+    sg.present.assign(static_cast<std::size_t>(n), 0);
+    sg.a = Eigen::VectorXd::Zero(n);
+    sg.w = Eigen::VectorXd::Zero(n);
+    sg.K = 0.0;
+    sg.outermost = n - 1;
+    for (int i = n - 1; i >= 0; --i) {
+      if (end[i] > mid) {
+        sg.present[static_cast<std::size_t>(i)] = 1;
+        sg.K += kb[i];
+        sg.outermost = i;
+      }
+    }
+    for (int i = 0; i < n; ++i) {
+      if (!sg.present[static_cast<std::size_t>(i)]) continue;
+      const bool curved = mid > disc[i] && kappa[i] != 0.0;
+      if (curved) {
+        sg.w[i] = kb[i] * kappa[i];
+        sg.a[i] = kb[i] / kt[i] * kappa[i] / sg.K;
+      }
+    }
+    segments.push_back(sg);
+    Breakpoint bp;
+    bp.s = sg.s1;
+    for (int i = 0; i < n; ++i)
+      if (std::abs(end[i] - sg.s1) <= kSameS) bp.ending.push_back(i);
+    for (int i = 0; i < n; ++i)
+      if (hasDiscontinuity(robot, q, i) && std::abs(disc[i] - sg.s1) <= kSameS) bp.discontinuities.push_back(i);
+    for (std::size_t c = 0; c < contacts.size(); ++c)
+      if (std::abs(contacts[c].site.s - sg.s1) <= kSameS) bp.contacts.push_back(static_cast<int>(c));
+    bp.twist_point = std::abs(sg.s1 - s_twist) <= kSameS;
+    breakpoints.push_back(bp);
+  }
+}
+
+// ---------------------------------------------------------------------------------------------------------------
+// Integration of the state, its sensitivities and the backbone frame.
+// ---------------------------------------------------------------------------------------------------------------
+namespace {
+
+struct Trig {
+  double A = 0, B = 0;  // sum w_j cos(theta_j), sum w_j sin(theta_j)
+};
+
+}  // namespace
+
+void Evaluator::resize(int n, int m) {
+  if (n_ == n && m_ == m) return;
+  n_ = n;
+  m_ = m;
+  const int dim = 2 * n + 2 * n * m;
+  Y.resize(dim);
+  Ytmp.resize(dim);
+  for (auto& k : K) k.resize(dim);
+  sn.resize(n);
+  cs.resize(n);
+  J.resize(m, m);
+  r.resize(m);
+}
+
+// dY = F(Y) on one segment. Also returns the backbone bending curvature u0.
+void Evaluator::deriv(const Segment& sg, const double* Yin, double* dY, bool sens, Eigen::Vector2d& u0) {
+  const int n = n_, m = m_;
+  const double* th = Yin;
+  const double* u = Yin + n;
+  double A = 0.0, B = 0.0;
+  for (int i = 0; i < n; ++i) {
+    if (sg.w[i] != 0.0) {
+      sn[i] = std::sin(th[i]);
+      cs[i] = std::cos(th[i]);
+      A += sg.w[i] * cs[i];
+      B += sg.w[i] * sn[i];
+    } else {
+      sn[i] = 0.0;
+      cs[i] = 0.0;
+    }
+  }
+  u0 = Eigen::Vector2d(-B / sg.K, A / sg.K);
+  for (int i = 0; i < n; ++i) {
+    dY[i] = sg.present[static_cast<std::size_t>(i)] ? u[i] : 0.0;
+    dY[n + i] = sg.a[i] != 0.0 ? sg.a[i] * (sn[i] * A - cs[i] * B) : 0.0;
+  }
+  if (!sens) return;
+  const double* S = Yin + 2 * n;
+  double* dS = dY + 2 * n;
+  const int ld = 2 * n;
+  for (int c = 0; c < m; ++c) {
+    const double* Sc = S + c * ld;
+    double* dSc = dS + c * ld;
+    double Cc = 0.0, Sc_ = 0.0;
+    for (int k = 0; k < n; ++k) {
+      if (sg.w[k] != 0.0) {
+        Cc += sg.w[k] * cs[k] * Sc[k];
+        Sc_ += sg.w[k] * sn[k] * Sc[k];
+      }
+    }
+    for (int i = 0; i < n; ++i) {
+      dSc[i] = sg.present[static_cast<std::size_t>(i)] ? Sc[n + i] : 0.0;
+      dSc[n + i] = sg.a[i] != 0.0
+                       ? sg.a[i] * ((cs[i] * A + sn[i] * B) * Sc[i] - cs[i] * Cc - sn[i] * Sc_)
+                       : 0.0;
+    }
+  }
+}
+
+namespace {
+
+inline Eigen::Matrix3d frameDeriv(const Eigen::Matrix3d& R, const Eigen::Vector2d& u0) {
+  // R' = R [u0]x with u0 = (ux, uy, 0).
+  Eigen::Matrix3d D;
+  D.col(0) = -u0.y() * R.col(2);
+  D.col(1) = u0.x() * R.col(2);
+  D.col(2) = u0.y() * R.col(0) - u0.x() * R.col(1);
+  return D;
+}
+
+void orthonormalize(Eigen::Matrix3d& R) {
+  Eigen::Vector3d z = R.col(2).normalized();
+  Eigen::Vector3d x = (R.col(0) - z * z.dot(R.col(0))).normalized();
+  R.col(0) = x;
+  R.col(1) = z.cross(x);
+  R.col(2) = z;
+}
+
+// Bending moment magnitude of tube i just before arc length s on segment sg, with its gradient w.r.t. theta.
+double endMoment(const Problem& P, const Segment& sg, const double* th, int i, Eigen::VectorXd* grad) {
+  const int n = P.n;
+  double A = 0.0, B = 0.0;
+  for (int j = 0; j < n; ++j) {
+    if (sg.w[j] != 0.0) {
+      A += sg.w[j] * std::cos(th[j]);
+      B += sg.w[j] * std::sin(th[j]);
+    }
+  }
+  const double chi_kappa = sg.w[i] != 0.0 ? P.kappa[i] : 0.0;
+  const double si = std::sin(th[i]), ci = std::cos(th[i]);
+  // v = u0 - chi kappa_i d(theta_i), d = (-sin, cos).
+  const Eigen::Vector2d v(-B / sg.K + chi_kappa * si, A / sg.K - chi_kappa * ci);
+  const double nv = v.norm();
+  if (grad) {
+    grad->setZero(n);
+    if (nv > 0.0) {
+      for (int j = 0; j < n; ++j) {
+        if (sg.w[j] == 0.0) continue;
+        const Eigen::Vector2d dd(-std::cos(th[j]), -std::sin(th[j]));  // d'(theta_j)
+        Eigen::Vector2d dv = sg.w[j] / sg.K * dd;
+        if (j == i) dv -= chi_kappa * dd;
+        (*grad)[j] = P.kb[i] * v.dot(dv) / nv;
+      }
+    }
+  }
+  return P.kb[i] * nv;
+}
+
+}  // namespace
+
+void Evaluator::evaluate(const Problem& P, const Eigen::VectorXd& z, bool jac, bool record, Outputs& out) {
+  const int n = P.n, m = P.m;
+  resize(n, m);
+  const int ld = 2 * n;
+  const int dim = jac ? 2 * n + 2 * n * m : 2 * n;
+  Y.setZero();
+  for (int i = 0; i < n; ++i) {
+    Y[i] = P.alpha[i] - P.beta[i] * z[i];
+    Y[n + i] = z[i];
+    if (jac) {
+      Y[2 * n + i * ld + i] = -P.beta[i];
+      Y[2 * n + i * ld + n + i] = 1.0;
+    }
+  }
+  r.setZero();
+  if (jac) J.setZero();
+  Eigen::Matrix3d R = Eigen::Matrix3d::Identity();
+  Eigen::Vector3d p = Eigen::Vector3d::Zero();
+  Eigen::Vector2d u0;
+  out.moments.clear();
+  out.contacts_relative_twist.assign(P.contacts.size(), 0.0);
+  out.contacts_moment.assign(P.contacts.size(), 0.0);
+  if (record) out.backbone.clear();
+
+  // Tubes that never leave the actuation unit: u_iz = 0 there.
+  for (int i = 0; i < n; ++i) {
+    if (P.end[i] <= kSameS) {
+      r[i] = z[i];
+      if (jac) J(i, i) = 1.0;
+    }
+  }
+  // Twist when tube 1 ends inside the actuation unit: linear twist there.
+  if (P.s_twist <= kSameS) {
+    out.twist.resize(n - 1);
+    for (int k = 1; k < n; ++k) {
+      const double th_k = P.alpha[k] + (P.s_twist - P.beta[k]) * z[k];
+      const double th_1 = P.alpha[0] + (P.s_twist - P.beta[0]) * z[0];
+      out.twist[k - 1] = th_k - th_1;
+    }
+  }
+
+  auto pushNode = [&](double s, const Segment& sg) {
+    BackbonePoint bp;
+    bp.s = s;
+    bp.position = p;
+    bp.frame = R;
+    bp.theta = Y.head(n);
+    bp.uz = Y.segment(n, n);
+    double A = 0, B = 0;
+    for (int j = 0; j < n; ++j)
+      if (sg.w[j] != 0.0) {
+        A += sg.w[j] * std::cos(Y[j]);
+        B += sg.w[j] * std::sin(Y[j]);
+      }
+    bp.u0 = Eigen::Vector2d(-B / sg.K, A / sg.K);
+    bp.outermost = sg.outermost;
+    out.backbone.push_back(std::move(bp));
+  };
+
+  Eigen::VectorXd grad;
+  for (std::size_t si = 0; si < P.segments.size(); ++si) {
+    const Segment& sg = P.segments[si];
+    const double h = sg.h;
+    if (record && si == 0) pushNode(sg.s0, sg);
+    for (int st = 0; st < sg.steps; ++st) {
+      Eigen::Vector2d u01, u02, u03, u04;
+      double* y = Y.data();
+      double* yt = Ytmp.data();
+      deriv(sg, y, K[0].data(), jac, u01);
+      const Eigen::Matrix3d kR1 = frameDeriv(R, u01);
+      const Eigen::Vector3d kp1 = R.col(2);
+      for (int d = 0; d < dim; ++d) yt[d] = y[d] + 0.5 * h * K[0][d];
+      deriv(sg, yt, K[1].data(), jac, u02);
+      const Eigen::Matrix3d R2 = R + 0.5 * h * kR1;
+      const Eigen::Matrix3d kR2 = frameDeriv(R2, u02);
+      const Eigen::Vector3d kp2 = R2.col(2);
+      for (int d = 0; d < dim; ++d) yt[d] = y[d] + 0.5 * h * K[1][d];
+      deriv(sg, yt, K[2].data(), jac, u03);
+      const Eigen::Matrix3d R3 = R + 0.5 * h * kR2;
+      const Eigen::Matrix3d kR3 = frameDeriv(R3, u03);
+      const Eigen::Vector3d kp3 = R3.col(2);
+      for (int d = 0; d < dim; ++d) yt[d] = y[d] + h * K[2][d];
+      deriv(sg, yt, K[3].data(), jac, u04);
+      const Eigen::Matrix3d R4 = R + h * kR3;
+      const Eigen::Matrix3d kR4 = frameDeriv(R4, u04);
+      const Eigen::Vector3d kp4 = R4.col(2);
+      for (int d = 0; d < dim; ++d) y[d] += h / 6.0 * (K[0][d] + 2.0 * K[1][d] + 2.0 * K[2][d] + K[3][d]);
+      R += h / 6.0 * (kR1 + 2.0 * kR2 + 2.0 * kR3 + kR4);
+      p += h / 6.0 * (kp1 + 2.0 * kp2 + 2.0 * kp3 + kp4);
+      if (record && st + 1 < sg.steps) pushNode(sg.s0 + (st + 1) * h, sg);
+    }
+    orthonormalize(R);
+
+    // Events at the end of the segment.
+    const Breakpoint& bp = P.breakpoints[si];
+    if (record) pushNode(bp.s, sg);
+    if (bp.twist_point) {
+      out.twist.resize(n - 1);
+      for (int k = 1; k < n; ++k) out.twist[k - 1] = Y[k] - Y[0];
+    }
+    // Concentrated moments: tube ends (moment of the tube just before its end) ...
+    for (int i : bp.ending) out.moments.push_back({MomentKind::TubeEnd, i, bp.s, endMoment(P, sg, Y.data(), i, nullptr)});
+    // ... and curvature discontinuities: |jump of m_j| = k_j kappa_j (K - k_j) / K.
+    if (si + 1 < P.segments.size()) {
+      const Segment& nx = P.segments[si + 1];
+      for (int j : bp.discontinuities)
+        out.moments.push_back({MomentKind::CurvatureDiscontinuity, j, bp.s,
+                               std::abs(P.kb[j] * P.kappa[j] * (nx.K - P.kb[j]) / nx.K)});
+    }
+
+    // Point torques (per unit torsional stiffness) from contact unknowns, applied to tubes at this s.
+    // Contact c with scaled unknown tau_c: torque T = kt_inner * tau_c on the inner tube, -T on the outer.
+    // Contact residual rows (computed before the jumps; theta is continuous).
+    for (int c : bp.contacts) {
+      const ActiveContact& ac = P.contacts[static_cast<std::size_t>(c)];
+      const int row = n + c, col = n + c;
+      const int a = ac.site.outer, b = ac.site.inner;
+      out.contacts_relative_twist[static_cast<std::size_t>(c)] = Y[b] - Y[a];
+      double mom;
+      if (ac.site.kind == MomentKind::TubeEnd) {
+        mom = endMoment(P, sg, Y.data(), ac.site.tube, jac ? &grad : nullptr);
+      } else {
+        const Segment& nx = P.segments[si + 1];
+        const int j = ac.site.tube;
+        mom = std::abs(P.kb[j] * P.kappa[j] * (nx.K - P.kb[j]) / nx.K);
+        if (jac) grad.setZero(n);
+      }
+      out.contacts_moment[static_cast<std::size_t>(c)] = mom;
+      if (ac.condition.law == ContactCondition::Law::Stick) {
+        r[row] = Y[b] - Y[a] - ac.condition.value;
+        if (jac)
+          for (int col2 = 0; col2 < m; ++col2)
+            J(row, col2) = Y[2 * n + col2 * ld + b] - Y[2 * n + col2 * ld + a];
+      } else {  // Torque law: tau = lambda mu' |m| / kt_inner
+        const double f = ac.condition.value * P.mu_boundary / P.kt[b];
+        r[row] = z[col] - f * mom;
+        if (jac) {
+          for (int col2 = 0; col2 < m; ++col2) {
+            double d = 0.0;
+            for (int k = 0; k < n; ++k) d += grad[k] * Y[2 * n + col2 * ld + k];
+            J(row, col2) = -f * d;
+          }
+          J(row, col) += 1.0;
+        }
+      }
+    }
+    // Distal boundary conditions of tubes ending here: k_i u_iz(s-) = point torque on tube i.
+    for (int i : bp.ending) {
+      r[i] = Y[n + i];
+      if (jac)
+        for (int col2 = 0; col2 < m; ++col2) J(i, col2) = Y[2 * n + col2 * ld + n + i];
+    }
+    for (int c : bp.contacts) {
+      const ActiveContact& ac = P.contacts[static_cast<std::size_t>(c)];
+      const int col = n + c;
+      const int a = ac.site.outer, b = ac.site.inner;
+      const double pa = -P.kt[b] / P.kt[a];  // point torque on a per unit tau, scaled by 1/kt_a
+      const bool a_ends = std::find(bp.ending.begin(), bp.ending.end(), a) != bp.ending.end();
+      const bool b_ends = std::find(bp.ending.begin(), bp.ending.end(), b) != bp.ending.end();
+      // Tube a: residual u_a - P_a (if it ends) or jump u_a(s+) = u_a(s-) - P_a.
+      if (a_ends) {
+        r[a] -= pa * z[col];
+        if (jac) J(a, col) -= pa;
+      } else {
+        Y[n + a] -= pa * z[col];
+        if (jac) Y[2 * n + col * ld + n + a] -= pa;
+      }
+      if (b_ends) {
+        r[b] -= z[col];
+        if (jac) J(b, col) -= 1.0;
+      } else {
+        Y[n + b] -= z[col];
+        if (jac) Y[2 * n + col * ld + n + b] -= 1.0;
+      }
+    }
+  }
+  out.tip_position = p;
+  out.tip_frame = R;
+  if (record && !P.segments.empty()) {
+    // Last node: values after the final events (frozen tubes).
+    out.backbone.back().theta = Y.head(n);
+    out.backbone.back().uz = Y.segment(n, n);
+  }
+  if (jac) {
+    out.stability = J.topLeftCorner(n, n).determinant();
+  }
+}
+
+}  // namespace detail
+
+// ---------------------------------------------------------------------------------------------------------------
+// Newton iteration with backtracking, homotopy fallback, public entry points.
+// ---------------------------------------------------------------------------------------------------------------
+namespace {
+
+using detail::Evaluator;
+using detail::Outputs;
+using detail::Problem;
+
+double maxAbs(const Eigen::VectorXd& v) { return v.size() ? v.cwiseAbs().maxCoeff() : 0.0; }
+
+bool allFinite(const Eigen::VectorXd& v) { return v.allFinite(); }
+
+// Newton from z; returns true on convergence. z, ws outputs updated to the last evaluated point.
+bool newton(const Problem& P, Evaluator& E, Outputs& out, Eigen::VectorXd& z, const KinematicsOptions& opt,
+            int& iterations, double& res_norm, std::string& why) {
+  E.evaluate(P, z, true, false, out);
+  double nr = maxAbs(E.r);
+  const double step_cap = 4.0 * M_PI / std::max(P.s_tip, 1e-3);  // limit on a base twist rate change (1/m)
+  for (int it = 0; it < opt.max_iterations; ++it) {
+    if (!allFinite(E.r)) {
+      why = "non-finite residual";
+      res_norm = nr;
+      return false;
+    }
+    if (nr < opt.tolerance) {
+      res_norm = nr;
+      return true;
+    }
+    ++iterations;
+    Eigen::PartialPivLU<Eigen::MatrixXd> lu(E.J);
+    Eigen::VectorXd dz = lu.solve(-E.r);
+    if (!allFinite(dz) || std::abs(lu.determinant()) < 1e-300) {
+      // Singular Jacobian (at a fold): regularised step.
+      const Eigen::MatrixXd JtJ = E.J.transpose() * E.J + 1e-8 * Eigen::MatrixXd::Identity(P.m, P.m);
+      dz = JtJ.ldlt().solve(-E.J.transpose() * E.r);
+      if (!allFinite(dz)) {
+        why = "singular Jacobian";
+        res_norm = nr;
+        return false;
+      }
+    }
+    const double big = maxAbs(dz.head(P.n));
+    if (big > step_cap) dz *= step_cap / big;
+    double t = 1.0;
+    Eigen::VectorXd zt;
+    bool accepted = false;
+    for (int ls = 0; ls < 12; ++ls) {
+      zt = z + t * dz;
+      E.evaluate(P, zt, true, false, out);
+      const double nt = maxAbs(E.r);
+      if (allFinite(E.r) && nt < (1.0 - 1e-4 * t) * nr) {
+        accepted = true;
+        nr = nt;
+        break;
+      }
+      t *= 0.5;
+    }
+    z = zt;
+    if (!accepted) {
+      nr = maxAbs(E.r);
+      if (!(nr < opt.tolerance)) {
+        why = "line search failed (no descent direction)";
+        res_norm = nr;
+        return false;
+      }
+    }
+  }
+  res_norm = nr;
+  if (nr < opt.tolerance) return true;
+  std::ostringstream os;
+  os << "no convergence in " << opt.max_iterations << " Newton iterations (residual " << nr << ")";
+  why = os.str();
+  return false;
+}
+
+Solution package(const Robot& robot, const Configuration& q, const Problem& P, Evaluator& E, Outputs& out,
+                 const Eigen::VectorXd& z, bool ok, int iterations, double res_norm, const std::string& why,
+                 const KinematicsOptions& opt) {
+  Solution sol;
+  sol.q = q;
+  sol.summary.status = ok ? SolveStatus::Converged : SolveStatus::NotConverged;
+  sol.summary.iterations = iterations;
+  sol.summary.residual_norm = res_norm;
+  sol.summary.message = ok ? "" : why;
+  if (ok && opt.record_backbone) {
+    // One more pass to record the backbone at the converged point (also refreshes the stability from J).
+    E.evaluate(P, z, true, true, out);
+  }
+  sol.summary.stability = out.stability;
+  sol.summary.stable = ok && out.stability > 0.0;
+  const int n = P.n;
+  sol.base_twist_rate = z.head(n);
+  sol.theta0.resize(n);
+  for (int i = 0; i < n; ++i) sol.theta0[i] = P.alpha[i] - P.beta[i] * z[i];
+  sol.contact_unknowns = z.tail(P.m - n);
+  sol.twist = out.twist;
+  if (sol.twist.size() != n - 1) sol.twist = Eigen::VectorXd::Zero(n - 1);
+  sol.tip_position = out.tip_position;
+  sol.tip_frame = out.tip_frame;
+  sol.moments = out.moments;
+  if (opt.record_backbone) sol.backbone = out.backbone;
+  for (std::size_t c = 0; c < P.contacts.size(); ++c) {
+    const detail::ActiveContact& ac = P.contacts[c];
+    ContactResult cr;
+    cr.site = ac.site;
+    cr.condition = ac.condition;
+    cr.relative_twist = out.contacts_relative_twist[c];
+    cr.moment = out.contacts_moment[c];
+    cr.torque = z[n + static_cast<int>(c)] * P.kt[ac.site.inner];
+    sol.contacts.push_back(cr);
+  }
+  (void)robot;
+  return sol;
+}
+
+Solution inadmissible(const Configuration& q, const std::string& why, int n) {
+  Solution s;
+  s.q = q;
+  s.summary.status = SolveStatus::Inadmissible;
+  s.summary.message = why;
+  s.base_twist_rate = Eigen::VectorXd::Zero(n);
+  s.theta0 = Eigen::VectorXd::Zero(n);
+  s.twist = Eigen::VectorXd::Zero(std::max(0, n - 1));
+  return s;
+}
+
+Eigen::VectorXd initialGuess(const Problem& P, const Solution* warm) {
+  Eigen::VectorXd z = Eigen::VectorXd::Zero(P.m);
+  if (warm && warm->base_twist_rate.size() == P.n && warm->base_twist_rate.allFinite()) {
+    z.head(P.n) = warm->base_twist_rate;
+    // Contact unknowns: match by site.
+    for (std::size_t c = 0; c < P.contacts.size(); ++c)
+      for (std::size_t w = 0; w < warm->contacts.size(); ++w)
+        if (warm->contacts[w].site == P.contacts[c].site)
+          z[P.n + static_cast<int>(c)] = warm->contacts[w].torque / P.kt[P.contacts[c].site.inner];
+  }
+  return z;
+}
+
+Solution solveImpl(const Robot& robot, const Configuration& q, const std::vector<ContactCondition>* conditions,
+                   Workspace& ws, const KinematicsOptions& opt, const Solution* warm) {
+  const Admissibility adm = checkAdmissible(robot, q);
+  if (!adm) return inadmissible(q, adm.message, robot.size());
+  auto& W = ws.impl();
+  Problem& P = W.problem;
+  P.setup(robot, q, conditions, opt.max_step, 1.0);
+  Eigen::VectorXd z = initialGuess(P, warm);
+  int iters = 0;
+  double rn = 0.0;
+  std::string why;
+  bool ok = newton(P, W.eval, W.out, z, opt, iters, rn, why);
+  const bool cold = (warm == nullptr);
+  int cont_steps = 0;
+  if ((!ok || (cold && W.out.stability <= 0.0)) && opt.homotopy) {
+    // Continuation in the precurvatures from the interaction-free robot (a unique, stable solution).
+    Eigen::VectorXd zh = Eigen::VectorXd::Zero(P.m);
+    bool hok = true;
+    std::string hwhy;
+    for (int k = 0; k <= opt.homotopy_steps && hok; ++k) {
+      const double lam = static_cast<double>(k) / opt.homotopy_steps;
+      P.setup(robot, q, conditions, opt.max_step, lam);
+      hok = newton(P, W.eval, W.out, zh, opt, iters, rn, hwhy);
+      ++cont_steps;
+    }
+    if (hok && (!ok || W.out.stability > 0.0)) {
+      z = zh;
+      ok = true;
+    } else {
+      P.setup(robot, q, conditions, opt.max_step, 1.0);
+      if (ok) {
+        W.eval.evaluate(P, z, true, false, W.out);  // restore the first (unstable) solution's outputs
+      } else {
+        why += "; homotopy from zero precurvature also failed: " + hwhy;
+      }
+    }
+    if (!hok && !ok) W.eval.evaluate(P, z, true, false, W.out);
+  }
+  Solution sol = package(robot, q, P, W.eval, W.out, z, ok, iters, rn, why, opt);
+  sol.summary.continuation_steps = cont_steps;
+  return sol;
+}
+
+}  // namespace
+
+Solution solve(const Robot& robot, const Configuration& q, Workspace& ws, const KinematicsOptions& options,
+               const Solution* warm) {
+  return solveImpl(robot, q, nullptr, ws, options, warm);
+}
+
+Solution solveWithContacts(const Robot& robot, const Configuration& q,
+                           const std::vector<ContactCondition>& conditions, Workspace& ws,
+                           const KinematicsOptions& options, const Solution* warm) {
+  return solveImpl(robot, q, &conditions, ws, options, warm);
+}
+
+Solution continueTo(const Robot& robot, const Solution& from, const Configuration& q, Workspace& ws,
+                    const KinematicsOptions& options) {
+  const Admissibility adm = checkAdmissible(robot, q);
+  if (!adm) return inadmissible(q, adm.message, robot.size());
+  if (!from.converged() || from.q.size() != q.size()) {
+    Solution s = solve(robot, q, ws, options, nullptr);
+    return s;
+  }
+  const double da = (q.alpha - from.q.alpha).cwiseAbs().maxCoeff();
+  const double db = (q.beta - from.q.beta).cwiseAbs().maxCoeff();
+  const int steps = std::max(1, static_cast<int>(std::ceil(std::max(da / options.max_rotation_step,
+                                                                    db / options.max_translation_step))));
+  KinematicsOptions inner = options;
+  inner.record_backbone = false;
+  Solution cur = from;
+  bool snapped = false;
+  int iters = 0;
+  for (int k = 1; k <= steps; ++k) {
+    const double t = static_cast<double>(k) / steps;
+    Configuration qk(from.q.alpha + t * (q.alpha - from.q.alpha), from.q.beta + t * (q.beta - from.q.beta));
+    if (k == steps) inner.record_backbone = options.record_backbone;
+    Solution next = solve(robot, qk, ws, inner, &cur);
+    iters += next.summary.iterations;
+    if (!next.converged() || (cur.summary.stable && !next.summary.stable)) {
+      // The branch we followed ended (fold) or was lost: find a stable equilibrium from scratch.
+      Solution cold = solve(robot, qk, ws, inner, nullptr);
+      iters += cold.summary.iterations;
+      if (cold.converged()) {
+        snapped = snapped || cur.summary.stable;
+        next = cold;
+      } else if (!next.converged()) {
+        next.summary.message = "continuation lost the equilibrium: " + next.summary.message;
+        next.summary.iterations = iters;
+        next.summary.continuation_steps = k;
+        return next;
+      }
+    } else if (next.twist.size() && cur.twist.size() == next.twist.size() &&
+               (next.twist - cur.twist).cwiseAbs().maxCoeff() > options.snap_threshold) {
+      snapped = true;
+    }
+    cur = std::move(next);
+  }
+  cur.summary.snapped = snapped;
+  cur.summary.iterations = iters;
+  cur.summary.continuation_steps = steps;
+  return cur;
+}
+
+}  // namespace ctr

@@ -1,0 +1,93 @@
+#include "ctr/model/robot.hpp"
+
+#include <cmath>
+#include <sstream>
+#include <stdexcept>
+
+namespace ctr {
+namespace {
+
+std::string where(const Tube& t, int index) {
+  std::ostringstream os;
+  os << "tube '" << t.name << "' (" << index + 1 << ")";
+  return os.str();
+}
+
+}  // namespace
+
+std::string validateTube(const Tube& t, int index) {
+  auto bad = [&](const char* key, const std::string& what) {
+    return where(t, index) + ": key '" + key + "': " + what;
+  };
+  auto finite = [](double v) { return std::isfinite(v); };
+  if (!finite(t.straight_length) || t.straight_length < 0.0)
+    return bad("straight_length", "must be a finite length >= 0 m");
+  if (!finite(t.curved_length) || t.curved_length < 0.0)
+    return bad("curved_length", "must be a finite length >= 0 m");
+  if (t.length() <= 0.0) return bad("curved_length", "tube has zero total length");
+  if (!finite(t.curvature)) return bad("curvature", "must be finite");
+  if (!finite(t.bending_stiffness) || t.bending_stiffness <= 0.0)
+    return bad("bending_stiffness", "must be > 0 N m^2");
+  if (!finite(t.torsional_stiffness) || t.torsional_stiffness <= 0.0)
+    return bad("torsional_stiffness", "must be > 0 N m^2");
+  if (t.poisson_ratio && (!finite(*t.poisson_ratio) || *t.poisson_ratio <= -1.0))
+    return bad("poisson_ratio", "must be finite and > -1");
+  if (!finite(t.outer_diameter) || t.outer_diameter < 0.0)
+    return bad("outer_diameter", "must be >= 0 m");
+  if (!finite(t.inner_diameter) || t.inner_diameter < 0.0)
+    return bad("inner_diameter", "must be >= 0 m");
+  if (t.outer_diameter > 0.0 && t.inner_diameter >= t.outer_diameter)
+    return bad("inner_diameter", "must be smaller than outer_diameter");
+  if (t.rotation_limits) {
+    auto [lo, hi] = *t.rotation_limits;
+    if (!finite(lo) || !finite(hi) || lo > hi) return bad("rotation_limits", "must be finite [min, max] with min <= max");
+  }
+  if (t.translation_limits) {
+    auto [lo, hi] = *t.translation_limits;
+    if (!finite(lo) || !finite(hi) || lo > hi)
+      return bad("translation_limits", "must be finite [min, max] with min <= max");
+    if (hi > 0.0) return bad("translation_limits", "beta must be <= 0 (tubes leave the actuation unit at s = 0)");
+  }
+  return {};
+}
+
+Robot::Robot(std::string name, std::vector<Tube> tubes, FrictionCoefficients friction)
+    : name_(std::move(name)), tubes_(std::move(tubes)), friction_(friction) {
+  if (tubes_.empty()) throw std::invalid_argument("key 'tubes': a robot needs at least one tube");
+  for (int i = 0; i < size(); ++i) {
+    const std::string err = validateTube(tubes_[static_cast<std::size_t>(i)], i);
+    if (!err.empty()) throw std::invalid_argument(err);
+  }
+  // Nesting: tube i+1 must fit inside tube i where diameters are known.
+  for (int i = 0; i + 1 < size(); ++i) {
+    const Tube& o = tubes_[static_cast<std::size_t>(i)];
+    const Tube& in = tubes_[static_cast<std::size_t>(i + 1)];
+    if (o.inner_diameter > 0.0 && in.outer_diameter > 0.0 && in.outer_diameter > o.inner_diameter) {
+      std::ostringstream os;
+      os << where(in, i + 1) << ": key 'outer_diameter': " << in.outer_diameter
+         << " m does not fit inside " << where(o, i) << " (inner_diameter " << o.inner_diameter
+         << " m); tubes are listed outermost first";
+      throw std::invalid_argument(os.str());
+    }
+    if (o.outer_diameter > 0.0 && in.outer_diameter > 0.0 && in.outer_diameter >= o.outer_diameter) {
+      std::ostringstream os;
+      os << where(in, i + 1) << ": key 'outer_diameter': " << in.outer_diameter << " m is not smaller than "
+         << where(o, i) << "'s outer diameter " << o.outer_diameter << " m; tubes are listed outermost first";
+      throw std::invalid_argument(os.str());
+    }
+  }
+  if (!std::isfinite(friction_.boundary) || friction_.boundary < 0.0)
+    throw std::invalid_argument("friction: key 'boundary': must be finite and >= 0");
+  if (!std::isfinite(friction_.distributed) || friction_.distributed < 0.0)
+    throw std::invalid_argument("friction: key 'distributed': must be finite and >= 0");
+}
+
+Robot Robot::withFriction(FrictionCoefficients f) const { return Robot(name_, tubes_, f); }
+
+Robot Robot::withTube(int i, const Tube& t) const {
+  std::vector<Tube> tubes = tubes_;
+  tubes.at(static_cast<std::size_t>(i)) = t;
+  return Robot(name_, std::move(tubes), friction_);
+}
+
+}  // namespace ctr

@@ -1,0 +1,84 @@
+// Internal: the solver's problem description and buffers (one per Workspace, i.e. per thread).
+#pragma once
+
+#include <Eigen/Core>
+#include <array>
+#include <vector>
+
+#include "ctr/model/kinematics.hpp"
+
+namespace ctr {
+namespace detail {
+
+/// A piece of [0, s_tip] on which the set of present tubes and their precurvatures are constant.
+struct Segment {
+  double s0 = 0, s1 = 0, h = 0;
+  int steps = 1;
+  std::vector<char> present;  // tube i present on the segment
+  Eigen::VectorXd a;          // (kb_i / kt_i) kappa_i / K for present curved tubes, else 0
+  Eigen::VectorXd w;          // kb_i kappa_i for present curved tubes, else 0
+  double K = 0;               // sum of kb over present tubes
+  int outermost = 0;
+};
+
+/// Events at the distal end of a segment.
+struct Breakpoint {
+  double s = 0;
+  std::vector<int> ending;           // tubes whose distal end is here
+  std::vector<int> discontinuities;  // tubes whose curved part starts here
+  std::vector<int> contacts;         // active contacts here (indices into Problem::contacts)
+  bool twist_point = false;          // s = distal end of tube 1 (where twist is measured)
+};
+
+struct ActiveContact {
+  ContactSite site;
+  ContactCondition condition;
+  int site_index = 0;
+};
+
+struct Problem {
+  int n = 0, m = 0;
+  double mu_boundary = 0, s_tip = 0, s_twist = 0;
+  Eigen::VectorXd kb, kt, kappa, alpha, beta, end, disc;
+  std::vector<Segment> segments;
+  std::vector<Breakpoint> breakpoints;
+  std::vector<ActiveContact> contacts;
+  void setup(const Robot& robot, const Configuration& q, const std::vector<ContactCondition>* conditions,
+             double max_step, double kappa_scale);
+};
+
+struct Outputs {
+  Eigen::VectorXd twist;
+  Eigen::Vector3d tip_position = Eigen::Vector3d::Zero();
+  Eigen::Matrix3d tip_frame = Eigen::Matrix3d::Identity();
+  std::vector<ConcentratedMoment> moments;
+  std::vector<double> contacts_relative_twist, contacts_moment;
+  std::vector<BackbonePoint> backbone;
+  double stability = 0;
+};
+
+class Evaluator {
+public:
+  /// Integrates from s = 0 to the tip for unknowns z; fills r (and J when jac).
+  void evaluate(const Problem& P, const Eigen::VectorXd& z, bool jac, bool record, Outputs& out);
+  Eigen::MatrixXd J;
+  Eigen::VectorXd r;
+
+private:
+  void resize(int n, int m);
+  void deriv(const Segment& sg, const double* Y, double* dY, bool sens, Eigen::Vector2d& u0);
+  int n_ = -1, m_ = -1;
+  Eigen::VectorXd Y, Ytmp;
+  std::array<Eigen::VectorXd, 4> K;
+  Eigen::VectorXd sn, cs;
+};
+
+}  // namespace detail
+
+struct Workspace::Impl {
+  detail::Problem problem;
+  detail::Evaluator eval;
+  detail::Outputs out;
+};
+
+}  // namespace ctr

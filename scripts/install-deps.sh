@@ -1,0 +1,44 @@
+#!/usr/bin/env bash
+# Idempotent dependency installer for Debian 12 (bookworm). apt packages only.
+# Usage: scripts/install-deps.sh   (as root, or with sudo available)
+set -euo pipefail
+
+PACKAGES=(
+  build-essential cmake pkg-config git ca-certificates
+  libeigen3-dev
+  libyaml-cpp-dev
+  libcli11-dev
+  nlohmann-json3-dev
+  libompl-dev
+  libfcl-dev
+  liboctomap-dev libdynamicedt3d-dev
+  libceres-dev
+  libnifti2-dev
+  libassimp-dev
+  libgtest-dev libgmock-dev
+  libbenchmark-dev
+  zlib1g-dev
+)
+
+SUDO=""
+if [ "$(id -u)" -ne 0 ]; then
+  SUDO="sudo"
+fi
+
+missing=()
+for p in "${PACKAGES[@]}"; do
+  if ! dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed"; then
+    missing+=("$p")
+  fi
+done
+
+if [ "${#missing[@]}" -eq 0 ]; then
+  echo "install-deps: all ${#PACKAGES[@]} packages already installed"
+  exit 0
+fi
+
+echo "install-deps: installing ${missing[*]}"
+export DEBIAN_FRONTEND=noninteractive
+$SUDO apt-get update -qq
+$SUDO apt-get install -y -qq --no-install-recommends "${missing[@]}"
+echo "install-deps: done"

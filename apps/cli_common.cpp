@@ -101,3 +101,31 @@ std::vector<std::string> normalizeArguments(int argc, char** argv) {
 }
 
 }  // namespace ctr::cli
+
+namespace ctr::cli {
+
+void FrictionCli::add(CLI::App* app) {
+  app->add_option("--boundary-friction", boundary, "Lumped friction coefficient mu' (overrides the robot's)")
+      ->check(CLI::NonNegativeNumber);
+  app->add_option("--distributed-friction", distributed,
+                  "Distributed Coulomb coefficient mu (overrides the robot's)")
+      ->check(CLI::NonNegativeNumber);
+  app->add_option("--friction-mode", mode, "stick-slip (default) or paper (always slipping, eq. 34-35)")
+      ->check(CLI::IsMember({"stick-slip", "paper"}));
+}
+
+Robot FrictionCli::apply(const Robot& robot) const {
+  FrictionCoefficients f = robot.friction();
+  if (boundary >= 0.0) f.boundary = boundary;
+  if (distributed >= 0.0) f.distributed = distributed;
+  return robot.withFriction(f);
+}
+
+FrictionOptions FrictionCli::options() const {
+  FrictionOptions o;
+  o.mode = mode == "paper" ? FrictionMode::Paper : FrictionMode::StickSlip;
+  o.kinematics.record_backbone = false;
+  return o;
+}
+
+}  // namespace ctr::cli

@@ -44,3 +44,18 @@ Configuration defaultConfiguration(const Robot& robot);
 std::vector<std::string> normalizeArguments(int argc, char** argv);
 
 }  // namespace ctr::cli
+
+#include "ctr/model/friction.hpp"
+
+namespace ctr::cli {
+
+/// Options --boundary-friction, --distributed-friction, --friction-mode (override the robot's friction block).
+struct FrictionCli {
+  double boundary = -1.0, distributed = -1.0;
+  std::string mode = "stick-slip";
+  void add(CLI::App* app);
+  Robot apply(const Robot& robot) const;
+  FrictionOptions options() const;
+};
+
+}  // namespace ctr::cli

@@ -1,45 +1,376 @@
-// TEMPORARY STUB (frictionless pass-through) -- replaced by the stick-slip implementation.
+// Lumped Coulomb friction at concentrated moments (Lock & Dupont 2011 §II.D) with stick-slip memory.
+//
+// Each contact site c (kinematics.hpp) carries a torque T_c on its inner tube (-T_c on the outer tube) with
+// |T_c| <= mu' |m_c|. A quasi-static sub-step is solved by return mapping (active set): every contact is first
+// assumed stuck (relative twist at the site unchanged); contacts whose required torque exceeds the bound slip
+// with the torque at the bound opposing the relative motion; slipping contacts whose motion would reverse stick
+// again. The modes are iterated to a consistent set; if they cycle, all 3^k mode combinations are enumerated.
 #include "ctr/model/friction.hpp"
 
-namespace ctr {
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <set>
+#include <sstream>
+#include <stdexcept>
 
-StepResult initialState(const Robot& robot, const Configuration& q, Workspace& ws, const FrictionOptions& o) {
+namespace ctr {
+namespace {
+
+constexpr double kBoundSlack = 1e-9;   // relative slack on |T| <= bound
+constexpr double kTwistSlack = 1e-10;  // rad: a slip "reversal" smaller than this is noise
+
+ContactCondition conditionFor(ContactMode mode, double stick_twist) {
+  switch (mode) {
+    case ContactMode::Stick: return {ContactCondition::Law::Stick, stick_twist};
+    case ContactMode::SlipPositive: return {ContactCondition::Law::Torque, -1.0};  // inner moves +, torque -
+    case ContactMode::SlipNegative: return {ContactCondition::Law::Torque, +1.0};
+  }
+  return {};
+}
+
+// A warm start carrying the previous branch and contact torques.
+Solution warmFrom(const HysteresisState& s) {
+  Solution w;
+  w.base_twist_rate = s.base_twist_rate;
+  w.summary.status = SolveStatus::Converged;
+  for (const ContactMemory& m : s.contacts) {
+    ContactResult cr;
+    cr.site = m.site;
+    cr.torque = m.torque;
+    w.contacts.push_back(cr);
+  }
+  return w;
+}
+
+const ContactMemory* findMemory(const HysteresisState& s, const ContactSite& site) {
+  for (const ContactMemory& m : s.contacts)
+    if (m.site == site) return &m;
+  return nullptr;
+}
+
+HysteresisState stateFrom(const Solution& sol, const std::vector<ContactMode>& modes, const Configuration& q,
+                          const Eigen::VectorXd& direction) {
+  HysteresisState st;
+  st.q = q;
+  st.base_twist_rate = sol.base_twist_rate;
+  st.direction = direction;
+  st.twist = sol.twist;
+  st.valid = sol.converged();
+  for (std::size_t c = 0; c < sol.contacts.size(); ++c) {
+    ContactMemory m;
+    m.site = sol.contacts[c].site;
+    m.mode = c < modes.size() ? modes[c] : ContactMode::Stick;
+    m.relative_twist = sol.contacts[c].relative_twist;
+    m.torque = sol.contacts[c].torque;
+    m.bound = 0.0;
+    st.contacts.push_back(m);
+  }
+  return st;
+}
+
+struct SubstepOutcome {
+  Solution solution;
+  std::vector<ContactMode> modes;
+  int iterations = 0;
+  bool enumerated = false;
+  bool ok = false;
+  std::string message;
+};
+
+// Consistency of a solved mode set: stuck torques within bounds, slipping contacts moving the right way.
+// Returns the proposed modes (equal to `modes` when consistent) and a violation measure.
+double checkModes(const Solution& sol, const std::vector<ContactMode>& modes, const std::vector<double>& ref_twist,
+                  double mu, std::vector<ContactMode>& proposal) {
+  proposal = modes;
+  double violation = 0.0;
+  for (std::size_t c = 0; c < modes.size(); ++c) {
+    const ContactResult& cr = sol.contacts[c];
+    const double bound = mu * cr.moment;
+    if (modes[c] == ContactMode::Stick) {
+      const double excess = std::abs(cr.torque) - bound * (1.0 + kBoundSlack) - 1e-15;
+      if (excess > 0.0) {
+        violation += excess / std::max(bound, 1e-12);
+        // A positive torque is needed to hold the inner tube: it tends to move negatively.
+        proposal[c] = cr.torque > 0.0 ? ContactMode::SlipNegative : ContactMode::SlipPositive;
+      }
+    } else {
+      const double dphi = cr.relative_twist - ref_twist[c];
+      const bool wrong = (modes[c] == ContactMode::SlipPositive && dphi < -kTwistSlack) ||
+                         (modes[c] == ContactMode::SlipNegative && dphi > kTwistSlack);
+      if (wrong) {
+        violation += std::abs(dphi);
+        proposal[c] = ContactMode::Stick;
+      }
+    }
+  }
+  return violation;
+}
+
+SubstepOutcome solveSubstep(const Robot& robot, const HysteresisState& prev, const Configuration& q, Workspace& ws,
+                            const FrictionOptions& opt) {
+  SubstepOutcome out;
+  const double mu = robot.friction().boundary;
+  const std::vector<ContactSite> sites = contactSites(robot, q);
+  const std::size_t k = sites.size();
+  std::vector<ContactMode> modes(k, ContactMode::Stick);
+  std::vector<double> ref(k, 0.0);
+  std::vector<bool> known(k, false);
+  for (std::size_t c = 0; c < k; ++c) {
+    if (const ContactMemory* m = findMemory(prev, sites[c])) {
+      ref[c] = m->relative_twist;
+      known[c] = true;
+    }
+  }
+  const Solution warm = warmFrom(prev);
+  KinematicsOptions kopt = opt.kinematics;
+  if (mu == 0.0) {
+    // Frictionless: exactly the frictionless model (no contact unknowns), following the branch.
+    out.solution = solve(robot, q, ws, kopt, &warm);
+    out.ok = out.solution.converged();
+    out.iterations = 1;
+    if (!out.ok) out.message = out.solution.summary.message;
+    return out;
+  }
+
+  auto conditionsFor = [&](const std::vector<ContactMode>& md) {
+    std::vector<ContactCondition> cond(k);
+    for (std::size_t c = 0; c < k; ++c)
+      cond[c] = known[c] ? conditionFor(md[c], ref[c]) : ContactCondition{ContactCondition::Law::Free, 0.0};
+    return cond;
+  };
+
+  if (opt.mode == FrictionMode::Paper) {
+    // Always slipping; sign from the commanded relative rotation direction (kept when there is none).
+    for (std::size_t c = 0; c < k; ++c) {
+      const int a = sites[c].outer, b = sites[c].inner;
+      const double cmd = (q.alpha[b] - q.alpha[a]) - (prev.q.alpha[b] - prev.q.alpha[a]);
+      double dir = cmd > 0 ? 1.0 : (cmd < 0 ? -1.0 : 0.0);
+      if (dir == 0.0) {
+        const ContactMemory* m = findMemory(prev, sites[c]);
+        if (m && m->mode != ContactMode::Stick) dir = m->mode == ContactMode::SlipPositive ? 1.0 : -1.0;
+      }
+      modes[c] = dir > 0 ? ContactMode::SlipPositive : (dir < 0 ? ContactMode::SlipNegative : ContactMode::Stick);
+      known[c] = true;
+      if (modes[c] == ContactMode::Stick) {
+        // No direction ever commanded: no friction torque.
+        known[c] = false;
+      }
+    }
+    out.solution = solveWithContacts(robot, q, conditionsFor(modes), ws, kopt, &warm);
+    out.modes = modes;
+    out.ok = out.solution.converged();
+    out.iterations = 1;
+    if (!out.ok) out.message = out.solution.summary.message;
+    return out;
+  }
+
+  // Stick-slip: return mapping over contact modes.
+  std::set<std::vector<ContactMode>> visited;
+  for (int it = 0; it < opt.max_active_set_iterations; ++it) {
+    ++out.iterations;
+    visited.insert(modes);
+    Solution sol = solveWithContacts(robot, q, conditionsFor(modes), ws, kopt, &warm);
+    if (!sol.converged()) {
+      out.message = "equilibrium with contact modes did not converge: " + sol.summary.message;
+      out.solution = std::move(sol);
+      break;
+    }
+    std::vector<ContactMode> proposal;
+    const double v = checkModes(sol, modes, ref, mu, proposal);
+    if (v == 0.0) {
+      out.solution = std::move(sol);
+      out.modes = modes;
+      out.ok = true;
+      return out;
+    }
+    modes = proposal;
+    if (visited.count(modes)) break;  // cycling: enumerate below
+  }
+
+  // Enumerate all 3^k mode combinations; keep the consistent one (or the least inconsistent).
+  out.enumerated = true;
+  std::size_t combos = 1;
+  for (std::size_t c = 0; c < k; ++c) combos *= 3;
+  double best_v = std::numeric_limits<double>::infinity();
+  for (std::size_t code = 0; code < combos; ++code) {
+    std::vector<ContactMode> md(k);
+    std::size_t x = code;
+    for (std::size_t c = 0; c < k; ++c, x /= 3) md[c] = static_cast<ContactMode>(x % 3);
+    Solution sol = solveWithContacts(robot, q, conditionsFor(md), ws, kopt, &warm);
+    ++out.iterations;
+    if (!sol.converged()) continue;
+    std::vector<ContactMode> proposal;
+    const double v = checkModes(sol, md, ref, mu, proposal);
+    if (v < best_v) {
+      best_v = v;
+      out.solution = std::move(sol);
+      out.modes = md;
+      out.ok = true;
+      if (v == 0.0) break;
+    }
+  }
+  if (out.ok && best_v > 0.0) {
+    std::ostringstream os;
+    os << "no fully consistent stick/slip mode set (least violation " << best_v << ")";
+    out.message = os.str();
+  } else if (!out.ok && out.message.empty()) {
+    out.message = "no contact mode set converged";
+  }
+  return out;
+}
+
+}  // namespace
+
+StepResult initialState(const Robot& robot, const Configuration& q, Workspace& ws, const FrictionOptions& opt) {
   StepResult r;
-  r.solution = solve(robot, q, ws, o.kinematics);
-  r.state.q = q;
-  r.state.base_twist_rate = r.solution.base_twist_rate;
-  r.state.valid = r.solution.converged();
+  const std::vector<ContactSite> sites = contactSites(robot, q);
+  std::vector<ContactCondition> free(sites.size(), ContactCondition{ContactCondition::Law::Free, 0.0});
+  r.solution = robot.friction().boundary == 0.0 ? solve(robot, q, ws, opt.kinematics, nullptr)
+                                                 : solveWithContacts(robot, q, free, ws, opt.kinematics, nullptr);
+  std::vector<ContactMode> modes(sites.size(), ContactMode::Stick);
+  r.state = stateFrom(r.solution, modes, q, Eigen::VectorXd::Zero(robot.size()));
   r.summary.converged = r.solution.converged();
+  r.summary.message = r.solution.summary.message;
+  r.summary.substeps = 0;
   return r;
 }
 
 StepResult step(const Robot& robot, const HysteresisState& from, const Configuration& q, Workspace& ws,
-                const FrictionOptions& o) {
-  Solution prev = solve(robot, from.q, ws, o.kinematics);
-  StepResult r;
-  r.solution = continueTo(robot, prev, q, ws, o.kinematics);
-  r.state.q = q;
-  r.state.base_twist_rate = r.solution.base_twist_rate;
-  r.state.valid = r.solution.converged();
-  r.summary.converged = r.solution.converged();
-  return r;
+                const FrictionOptions& opt) {
+  if (!from.valid) throw std::invalid_argument("step: the hysteresis state is not initialised (use initialState)");
+  if (from.q.size() != robot.size()) throw std::invalid_argument("step: state and robot have different tube counts");
+  StepResult res;
+  const Admissibility adm = checkAdmissible(robot, q);
+  if (!adm) {
+    res.solution.q = q;
+    res.solution.summary.status = SolveStatus::Inadmissible;
+    res.solution.summary.message = adm.message;
+    res.state = from;
+    res.summary.message = adm.message;
+    return res;
+  }
+  const double da = q.size() ? (q.alpha - from.q.alpha).cwiseAbs().maxCoeff() : 0.0;
+  const double db = q.size() ? (q.beta - from.q.beta).cwiseAbs().maxCoeff() : 0.0;
+  const int n_sub = std::max(1, static_cast<int>(std::ceil(std::max(da / opt.max_rotation_step,
+                                                                     db / opt.max_translation_step) - 1e-12)));
+  HysteresisState cur = from;
+  Eigen::VectorXd prev_twist = from.twist;
+  for (int k = 1; k <= n_sub; ++k) {
+    const double t = static_cast<double>(k) / n_sub;
+    Configuration qk(from.q.alpha + t * (q.alpha - from.q.alpha), from.q.beta + t * (q.beta - from.q.beta));
+    FrictionOptions o = opt;
+    o.kinematics.record_backbone = (k == n_sub) && opt.kinematics.record_backbone;
+    SubstepOutcome sub = solveSubstep(robot, cur, qk, ws, o);
+    res.summary.active_set_iterations += sub.iterations;
+    res.summary.enumerated = res.summary.enumerated || sub.enumerated;
+    res.summary.substeps = k;
+    if (!sub.ok) {
+      res.solution = std::move(sub.solution);
+      res.solution.summary.status = SolveStatus::NotConverged;
+      res.summary.converged = false;
+      res.summary.message = "sub-step " + std::to_string(k) + "/" + std::to_string(n_sub) + ": " + sub.message;
+      res.state = cur;  // the last good state
+      return res;
+    }
+    if (!sub.message.empty()) res.summary.message = sub.message;
+    Eigen::VectorXd dir = cur.direction.size() == q.size() ? cur.direction : Eigen::VectorXd::Zero(q.size());
+    for (int i = 0; i < q.size(); ++i) {
+      const double d = qk.alpha[i] - cur.q.alpha[i];
+      if (d != 0.0) dir[i] = d > 0 ? 1.0 : -1.0;
+    }
+    // Snap: the branch jumped (large tip twist change in one small sub-step) or became unstable.
+    Eigen::VectorXd tw = sub.solution.twist;
+    if (prev_twist.size() == tw.size() && tw.size() > 0 &&
+        (tw - prev_twist).cwiseAbs().maxCoeff() > opt.snap_threshold)
+      res.summary.snapped = true;
+    prev_twist = tw;
+    HysteresisState next = stateFrom(sub.solution, sub.modes, qk, dir);
+    for (std::size_t c = 0; c < next.contacts.size(); ++c)
+      next.contacts[c].bound = robot.friction().boundary * sub.solution.contacts[c].moment;
+    cur = std::move(next);
+    res.solution = std::move(sub.solution);
+  }
+  res.summary.converged = true;
+  res.solution.summary.snapped = res.summary.snapped;
+  res.state = std::move(cur);
+  return res;
 }
 
 std::vector<StepResult> replay(const Robot& robot, const std::vector<Configuration>& commands, Workspace& ws,
-                               const FrictionOptions& o) {
+                               const FrictionOptions& opt) {
   std::vector<StepResult> out;
+  out.reserve(commands.size());
   if (commands.empty()) return out;
-  out.push_back(initialState(robot, commands[0], ws, o));
-  for (std::size_t k = 1; k < commands.size(); ++k) out.push_back(step(robot, out.back().state, commands[k], ws, o));
+  out.push_back(initialState(robot, commands[0], ws, opt));
+  for (std::size_t k = 1; k < commands.size(); ++k) {
+    const StepResult& last = out.back();
+    if (last.state.valid) {
+      out.push_back(step(robot, last.state, commands[k], ws, opt));
+    } else {
+      out.push_back(initialState(robot, commands[k], ws, opt));  // restart after a failure (reported per row)
+      out.back().summary.message = "restarted from a frictionless state after an earlier failure";
+    }
+  }
   return out;
 }
 
-FrictionBand frictionBand(const Robot& robot, const Configuration& q, Workspace& ws, const FrictionBandOptions& o) {
-  FrictionBand b;
-  b.shapes.push_back(solve(robot, q, ws, o.kinematics));
-  b.converged = b.shapes[0].converged();
-  b.twist_min = b.twist_max = b.shapes[0].twist;
-  return b;
+FrictionBand frictionBand(const Robot& robot, const Configuration& q, Workspace& ws, const FrictionBandOptions& opt) {
+  FrictionBand band;
+  const std::vector<ContactSite> sites = contactSites(robot, q);
+  const std::size_t k = sites.size();
+  std::vector<ContactCondition> free(k, ContactCondition{ContactCondition::Law::Free, 0.0});
+  Solution base = solveWithContacts(robot, q, free, ws, opt.kinematics, nullptr);
+  if (!base.converged()) {
+    band.message = "frictionless equilibrium did not converge: " + base.summary.message;
+    return band;
+  }
+  band.shapes.push_back(base);
+  band.torque_fractions.push_back(std::vector<double>(k, 0.0));
+  const double mu = robot.friction().boundary;
+  band.converged = true;
+  if (mu > 0.0 && k > 0) {
+    // Levels per contact: -1, interior samples, +1 (0 is the frictionless shape already).
+    std::vector<double> levels{-1.0, 1.0};
+    for (int i = 1; i <= opt.interior_samples; ++i) {
+      const double f = static_cast<double>(i) / (opt.interior_samples + 1);
+      levels.push_back(-1.0 + 2.0 * f);
+    }
+    std::size_t combos = 1;
+    for (std::size_t c = 0; c < k; ++c) combos *= levels.size();
+    const std::size_t cap = 4096;
+    if (combos > cap) {
+      levels = {-1.0, 1.0};
+      combos = std::size_t(1) << k;
+    }
+    for (std::size_t code = 0; code < combos; ++code) {
+      std::vector<ContactCondition> cond(k);
+      std::vector<double> frac(k);
+      std::size_t x = code;
+      bool all_zero = true;
+      for (std::size_t c = 0; c < k; ++c, x /= levels.size()) {
+        frac[c] = levels[x % levels.size()];
+        cond[c] = {ContactCondition::Law::Torque, frac[c]};
+        all_zero = all_zero && std::abs(frac[c]) < 1e-12;
+      }
+      if (all_zero) continue;
+      Solution s = solveWithContacts(robot, q, cond, ws, opt.kinematics, &base);
+      if (!s.converged()) {
+        band.converged = false;
+        band.message = "a band vertex did not converge: " + s.summary.message;
+        continue;
+      }
+      band.shapes.push_back(std::move(s));
+      band.torque_fractions.push_back(frac);
+    }
+  }
+  band.twist_min = band.twist_max = base.twist;
+  for (const Solution& s : band.shapes) {
+    band.twist_min = band.twist_min.cwiseMin(s.twist);
+    band.twist_max = band.twist_max.cwiseMax(s.twist);
+    band.tip_spread = std::max(band.tip_spread, (s.tip_position - base.tip_position).norm());
+  }
+  return band;
 }
 
 }  // namespace ctr

@@ -12,6 +12,7 @@
 #include <cmath>
 #include <limits>
 #include <sstream>
+#include <stdexcept>
 
 #include "workspace_impl.hpp"
 
@@ -105,9 +106,10 @@ void Problem::setup(const Robot& robot, const Configuration& q, const std::vecto
   if (conditions) {
     const std::vector<ContactSite> sites = contactSites(robot, q);
     for (std::size_t c = 0; c < sites.size() && c < conditions->size(); ++c) {
-      const ContactCondition& cc = (*conditions)[c];
-      if (cc.law == ContactCondition::Law::Free) continue;
-      if (cc.law == ContactCondition::Law::Torque && (cc.value == 0.0 || mu_boundary == 0.0)) continue;
+      // Every site gets an unknown (Free ones a trivial one, tau = 0) so that all report their relative twist.
+      ContactCondition cc = (*conditions)[c];
+      if (cc.law == ContactCondition::Law::Torque && (cc.value == 0.0 || mu_boundary == 0.0))
+        cc = ContactCondition{ContactCondition::Law::Free, 0.0};
       ActiveContact ac;
       ac.site = sites[c];
       ac.condition = cc;
@@ -244,13 +246,28 @@ void Evaluator::deriv(const Segment& sg, const double* Yin, double* dY, bool sen
 
 namespace {
 
-inline Eigen::Matrix3d frameDeriv(const Eigen::Matrix3d& R, const Eigen::Vector2d& u0) {
-  // R' = R [u0]x with u0 = (ux, uy, 0).
-  Eigen::Matrix3d D;
-  D.col(0) = -u0.y() * R.col(2);
-  D.col(1) = u0.x() * R.col(2);
-  D.col(2) = u0.y() * R.col(0) - u0.x() * R.col(1);
-  return D;
+// (R, p) <- (R, p) * exp(xi) with body twist xi = (w = (wx, wy, 0), v = (0, 0, a)).
+inline void se3Step(Eigen::Matrix3d& R, Eigen::Vector3d& p, const Eigen::Vector2d& w, double a) {
+  const double th2 = w.squaredNorm();
+  double A, B, C;  // sin(t)/t, (1-cos t)/t^2, (t - sin t)/t^3
+  if (th2 < 1e-8) {
+    A = 1.0 - th2 / 6.0 * (1.0 - th2 / 20.0);
+    B = 0.5 - th2 / 24.0 * (1.0 - th2 / 30.0);
+    C = 1.0 / 6.0 - th2 / 120.0 * (1.0 - th2 / 42.0);
+  } else {
+    const double th = std::sqrt(th2);
+    A = std::sin(th) / th;
+    B = (1.0 - std::cos(th)) / th2;
+    C = (th - std::sin(th)) / (th2 * th);
+  }
+  Eigen::Matrix3d W;
+  W << 0, 0, w.y(), 0, 0, -w.x(), -w.y(), w.x(), 0;
+  const Eigen::Matrix3d W2 = W * W;
+  const Eigen::Matrix3d E = Eigen::Matrix3d::Identity() + A * W + B * W2;
+  // V e_z a, with V = I + B W + C W^2.
+  const Eigen::Vector3d t = a * (Eigen::Vector3d::UnitZ() + B * W.col(2) + C * W2.col(2));
+  p += R * t;
+  R = R * E;
 }
 
 void orthonormalize(Eigen::Matrix3d& R) {
@@ -362,26 +379,19 @@ void Evaluator::evaluate(const Problem& P, const Eigen::VectorXd& z, bool jac, b
       double* y = Y.data();
       double* yt = Ytmp.data();
       deriv(sg, y, K[0].data(), jac, u01);
-      const Eigen::Matrix3d kR1 = frameDeriv(R, u01);
-      const Eigen::Vector3d kp1 = R.col(2);
       for (int d = 0; d < dim; ++d) yt[d] = y[d] + 0.5 * h * K[0][d];
       deriv(sg, yt, K[1].data(), jac, u02);
-      const Eigen::Matrix3d R2 = R + 0.5 * h * kR1;
-      const Eigen::Matrix3d kR2 = frameDeriv(R2, u02);
-      const Eigen::Vector3d kp2 = R2.col(2);
       for (int d = 0; d < dim; ++d) yt[d] = y[d] + 0.5 * h * K[1][d];
       deriv(sg, yt, K[2].data(), jac, u03);
-      const Eigen::Matrix3d R3 = R + 0.5 * h * kR2;
-      const Eigen::Matrix3d kR3 = frameDeriv(R3, u03);
-      const Eigen::Vector3d kp3 = R3.col(2);
       for (int d = 0; d < dim; ++d) yt[d] = y[d] + h * K[2][d];
       deriv(sg, yt, K[3].data(), jac, u04);
-      const Eigen::Matrix3d R4 = R + h * kR3;
-      const Eigen::Matrix3d kR4 = frameDeriv(R4, u04);
-      const Eigen::Vector3d kp4 = R4.col(2);
       for (int d = 0; d < dim; ++d) y[d] += h / 6.0 * (K[0][d] + 2.0 * K[1][d] + 2.0 * K[2][d] + K[3][d]);
-      R += h / 6.0 * (kR1 + 2.0 * kR2 + 2.0 * kR3 + kR4);
-      p += h / 6.0 * (kp1 + 2.0 * kp2 + 2.0 * kp3 + kp4);
+      // Backbone pose: 4th-order commutator-free Lie group step on SE(3) with the RK4 stage curvatures
+      // (exact for constant curvature, stays on SO(3)).
+      const Eigen::Vector2d w1 = h / 12.0 * (3.0 * u01 + 2.0 * u02 + 2.0 * u03 - u04);
+      const Eigen::Vector2d w2 = h / 12.0 * (-u01 + 2.0 * u02 + 2.0 * u03 + 3.0 * u04);
+      se3Step(R, p, w1, 0.5 * h);
+      se3Step(R, p, w2, 0.5 * h);
       if (record && st + 1 < sg.steps) pushNode(sg.s0 + (st + 1) * h, sg);
     }
     orthonormalize(R);
@@ -421,7 +431,10 @@ void Evaluator::evaluate(const Problem& P, const Eigen::VectorXd& z, bool jac, b
         if (jac) grad.setZero(n);
       }
       out.contacts_moment[static_cast<std::size_t>(c)] = mom;
-      if (ac.condition.law == ContactCondition::Law::Stick) {
+      if (ac.condition.law == ContactCondition::Law::Free) {
+        r[row] = z[col];
+        if (jac) J(row, col) = 1.0;
+      } else if (ac.condition.law == ContactCondition::Law::Stick) {
         r[row] = Y[b] - Y[a] - ac.condition.value;
         if (jac)
           for (int col2 = 0; col2 < m; ++col2)
@@ -676,6 +689,10 @@ Solution solve(const Robot& robot, const Configuration& q, Workspace& ws, const 
 Solution solveWithContacts(const Robot& robot, const Configuration& q,
                            const std::vector<ContactCondition>& conditions, Workspace& ws,
                            const KinematicsOptions& options, const Solution* warm) {
+  const std::size_t k = contactSites(robot, q).size();
+  if (conditions.size() != k && checkAdmissible(robot, q))
+    throw std::invalid_argument("solveWithContacts: " + std::to_string(conditions.size()) + " conditions for " +
+                                std::to_string(k) + " contact sites");
   return solveImpl(robot, q, &conditions, ws, options, warm);
 }
 

@@ -1,0 +1,108 @@
+// `ctr sweep`: rotate one tube through a range (and back), carrying the equilibrium branch and hysteresis state.
+#include <cmath>
+#include <iostream>
+#include <sstream>
+
+#include "commands.hpp"
+#include "ctr/io/recording.hpp"
+#include "ctr/io/robot_yaml.hpp"
+#include "ctr/model/friction.hpp"
+#include "output.hpp"
+
+namespace ctr::cli {
+
+void registerSweep(CLI::App& app, Action& action) {
+  struct Opts {
+    std::string robot, csv, from, to, step;
+    int tube = 2;
+    bool both = false;
+    ConfigOptions config;
+    FrictionCli friction;
+  };
+  auto o = std::make_shared<Opts>();
+  CLI::App* sub = app.add_subcommand("sweep", "Rotate one tube through a range, warm-starting each step");
+  sub->add_option("--robot", o->robot, "Robot description YAML")->required();
+  sub->add_option("--tube", o->tube, "Tube to rotate (1 = outermost)")->required();
+  sub->add_option("--from", o->from, "Start angle (rad, or e.g. 0deg)")->required();
+  sub->add_option("--to", o->to, "End angle (rad, or e.g. 360deg)")->required();
+  sub->add_option("--step", o->step, "Angle step (rad, or e.g. 10deg)")->required();
+  sub->add_flag("--both-directions", o->both, "Sweep back to the start afterwards");
+  sub->add_option("--csv", o->csv, "Write the rows to this CSV (default: standard output)");
+  o->config.add(sub);
+  o->friction.add(sub);
+  sub->callback([o, &action]() {
+    action = [o]() {
+      const Robot robot = o->friction.apply(io::loadRobot(o->robot));
+      const int n = robot.size();
+      if (o->tube < 1 || o->tube > n)
+        throw UsageError("--tube: " + std::to_string(o->tube) + " is not a tube of robot '" + robot.name() + "' (1.." +
+                         std::to_string(n) + ")");
+      const double a0 = parseNumber(o->from, "--from", true), a1 = parseNumber(o->to, "--to", true);
+      const double st = std::abs(parseNumber(o->step, "--step", true));
+      if (!(st > 0.0)) throw UsageError("--step: must be non-zero");
+      const int count = static_cast<int>(std::floor(std::abs(a1 - a0) / st + 1e-9));
+      if (count > 1000000) throw UsageError("--step: too many steps (" + std::to_string(count) + ")");
+      const double sgn = a1 >= a0 ? 1.0 : -1.0;
+      std::vector<double> angles;
+      for (int k = 0; k <= count; ++k) angles.push_back(a0 + sgn * st * k);
+      if (std::abs(angles.back() - a1) > 1e-12) angles.push_back(a1);
+      std::vector<int> dirs(angles.size(), static_cast<int>(sgn));
+      if (o->both) {
+        for (int k = static_cast<int>(angles.size()) - 2; k >= 0; --k) {
+          angles.push_back(angles[static_cast<std::size_t>(k)]);
+          dirs.push_back(-static_cast<int>(sgn));
+        }
+      }
+      Configuration q = o->config.resolve(robot);
+      const int K = o->tube - 1;
+      q.alpha[K] = angles[0];
+      const Admissibility adm = checkAdmissible(robot, q);
+      if (!adm) throw UsageError("configuration is not admissible: " + adm.message);
+
+      Workspace ws;
+      const FrictionOptions fo = o->friction.options();
+      std::ostringstream csv;
+      for (int i = 1; i <= n; ++i) csv << "alpha_" << i << ',';
+      for (int i = 1; i <= n; ++i) csv << "beta_" << i << ',';
+      for (int i = 2; i <= n; ++i) csv << "twist_" << i << ',';
+      csv << "tip_x,tip_y,tip_z,tip_tx,tip_ty,tip_tz,direction,stable,converged,snapped\n";
+      StepResult cur = initialState(robot, q, ws, fo);
+      int failures = 0;
+      for (std::size_t k = 0; k < angles.size(); ++k) {
+        if (k > 0) {
+          q.alpha[K] = angles[k];
+          if (cur.state.valid) {
+            cur = step(robot, cur.state, q, ws, fo);
+          } else {
+            cur = initialState(robot, q, ws, fo);
+          }
+        }
+        const Solution& s = cur.solution;
+        if (!s.converged()) ++failures;
+        for (int i = 0; i < n; ++i) csv << num(q.alpha[i]) << ',';
+        for (int i = 0; i < n; ++i) csv << num(q.beta[i]) << ',';
+        const bool ok = s.converged();
+        for (int i = 0; i + 1 < n; ++i) csv << (ok ? num(s.twist[i]) : "") << ',';
+        const Eigen::Vector3d t = s.tipTangent();
+        for (int d = 0; d < 3; ++d) csv << (ok ? num(s.tip_position[d]) : "") << ',';
+        for (int d = 0; d < 3; ++d) csv << (ok ? num(t[d]) : "") << ',';
+        csv << dirs[k] << ',' << (s.summary.stable ? 1 : 0) << ',' << (ok ? 1 : 0) << ','
+            << (cur.summary.snapped ? 1 : 0) << '\n';
+      }
+      if (o->csv.empty()) {
+        std::cout << csv.str();
+      } else {
+        io::writeFileAtomic(o->csv, csv.str());
+        std::cerr << "wrote " << angles.size() << " rows to " << o->csv << "\n";
+      }
+      if (failures) {
+        std::cerr << "error: " << failures << " of " << angles.size()
+                  << " steps did not converge (their measurement cells are empty)\n";
+        return static_cast<int>(kRuntimeFailure);
+      }
+      return static_cast<int>(kOk);
+    };
+  });
+}
+
+}  // namespace ctr::cli

@@ -1,0 +1,84 @@
+// Benchmarks of the kinematics model and the stick-slip friction step.
+#include <benchmark/benchmark.h>
+
+#include <cmath>
+
+#include "ctr/io/robot_yaml.hpp"
+#include "ctr/model/backbone.hpp"
+#include "ctr/model/friction.hpp"
+#include "ctr/model/kinematics.hpp"
+
+namespace {
+
+ctr::Robot loadExample(const char* name) {
+  return ctr::io::loadRobot(std::string(CTR_SOURCE_DIR) + "/examples/robots/" + name);
+}
+
+ctr::Configuration pairConfig(double a2) {
+  return ctr::Configuration(Eigen::Vector2d(0.0, a2), Eigen::Vector2d(-0.018, -0.018));
+}
+
+ctr::Configuration dupontConfig(double a2, double a3) {
+  return ctr::Configuration(Eigen::Vector3d(0.0, a2, a3), Eigen::Vector3d(0.0, -0.017, -0.070));
+}
+
+// Warm start: the previous solution is a neighbour 0.5 deg away (a controller / planner step).
+template <bool kThree, bool kShape>
+void BM_SolveWarm(benchmark::State& st) {
+  const ctr::Robot robot = loadExample(kThree ? "dupont_lab_3tube.yaml" : "tube_pair_B.yaml");
+  ctr::Workspace ws;
+  ctr::KinematicsOptions opt;
+  opt.record_backbone = kShape;
+  const double d = 0.5 * M_PI / 180.0;
+  auto cfg = [&](double a) { return kThree ? dupontConfig(a, -2.0 + a) : pairConfig(a); };
+  ctr::Solution prev = ctr::solve(robot, cfg(1.0), ws, opt);
+  int k = 0;
+  for (auto _ : st) {
+    const double a = 1.0 + d * ((k++ % 2) ? 1 : 0);
+    ctr::Solution s = ctr::solve(robot, cfg(a), ws, opt, &prev);
+    if (kShape) benchmark::DoNotOptimize(ctr::resampleBackbone(s, s.tipArcLength() / 99.0));
+    benchmark::DoNotOptimize(s.tip_position);
+  }
+}
+
+template <bool kThree, bool kShape>
+void BM_SolveCold(benchmark::State& st) {
+  const ctr::Robot robot = loadExample(kThree ? "dupont_lab_3tube.yaml" : "tube_pair_B.yaml");
+  ctr::Workspace ws;
+  ctr::KinematicsOptions opt;
+  opt.record_backbone = kShape;
+  int k = 0;
+  for (auto _ : st) {
+    const double a = 0.3 + 0.01 * (k++ % 200);
+    ctr::Solution s = kThree ? ctr::solve(robot, dupontConfig(a, -a), ws, opt) : ctr::solve(robot, pairConfig(a), ws, opt);
+    if (kShape) benchmark::DoNotOptimize(ctr::resampleBackbone(s, s.tipArcLength() / 99.0));
+    benchmark::DoNotOptimize(s.tip_position);
+  }
+}
+
+// One stick-slip step (1 deg) of the 3-tube robot with mu' = 0.1, warm (the state from the previous step).
+void BM_StickSlipStep3(benchmark::State& st) {
+  const ctr::Robot robot = loadExample("dupont_lab_3tube.yaml").withFriction({0.1, 0.0});
+  ctr::Workspace ws;
+  ctr::FrictionOptions fo;
+  fo.kinematics.record_backbone = false;
+  double a = 0.5;
+  ctr::StepResult cur = ctr::initialState(robot, dupontConfig(a, -a), ws, fo);
+  int k = 0;
+  for (auto _ : st) {
+    a += ((k++ / 90) % 2 ? -1.0 : 1.0) * M_PI / 180.0;
+    cur = ctr::step(robot, cur.state, dupontConfig(a, -a), ws, fo);
+    benchmark::DoNotOptimize(cur.solution.tip_position);
+  }
+}
+
+}  // namespace
+
+BENCHMARK(BM_SolveWarm<false, false>)->Name("solve_warm/pairB/tip");
+BENCHMARK(BM_SolveWarm<false, true>)->Name("solve_warm/pairB/shape100");
+BENCHMARK(BM_SolveCold<false, false>)->Name("solve_cold/pairB/tip");
+BENCHMARK(BM_SolveWarm<true, false>)->Name("solve_warm/dupont3/tip");
+BENCHMARK(BM_SolveWarm<true, true>)->Name("solve_warm/dupont3/shape100");
+BENCHMARK(BM_SolveCold<true, false>)->Name("solve_cold/dupont3/tip");
+BENCHMARK(BM_SolveCold<true, true>)->Name("solve_cold/dupont3/shape100");
+BENCHMARK(BM_StickSlipStep3)->Name("stick_slip_step/dupont3/1deg");

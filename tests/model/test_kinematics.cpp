@@ -1,0 +1,373 @@
+// Correctness evidence for the frictionless torsionally compliant model: analytic solutions, an independent BVP
+// solve, invariants, convergence under refinement and the snapping bifurcation.
+#include <gtest/gtest.h>
+
+#include <Eigen/Geometry>
+#include <cmath>
+#include <functional>
+
+#include "ctr/model/backbone.hpp"
+#include "ctr/model/kinematics.hpp"
+
+using namespace ctr;
+
+namespace {
+
+Tube makeTube(const std::string& name, double ls, double lc, double kappa, double kb, double nu) {
+  Tube t;
+  t.name = name;
+  t.straight_length = ls;
+  t.curved_length = lc;
+  t.curvature = kappa;
+  t.bending_stiffness = kb;
+  t.torsional_stiffness = kb / (1.0 + nu);
+  t.poisson_ratio = nu;
+  return t;
+}
+
+// Independent solution of alpha'' = c sin(alpha), alpha(0) = a0, alpha'(L) = 0 by scalar shooting (secant on
+// alpha'(0), fine RK4 of the scalar second-order ODE).
+double relativeTwistBvp(double c, double L, double a0, double guess, double* slope0 = nullptr) {
+  auto shoot = [&](double v0, double* aL) {
+    const int N = 40000;
+    const double h = L / N;
+    double a = a0, v = v0;
+    for (int i = 0; i < N; ++i) {
+      auto f = [&](double x) { return c * std::sin(x); };
+      const double k1a = v, k1v = f(a);
+      const double k2a = v + 0.5 * h * k1v, k2v = f(a + 0.5 * h * k1a);
+      const double k3a = v + 0.5 * h * k2v, k3v = f(a + 0.5 * h * k2a);
+      const double k4a = v + h * k3v, k4v = f(a + h * k3a);
+      a += h / 6 * (k1a + 2 * k2a + 2 * k3a + k4a);
+      v += h / 6 * (k1v + 2 * k2v + 2 * k3v + k4v);
+    }
+    if (aL) *aL = a;
+    return v;  // alpha'(L)
+  };
+  double x0 = guess, x1 = guess + 0.1;
+  double f0 = shoot(x0, nullptr), f1 = shoot(x1, nullptr);
+  for (int it = 0; it < 100 && std::abs(f1) > 1e-14; ++it) {
+    const double x2 = x1 - f1 * (x1 - x0) / (f1 - f0);
+    x0 = x1;
+    f0 = f1;
+    x1 = x2;
+    f1 = shoot(x1, nullptr);
+  }
+  double aL = 0;
+  shoot(x1, &aL);
+  if (slope0) *slope0 = x1;
+  return aL;
+}
+
+}  // namespace
+
+TEST(Kinematics, TwoFullyCurvedTubesMatchIndependentBvp) {
+  const double nu = 0.6, k1 = 1 / 0.154, k2 = 1 / 0.2, L = 0.15;
+  // Different bending stiffnesses: the relative-twist equation does not depend on them (same nu).
+  const Robot robot("pair", {makeTube("outer", 0, L, k1, 0.0334, nu), makeTube("inner", 0, L, k2, 0.0511, nu)});
+  Workspace ws;
+  KinematicsOptions opt;
+  opt.max_step = 5e-4;
+  opt.tolerance = 1e-13;
+  const double c = (1 + nu) * k1 * k2;
+  for (double a0 : {0.3, 1.0, M_PI / 2, 2.5, 3.0}) {
+    const Configuration q(Eigen::Vector2d(0.2, 0.2 + a0), Eigen::Vector2d(0, 0));
+    const Solution s = solve(robot, q, ws, opt);
+    ASSERT_TRUE(s.converged()) << s.summary.message;
+    EXPECT_TRUE(s.summary.stable);
+    double slope = 0;
+    const double aL = relativeTwistBvp(c, L, a0, 0.0, &slope);
+    EXPECT_NEAR(s.twist[0], aL, 1e-8) << "a0 = " << a0;
+    EXPECT_NEAR(s.base_twist_rate[1] - s.base_twist_rate[0], slope, 1e-7);
+  }
+}
+
+TEST(Kinematics, SingleTubeIsACircularArc) {
+  const double kappa = 8.0, ls = 0.03, lc = 0.12, beta = -0.01;
+  const Robot robot("one", {makeTube("t", ls, lc, kappa, 0.02, 0.3)});
+  Workspace ws;
+  for (double alpha : {0.0, 0.7, -2.0}) {
+    const Configuration q(Eigen::VectorXd::Constant(1, alpha), Eigen::VectorXd::Constant(1, beta));
+    const Solution s = solve(robot, q, ws);
+    ASSERT_TRUE(s.converged());
+    const double straight = ls + beta, th = kappa * lc;
+    const Eigen::Vector3d expect((1 - std::cos(th)) / kappa * std::cos(alpha), (1 - std::cos(th)) / kappa * std::sin(alpha),
+                                 straight + std::sin(th) / kappa);
+    EXPECT_LT((s.tip_position - expect).norm(), 1e-9) << s.tip_position.transpose();
+    EXPECT_NEAR(s.tipTangent().z(), std::cos(th), 1e-9);
+    EXPECT_NEAR(s.base_twist_rate[0], 0.0, 1e-12);
+  }
+}
+
+TEST(Kinematics, TorsionallyRigidLimit) {
+  // k_t -> infinity: theta_i = alpha_i and the shape is the torsionally rigid model: piecewise-constant
+  // curvature u0 = sum k_i kappa_i d(alpha_i) / sum k_i, integrated here with exact arcs.
+  auto robotWith = [](double ratio) {
+    std::vector<Tube> t{makeTube("a", 0.02, 0.10, 5.0, 0.04, 0.3), makeTube("b", 0.05, 0.09, 9.0, 0.02, 0.3),
+                        makeTube("c", 0.12, 0.05, 15.0, 0.006, 0.3)};
+    for (auto& x : t) x.torsional_stiffness = x.bending_stiffness * ratio;
+    return Robot("rigid", t);
+  };
+  const Configuration q(Eigen::Vector3d(0.3, 2.0, -1.2), Eigen::Vector3d(-0.01, -0.02, -0.05));
+  // Exact rigid model.
+  const Robot r0 = robotWith(1.0);
+  std::vector<double> pts{0.0};
+  for (int i = 0; i < 3; ++i) {
+    pts.push_back(q.beta[i] + r0.tube(i).length());
+    const double d = q.beta[i] + r0.tube(i).straight_length;
+    if (d > 0) pts.push_back(d);
+  }
+  std::sort(pts.begin(), pts.end());
+  Eigen::Isometry3d T = Eigen::Isometry3d::Identity();
+  for (std::size_t k = 0; k + 1 < pts.size(); ++k) {
+    const double mid = 0.5 * (pts[k] + pts[k + 1]), len = pts[k + 1] - pts[k];
+    if (len <= 0) continue;
+    double K = 0;
+    Eigen::Vector3d u = Eigen::Vector3d::Zero();
+    for (int i = 0; i < 3; ++i) {
+      const Tube& t = r0.tube(i);
+      if (q.beta[i] + t.length() <= mid) continue;
+      K += t.bending_stiffness;
+      if (mid > q.beta[i] + t.straight_length)
+        u += t.bending_stiffness * t.curvature * Eigen::Vector3d(-std::sin(q.alpha[i]), std::cos(q.alpha[i]), 0);
+    }
+    u /= K;
+    // Exact motion with constant body twist (omega = u, v = e_z): closed form via the arc.
+    const double w = u.norm();
+    Eigen::Isometry3d step = Eigen::Isometry3d::Identity();
+    if (w < 1e-14) {
+      step.translation() = Eigen::Vector3d(0, 0, len);
+    } else {
+      const Eigen::Vector3d ax = u / w;
+      step.linear() = Eigen::AngleAxisd(w * len, ax).toRotationMatrix();
+      // p = integral_0^len R(s) e_z ds; e_z is perpendicular to ax.
+      const Eigen::Vector3d ez(0, 0, 1), b = ax.cross(ez);
+      step.translation() = ez * std::sin(w * len) / w + b * (1 - std::cos(w * len)) / w;
+    }
+    T = T * step;
+  }
+  Workspace ws;
+  double prev_err = 1e9;
+  for (double ratio : {1e2, 1e4, 1e6}) {
+    const Solution s = solve(robotWith(ratio), q, ws);
+    ASSERT_TRUE(s.converged());
+    const double err = (s.tip_position - T.translation()).norm();
+    EXPECT_LT(err, prev_err);
+    prev_err = err;
+  }
+  EXPECT_LT(prev_err, 1e-6);
+}
+
+TEST(Kinematics, TotalTorsionalMomentIsZeroAlongTheRobot) {
+  const Robot robot("three", {makeTube("a", 0.02, 0.10, 5.0, 0.04, 0.3), makeTube("b", 0.05, 0.09, 9.0, 0.02, 0.35),
+                              makeTube("c", 0.12, 0.05, 15.0, 0.006, 0.4)});
+  Workspace ws;
+  for (int trial = 0; trial < 5; ++trial) {
+    const Configuration q(Eigen::Vector3d(0.5 * trial, -1.0 + trial, 2.0 - trial), Eigen::Vector3d(-0.01, -0.02, -0.05));
+    const Solution s = solve(robot, q, ws);
+    ASSERT_TRUE(s.converged());
+    ASSERT_GT(s.backbone.size(), 20u);
+    double scale = 0;
+    for (int i = 0; i < 3; ++i) scale = std::max(scale, std::abs(robot.tube(i).torsional_stiffness * s.base_twist_rate[i]));
+    for (const BackbonePoint& p : s.backbone) {
+      double sum = 0;
+      for (int i = 0; i < 3; ++i)
+        if (q.beta[i] + robot.tube(i).length() > p.s + 1e-12) sum += robot.tube(i).torsional_stiffness * p.uz[i];
+      EXPECT_LT(std::abs(sum), 1e-9 * std::max(scale, 1e-6)) << "s = " << p.s;
+    }
+  }
+}
+
+TEST(Kinematics, ConvergesAtFourthOrderUnderStepRefinement) {
+  // Every segment length is a multiple of 8 mm so that the step sizes halve exactly.
+  const Robot robot("three", {makeTube("a", 0.032, 0.096, 5.0, 0.04, 0.3), makeTube("b", 0.064, 0.088, 9.0, 0.02, 0.35),
+                              makeTube("c", 0.12, 0.064, 25.0, 0.006, 0.4)});
+  const Configuration q(Eigen::Vector3d(0.2, 2.5, -1.0), Eigen::Vector3d(-0.016, -0.024, -0.04));
+  Workspace ws;
+  KinematicsOptions opt;
+  opt.tolerance = 1e-12;
+  opt.max_step = 1e-4;
+  const Solution ref = solve(robot, q, ws, opt);
+  ASSERT_TRUE(ref.converged());
+  std::vector<double> err;
+  for (double h : {16e-3, 8e-3, 4e-3}) {
+    opt.max_step = h;
+    const Solution s = solve(robot, q, ws, opt);
+    ASSERT_TRUE(s.converged());
+    err.push_back((s.tip_position - ref.tip_position).norm() + std::abs(s.twist[1] - ref.twist[1]) * 0.1);
+  }
+  for (std::size_t k = 0; k + 1 < err.size(); ++k) {
+    const double order = std::log2(err[k] / err[k + 1]);
+    EXPECT_GT(order, 3.5) << "errors " << err[k] << " -> " << err[k + 1];
+    EXPECT_LT(order, 4.6);
+  }
+  EXPECT_LT(err.back(), 1e-7);
+}
+
+TEST(Kinematics, CoincidentEventsAreContinuous) {
+  // Two tubes ending at the same s vs 1e-9 m apart: results must agree to the perturbation size.
+  auto robotWith = [](double extra) {
+    return Robot("ev", {makeTube("a", 0.05, 0.10, 6.0, 0.03, 0.3), makeTube("b", 0.05 + extra, 0.10, 7.0, 0.03, 0.3)});
+  };
+  Workspace ws;
+  const Configuration q(Eigen::Vector2d(0.0, 1.2), Eigen::Vector2d(-0.02, -0.02));
+  const Solution a = solve(robotWith(0.0), q, ws);
+  const Solution b = solve(robotWith(1e-9), q, ws);
+  ASSERT_TRUE(a.converged() && b.converged());
+  EXPECT_LT((a.tip_position - b.tip_position).norm(), 1e-8);
+  EXPECT_NEAR(a.twist[0], b.twist[0], 1e-7);
+}
+
+TEST(Kinematics, ConcentratedMomentsAreReported) {
+  const Robot robot("pair", {makeTube("outer", 0.05, 0.1, 6.0, 0.03, 0.3), makeTube("inner", 0.08, 0.1, 6.0, 0.03, 0.3)});
+  Workspace ws;
+  const Configuration q(Eigen::Vector2d(0.0, M_PI), Eigen::Vector2d(-0.01, -0.02));
+  const Solution s = solve(robot, q, ws);
+  ASSERT_TRUE(s.converged());
+  // Outer end, inner end, and two discontinuities (at 0.04 and 0.06).
+  int ends = 0, discs = 0;
+  for (const auto& m : s.moments) {
+    if (m.kind == MomentKind::TubeEnd) ++ends;
+    if (m.kind == MomentKind::CurvatureDiscontinuity) {
+      ++discs;
+      EXPECT_NEAR(m.magnitude, 0.03 * 6.0 * 0.5, 1e-12);  // k kappa (K - k)/K
+    }
+  }
+  EXPECT_EQ(ends, 2);
+  EXPECT_EQ(discs, 2);
+  // Opposed curvatures: at the outer end the outer tube's bending moment is large.
+  EXPECT_GT(s.moments.back().magnitude + s.moments.front().magnitude, 0.0);
+}
+
+TEST(Kinematics, InadmissibleConfigurationIsReportedNotSolved) {
+  const Robot robot("pair", {makeTube("outer", 0.05, 0.1, 6.0, 0.03, 0.3), makeTube("inner", 0.08, 0.1, 6.0, 0.03, 0.3)});
+  Workspace ws;
+  const Solution s = solve(robot, Configuration(Eigen::Vector2d(0, 0), Eigen::Vector2d(-0.02, -0.01)), ws);
+  EXPECT_EQ(s.summary.status, SolveStatus::Inadmissible);
+  EXPECT_NE(s.summary.message.find("beta_2"), std::string::npos) << s.summary.message;
+  const Solution s2 = solve(robot, Configuration(Eigen::Vector2d(0, 0), Eigen::Vector2d(0.01, 0.0)), ws);
+  EXPECT_EQ(s2.summary.status, SolveStatus::Inadmissible);
+  const Solution s3 = solve(robot, Configuration(Eigen::Vector2d(0, 0), Eigen::Vector2d(-0.0, -0.04)), ws);
+  EXPECT_EQ(s3.summary.status, SolveStatus::Inadmissible);
+  EXPECT_NE(s3.summary.message.find("distal end"), std::string::npos) << s3.summary.message;
+  const Solution s4 = solve(robot, Configuration(Eigen::Vector2d(NAN, 0), Eigen::Vector2d(0, 0)), ws);
+  EXPECT_EQ(s4.summary.status, SolveStatus::Inadmissible);
+}
+
+namespace {
+
+// Fully curved equal-stiffness pair with lambda L^2 = factor (pi/2)^2, no transmission.
+Robot snapPair(double factor, double L = 0.1) {
+  const double nu = 0.3;
+  const double kappa = std::sqrt(factor * (M_PI / 2) * (M_PI / 2) / ((1 + nu) * L * L));
+  return Robot("snap", {makeTube("outer", 0, L, kappa, 0.03, nu), makeTube("inner", 0, L, kappa, 0.03, nu)});
+}
+
+struct Sweep {
+  std::vector<double> angle, twist, stability;
+  std::vector<bool> snapped, stable;
+};
+
+Sweep sweep(const Robot& r, double from, double to, int steps, Solution* last = nullptr) {
+  Workspace ws;
+  Sweep sw;
+  Solution s = last && last->converged() ? *last
+                                         : solve(r, Configuration(Eigen::Vector2d(0, from), Eigen::Vector2d(0, 0)), ws);
+  for (int k = 0; k <= steps; ++k) {
+    const double a = from + (to - from) * k / steps;
+    if (k > 0 || (last && last->converged()))
+      s = continueTo(r, s, Configuration(Eigen::Vector2d(0, a), Eigen::Vector2d(0, 0)), ws);
+    EXPECT_TRUE(s.converged()) << s.summary.message;
+    sw.angle.push_back(a);
+    sw.twist.push_back(s.twist[0]);
+    sw.stability.push_back(s.summary.stability);
+    sw.snapped.push_back(s.summary.snapped);
+    sw.stable.push_back(s.summary.stable);
+  }
+  if (last) *last = s;
+  return sw;
+}
+
+}  // namespace
+
+TEST(Kinematics, SnapAboveThresholdTwoStableBranchesNearPi) {
+  const Robot r = snapPair(2.0);
+  Solution end;
+  const Sweep up = sweep(r, 0.0, 2 * M_PI, 360, &end);
+  const Sweep down = sweep(r, 2 * M_PI, 0.0, 360, &end);
+  // Exactly one snap each way, and every returned solution is stable.
+  int snaps_up = 0, snaps_down = 0;
+  for (std::size_t k = 0; k < up.angle.size(); ++k) {
+    snaps_up += up.snapped[k];
+    snaps_down += down.snapped[k];
+    EXPECT_TRUE(up.stable[k]);
+    EXPECT_TRUE(down.stable[k]);
+  }
+  EXPECT_EQ(snaps_up, 1);
+  EXPECT_EQ(snaps_down, 1);
+  // At base angle pi (index 180 in both sweeps) the two branches differ: two stable equilibria.
+  EXPECT_GT(std::abs(up.twist[180] - down.twist[180]), 1.0);
+  // The stability measure goes to ~0 just before the snap (the fold), relative to its value at 0.
+  std::size_t snap_at = 0;
+  for (std::size_t k = 0; k < up.angle.size(); ++k)
+    if (up.snapped[k]) snap_at = k;
+  ASSERT_GT(snap_at, 180u);  // the branch continues past pi
+  EXPECT_LT(up.stability[snap_at - 1], 0.1 * up.stability[0]);
+  EXPECT_GT(up.stability[snap_at - 1], 0.0);
+  // An unstable equilibrium exists at pi: the symmetric one (twist = pi) with negative stability.
+  Workspace ws;
+  Solution sym;
+  sym.base_twist_rate = Eigen::Vector2d(0, 0);
+  sym.summary.status = SolveStatus::Converged;
+  KinematicsOptions opt;
+  const Solution mid = solve(r, Configuration(Eigen::Vector2d(0, M_PI), Eigen::Vector2d(0, 0)), ws, opt, &sym);
+  ASSERT_TRUE(mid.converged());
+  EXPECT_NEAR(mid.twist[0], M_PI, 1e-9);
+  EXPECT_LT(mid.summary.stability, 0.0);
+  EXPECT_FALSE(mid.summary.stable);
+}
+
+TEST(Kinematics, NoSnapBelowThresholdOneBranch) {
+  const Robot r = snapPair(0.8);
+  Solution end;
+  const Sweep up = sweep(r, 0.0, 2 * M_PI, 120, &end);
+  const Sweep down = sweep(r, 2 * M_PI, 0.0, 120, &end);
+  for (std::size_t k = 0; k < up.angle.size(); ++k) {
+    EXPECT_FALSE(up.snapped[k]);
+    EXPECT_TRUE(up.stable[k]);
+    EXPECT_NEAR(up.twist[k], down.twist[up.angle.size() - 1 - k], 1e-8);
+  }
+  // The symmetric solution at pi is stable below the threshold.
+  Workspace ws;
+  const Solution mid = solve(r, Configuration(Eigen::Vector2d(0, M_PI), Eigen::Vector2d(0, 0)), ws);
+  EXPECT_NEAR(mid.twist[0], M_PI, 1e-9);
+  EXPECT_GT(mid.summary.stability, 0.0);
+}
+
+TEST(Kinematics, BackboneResamplingHitsRequestedResolution) {
+  const Robot robot("pair", {makeTube("outer", 0.05, 0.1, 6.0, 0.03, 0.3), makeTube("inner", 0.08, 0.1, 6.0, 0.03, 0.3)});
+  Workspace ws;
+  const Solution s = solve(robot, Configuration(Eigen::Vector2d(0.0, 1.0), Eigen::Vector2d(-0.01, -0.02)), ws);
+  const auto pts = resampleBackbone(s, 1e-3);
+  ASSERT_GE(pts.size(), 2u);
+  EXPECT_NEAR(pts.front().s, 0.0, 1e-15);
+  EXPECT_NEAR(pts.back().s, s.tipArcLength(), 1e-15);
+  EXPECT_LT((pts.back().position - s.tip_position).norm(), 1e-12);
+  for (std::size_t k = 1; k < pts.size(); ++k) {
+    EXPECT_LE(pts[k].s - pts[k - 1].s, 1e-3 + 1e-12);
+    // Arc length ~ chord for a 1 mm step.
+    EXPECT_NEAR((pts[k].position - pts[k - 1].position).norm(), pts[k].s - pts[k - 1].s, 1e-6);
+  }
+}
+
+TEST(Kinematics, RobotValidationNamesTubeAndKey) {
+  Tube bad = makeTube("inner", 0.05, 0.1, 6.0, 0.0, 0.3);
+  try {
+    Robot("r", {makeTube("outer", 0.05, 0.1, 6.0, 0.03, 0.3), bad});
+    FAIL() << "expected an exception";
+  } catch (const std::invalid_argument& e) {
+    const std::string m = e.what();
+    EXPECT_NE(m.find("inner"), std::string::npos) << m;
+    EXPECT_NE(m.find("bending_stiffness"), std::string::npos) << m;
+  }
+}

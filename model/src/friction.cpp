@@ -120,6 +120,7 @@ SubstepOutcome solveSubstep(const Robot& robot, const HysteresisState& prev, con
     if (const ContactMemory* m = findMemory(prev, sites[c])) {
       ref[c] = m->relative_twist;
       known[c] = true;
+      modes[c] = m->mode;  // first trial: the contact keeps doing what it did (one solve while slipping on)
     }
   }
   const Solution warm = warmFrom(prev);

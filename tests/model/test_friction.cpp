@@ -1,1 +1,236 @@
+// Evidence for the lumped stick-slip friction model (paper §II.D) and its hysteresis state.
 #include <gtest/gtest.h>
+
+#include <cmath>
+#include <random>
+
+#include "ctr/model/friction.hpp"
+
+using namespace ctr;
+
+namespace {
+
+Tube makeTube(const std::string& name, double ls, double lc, double kappa, double kb, double nu) {
+  Tube t;
+  t.name = name;
+  t.straight_length = ls;
+  t.curved_length = lc;
+  t.curvature = kappa;
+  t.bending_stiffness = kb;
+  t.torsional_stiffness = kb / (1.0 + nu);
+  return t;
+}
+
+// Tube pair B of Lock & Dupont 2011 (150 mm curved length assumed), beta = -18 mm.
+Robot pairB(double mu) {
+  return Robot("B", {makeTube("outer", 0.018, 0.150, 1 / 0.154, 0.0334, 0.6),
+                     makeTube("inner", 0.018, 0.150, 1 / 0.154, 0.0511, 0.6)},
+               {mu, 0.0});
+}
+
+Configuration cfgB(double a2) { return Configuration(Eigen::Vector2d(0, a2), Eigen::Vector2d(-0.018, -0.018)); }
+
+FrictionOptions fastOptions(FrictionMode mode = FrictionMode::StickSlip) {
+  FrictionOptions fo;
+  fo.mode = mode;
+  fo.kinematics.record_backbone = false;
+  return fo;
+}
+
+// Twist after each command of a path of inner-tube angles (deg) starting from rest at the first one.
+std::vector<double> twists(const Robot& r, const std::vector<double>& deg, FrictionOptions fo = fastOptions(),
+                           std::vector<StepResult>* all = nullptr) {
+  Workspace ws;
+  StepResult cur = initialState(r, cfgB(deg[0] * M_PI / 180), ws, fo);
+  std::vector<double> out{cur.solution.twist[0]};
+  if (all) all->push_back(cur);
+  for (std::size_t k = 1; k < deg.size(); ++k) {
+    cur = step(r, cur.state, cfgB(deg[k] * M_PI / 180), ws, fo);
+    EXPECT_TRUE(cur.summary.converged) << cur.summary.message;
+    out.push_back(cur.solution.twist[0]);
+    if (all) all->push_back(cur);
+  }
+  return out;
+}
+
+std::vector<double> range(double from, double to, double stepv) {
+  std::vector<double> v;
+  const int n = static_cast<int>(std::round(std::abs(to - from) / stepv));
+  for (int k = 0; k <= n; ++k) v.push_back(from + (to > from ? 1 : -1) * stepv * k);
+  return v;
+}
+
+std::vector<double> concat(std::vector<double> a, const std::vector<double>& b) {
+  a.insert(a.end(), b.begin() + 1, b.end());
+  return a;
+}
+
+}  // namespace
+
+TEST(Friction, ZeroCoefficientReproducesFrictionlessModelExactly) {
+  const Robot r = pairB(0.0);
+  Workspace ws;
+  const std::vector<double> path = concat(range(0, 250, 10), range(250, 40, 10));
+  const std::vector<double> tw = twists(r, path);
+  Solution s = solve(r, cfgB(0), ws);
+  for (std::size_t k = 1; k < path.size(); ++k) {
+    s = continueTo(r, s, cfgB(path[k] * M_PI / 180), ws);
+    EXPECT_NEAR(tw[k], s.twist[0], 1e-9) << path[k];  // same equations; differs only by Newton tolerance
+  }
+}
+
+TEST(Friction, SameCommandDifferentHistoryGivesDifferentShape) {
+  const Robot r = pairB(0.12);
+  const std::vector<double> up = twists(r, range(0, 180, 5));
+  const std::vector<double> down = twists(r, concat(range(0, 360, 5), range(360, 180, 5)));
+  EXPECT_GT(down.back() - up.back(), 0.5);  // envelope width at pi, rad
+}
+
+TEST(Friction, OneStepEqualsHundredSubstepsAfterSlipOnlyMove) {
+  const Robot r = pairB(0.12);
+  Workspace ws;
+  const FrictionOptions fo = fastOptions();
+  StepResult cur = initialState(r, cfgB(0), ws, fo);
+  cur = step(r, cur.state, cfgB(60 * M_PI / 180), ws, fo);  // now slipping positively
+  const StepResult one = step(r, cur.state, cfgB(120 * M_PI / 180), ws, fo);
+  StepResult many = cur;
+  for (int k = 1; k <= 100; ++k) many = step(r, many.state, cfgB((60 + 0.6 * k) * M_PI / 180), ws, fo);
+  ASSERT_TRUE(one.summary.converged && many.summary.converged);
+  EXPECT_NEAR(one.solution.twist[0], many.solution.twist[0], 1e-6);
+  EXPECT_NEAR(one.state.contacts[0].relative_twist, many.state.contacts[0].relative_twist, 1e-6);
+}
+
+TEST(Friction, HysteresisLoopClosesAndRepeats) {
+  const Robot r = pairB(0.12);
+  const std::vector<double> loop = concat(range(0, 360, 10), range(360, 0, 10));
+  const std::vector<double> path = concat(loop, loop);
+  const std::vector<double> tw = twists(r, path);
+  const std::size_t L = loop.size() - 1;
+  // After one loop the state is back where it started (curvatures aligned: no moment, no friction).
+  EXPECT_NEAR(tw[L], tw[0], 1e-9);
+  for (std::size_t k = 0; k <= L; ++k) EXPECT_NEAR(tw[k], tw[k + L], 1e-8) << "angle " << path[k];
+}
+
+TEST(Friction, StickAfterReversalExistsAndLengthensWithMu) {
+  std::vector<int> stick_steps;
+  for (double mu : {0.03, 0.08, 0.16}) {
+    const Robot r = pairB(mu);
+    std::vector<StepResult> all;
+    const std::vector<double> path = concat(range(0, 180, 2), range(180, 90, 1));
+    twists(r, path, fastOptions(), &all);
+    const std::size_t rev = range(0, 180, 2).size() - 1;
+    int count = 0;
+    const double tip_at_reversal = all[rev].solution.twist[0];
+    for (std::size_t k = rev + 1; k < all.size(); ++k) {
+      if (all[k].state.contacts[0].mode != ContactMode::Stick) break;
+      // Stuck: the relative twist at the contact does not move.
+      EXPECT_NEAR(all[k].state.contacts[0].relative_twist, all[rev].state.contacts[0].relative_twist, 1e-9);
+      ++count;
+    }
+    EXPECT_GT(count, 0) << "mu' = " << mu;
+    // While stuck the tip twist changes much less than the base (it "stays put").
+    if (count > 0) EXPECT_LT(std::abs(all[rev + count].solution.twist[0] - tip_at_reversal), 0.5 * count * M_PI / 180);
+    stick_steps.push_back(count);
+  }
+  EXPECT_LT(stick_steps[0], stick_steps[1]);
+  EXPECT_LT(stick_steps[1], stick_steps[2]);
+}
+
+TEST(Friction, EnvelopeWidthAtPiGrowsMonotonicallyWithMu) {
+  double prev = 0.0;
+  for (double mu : {0.0, 0.02, 0.05, 0.1, 0.15}) {
+    const Robot r = pairB(mu);
+    const double up = twists(r, range(0, 180, 10)).back();
+    const double down = twists(r, concat(range(0, 360, 10), range(360, 180, 10))).back();
+    const double width = down - up;
+    if (mu == 0.0) {
+      EXPECT_NEAR(width, 0.0, 1e-9);
+    } else {
+      EXPECT_GT(width, prev);
+    }
+    prev = width;
+  }
+}
+
+TEST(Friction, PaperModeAndStickSlipAgreeOnMonotoneSweeps) {
+  const Robot r = pairB(0.12);
+  const std::vector<double> path = range(0, 330, 5);
+  const std::vector<double> a = twists(r, path, fastOptions(FrictionMode::StickSlip));
+  const std::vector<double> b = twists(r, path, fastOptions(FrictionMode::Paper));
+  for (std::size_t k = 2; k < path.size(); ++k) EXPECT_NEAR(a[k], b[k], 1e-8) << path[k];
+}
+
+TEST(Friction, BandVerticesAreTheEnvelopeBranches) {
+  const Robot r = pairB(0.12);
+  Workspace ws;
+  const std::vector<double> up = twists(r, range(0, 150, 5));
+  const std::vector<double> down = twists(r, concat(range(0, 360, 5), range(360, 150, 5)));
+  FrictionBandOptions bo;
+  bo.kinematics.record_backbone = false;
+  const FrictionBand band = frictionBand(r, cfgB(150 * M_PI / 180), ws, bo);
+  ASSERT_TRUE(band.converged) << band.message;
+  EXPECT_NEAR(band.twist_min[0], up.back(), 1e-8);
+  EXPECT_NEAR(band.twist_max[0], down.back(), 1e-8);
+  EXPECT_GT(band.tip_spread, 1e-3);
+  // Interior samples lie between the extremes.
+  for (const Solution& s : band.shapes) {
+    EXPECT_GE(s.twist[0], band.twist_min[0] - 1e-12);
+    EXPECT_LE(s.twist[0], band.twist_max[0] + 1e-12);
+  }
+}
+
+TEST(Friction, TorqueBalanceHoldsWithFrictionTorques) {
+  const Robot r = pairB(0.12);
+  Workspace ws;
+  FrictionOptions fo;  // record the backbone
+  StepResult cur = initialState(r, cfgB(0), ws, fo);
+  cur = step(r, cur.state, cfgB(2.0), ws, fo);
+  ASSERT_TRUE(cur.summary.converged);
+  ASSERT_FALSE(cur.solution.contacts.empty());
+  EXPECT_GT(std::abs(cur.solution.contacts[0].torque), 1e-4);
+  for (const BackbonePoint& p : cur.solution.backbone) {
+    double sum = 0;
+    for (int i = 0; i < 2; ++i)
+      if (cur.solution.q.beta[i] + r.tube(i).length() > p.s + 1e-12) sum += r.tube(i).torsional_stiffness * p.uz[i];
+    EXPECT_LT(std::abs(sum), 1e-10) << "s = " << p.s;
+  }
+}
+
+TEST(Friction, RandomWalksOnThreeTubesKeepBoundsAndTerminate) {
+  // Three tubes with translations: tube ends and curvature discontinuities outside the actuation unit.
+  const Robot r("three",
+                {makeTube("a", 0.05, 0.10, 4.0, 0.04, 0.3), makeTube("b", 0.08, 0.10, 6.0, 0.02, 0.3),
+                 makeTube("c", 0.15, 0.06, 12.0, 0.006, 0.3)},
+                {0.1, 0.0});
+  std::mt19937 rng(7);
+  std::uniform_real_distribution<double> da(-0.15, 0.15), db(-0.003, 0.003);
+  Workspace ws;
+  FrictionOptions fo = fastOptions();
+  for (int walk = 0; walk < 5; ++walk) {
+    Configuration q(Eigen::Vector3d(0.1 * walk, 1.0, -0.5), Eigen::Vector3d(-0.02, -0.04, -0.07));
+    StepResult cur = initialState(r, q, ws, fo);
+    ASSERT_TRUE(cur.summary.converged);
+    for (int k = 0; k < 40; ++k) {
+      Configuration next = q;
+      for (int i = 0; i < 3; ++i) next.alpha[i] += da(rng);
+      for (int i = 0; i < 3; ++i) next.beta[i] += db(rng);
+      if (!checkAdmissible(r, next)) continue;
+      q = next;
+      cur = step(r, cur.state, q, ws, fo);
+      ASSERT_TRUE(cur.summary.converged) << cur.summary.message;
+      EXPECT_GE(cur.solution.contacts.size(), 2u);
+      for (const ContactResult& c : cur.solution.contacts) {
+        EXPECT_LE(std::abs(c.torque), 0.1 * c.moment * (1 + 1e-8) + 1e-14);
+        EXPECT_TRUE(std::isfinite(c.relative_twist));
+      }
+      EXPECT_TRUE(cur.state.base_twist_rate.allFinite());
+    }
+  }
+}
+
+TEST(Friction, StepRejectsUninitialisedState) {
+  const Robot r = pairB(0.1);
+  Workspace ws;
+  HysteresisState s;
+  EXPECT_THROW(step(r, s, cfgB(0), ws), std::invalid_argument);
+}

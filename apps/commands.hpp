@@ -5,6 +5,7 @@
 
 namespace ctr::cli {
 
+void registerDemo(CLI::App& app, Action& action);
 void registerFk(CLI::App& app, Action& action);
 void registerSweep(CLI::App& app, Action& action);
 void registerSimulate(CLI::App& app, Action& action);

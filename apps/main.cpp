@@ -9,6 +9,7 @@ int main(int argc, char** argv) {
   app.require_subcommand(1);
   app.set_help_all_flag("--help-all", "Help for all subcommands");
   Action action;
+  registerDemo(app, action);
   registerFk(app, action);
   registerSweep(app, action);
   registerSimulate(app, action);

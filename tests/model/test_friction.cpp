@@ -129,7 +129,9 @@ TEST(Friction, StickAfterReversalExistsAndLengthensWithMu) {
     }
     EXPECT_GT(count, 0) << "mu' = " << mu;
     // While stuck the tip twist changes much less than the base (it "stays put").
-    if (count > 0) EXPECT_LT(std::abs(all[rev + count].solution.twist[0] - tip_at_reversal), 0.5 * count * M_PI / 180);
+    if (count > 0) {
+      EXPECT_LT(std::abs(all[rev + count].solution.twist[0] - tip_at_reversal), 0.5 * count * M_PI / 180);
+    }
     stick_steps.push_back(count);
   }
   EXPECT_LT(stick_steps[0], stick_steps[1]);

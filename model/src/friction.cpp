@@ -71,6 +71,7 @@ HysteresisState stateFrom(const Solution& sol, const std::vector<ContactMode>& m
 
 struct SubstepOutcome {
   Solution solution;
+  Eigen::VectorXd interface_direction;
   std::vector<ContactMode> modes;
   int iterations = 0;
   bool enumerated = false;
@@ -125,6 +126,29 @@ SubstepOutcome solveSubstep(const Robot& robot, const HysteresisState& prev, con
   }
   const Solution warm = warmFrom(prev);
   KinematicsOptions kopt = opt.kinematics;
+  if (robot.friction().distributed > 0.0) {
+    // Distributed-contact friction (§II.B): sign per interface from the commanded relative rotation.
+    const int n = robot.size();
+    DistributedFrictionOptions dopt;
+    dopt.mu = robot.friction().distributed;
+    dopt.kinematics = kopt;
+    dopt.direction.assign(static_cast<std::size_t>(std::max(0, n - 1)), 1);
+    out.interface_direction = Eigen::VectorXd::Ones(std::max(0, n - 1));
+    for (int j = 0; j + 1 < n; ++j) {
+      const double cmd = (q.alpha[j + 1] - q.alpha[j]) - (prev.q.alpha[j + 1] - prev.q.alpha[j]);
+      double d = cmd > 0 ? 1.0 : (cmd < 0 ? -1.0 : 0.0);
+      if (d == 0.0 && prev.interface_direction.size() == n - 1) d = prev.interface_direction[j];
+      if (d == 0.0) d = 1.0;
+      dopt.direction[static_cast<std::size_t>(j)] = static_cast<int>(d);
+      out.interface_direction[j] = d;
+    }
+    DistributedFrictionSolution ds = solveDistributedFriction(robot, q, dopt, &warm);
+    out.solution = std::move(ds.solution);
+    out.ok = out.solution.converged();
+    out.iterations = 1;
+    if (!out.ok) out.message = out.solution.summary.message;
+    return out;
+  }
   if (mu == 0.0) {
     // Frictionless: exactly the frictionless model (no contact unknowns), following the branch.
     out.solution = solve(robot, q, ws, kopt, &warm);
@@ -224,6 +248,8 @@ SubstepOutcome solveSubstep(const Robot& robot, const HysteresisState& prev, con
 }  // namespace
 
 StepResult initialState(const Robot& robot, const Configuration& q, Workspace& ws, const FrictionOptions& opt) {
+  if (robot.friction().boundary > 0.0 && robot.friction().distributed > 0.0)
+    throw std::invalid_argument("boundary and distributed friction together are not supported yet; set one to 0");
   StepResult r;
   const std::vector<ContactSite> sites = contactSites(robot, q);
   std::vector<ContactCondition> free(sites.size(), ContactCondition{ContactCondition::Law::Free, 0.0});
@@ -287,6 +313,7 @@ StepResult step(const Robot& robot, const HysteresisState& from, const Configura
       res.summary.snapped = true;
     prev_twist = tw;
     HysteresisState next = stateFrom(sub.solution, sub.modes, qk, dir);
+    next.interface_direction = sub.interface_direction.size() ? sub.interface_direction : cur.interface_direction;
     for (std::size_t c = 0; c < next.contacts.size(); ++c)
       next.contacts[c].bound = robot.friction().boundary * sub.solution.contacts[c].moment;
     cur = std::move(next);

@@ -7,3 +7,4 @@
 #include "ctr/model/kinematics.hpp"
 #include "ctr/model/robot.hpp"
 #include "ctr/model/friction.hpp"
+#include "ctr/model/distributed_friction.hpp"

@@ -6,6 +6,7 @@
 #include <string>
 #include <vector>
 
+#include "ctr/model/distributed_friction.hpp"
 #include "ctr/model/kinematics.hpp"
 
 namespace ctr {
@@ -35,6 +36,7 @@ struct HysteresisState {
   std::vector<ContactMemory> contacts;  ///< One per contact site at the last step.
   Eigen::VectorXd direction;            ///< Last commanded rotation direction per tube (-1, 0, +1).
   Eigen::VectorXd twist;                ///< Tip twist at the last step (snap detection).
+  Eigen::VectorXd interface_direction;  ///< Distributed friction: last commanded relative rotation sign per interface.
   bool valid = false;                   ///< False until initialised by initialState / a step.
 };
 
@@ -66,7 +68,9 @@ struct StepResult {
 };
 
 /// @brief Memory of a robot at rest at q without friction torques (all contacts stuck at zero torque).
-/// Uses the robot's boundary coefficient from robot.friction().
+/// Uses the robot's coefficients from robot.friction(): boundary mu' (stick-slip or paper mode) or distributed mu
+/// (distributed_friction.hpp; sign from the commanded relative rotation). Both non-zero at once is not supported
+/// yet and throws std::invalid_argument.
 StepResult initialState(const Robot& robot, const Configuration& q, Workspace& ws, const FrictionOptions& options = {});
 
 /// @brief Quasi-static move from the state `from` to the command q, sub-stepped so that the result does not depend

@@ -207,8 +207,7 @@ void Evaluator::deriv(const Segment& sg, const double* Yin, double* dY, bool sen
   double A = 0.0, B = 0.0;
   for (int i = 0; i < n; ++i) {
     if (sg.w[i] != 0.0) {
-      sn[i] = std::sin(th[i]);
-      cs[i] = std::cos(th[i]);
+      ::sincos(th[i], &sn[i], &cs[i]);
       A += sg.w[i] * cs[i];
       B += sg.w[i] * sn[i];
     } else {

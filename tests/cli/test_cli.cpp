@@ -1,0 +1,192 @@
+// Runs the `ctr` executable: output formats, exit codes, negative-number lists, no partial output files.
+#include <gtest/gtest.h>
+#include <nlohmann/json.hpp>
+#include <sys/wait.h>
+
+#include <array>
+#include <cmath>
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+#include <string>
+
+namespace fs = std::filesystem;
+
+namespace {
+
+struct Proc {
+  int code = -1;
+  std::string out, err;
+};
+
+Proc run(const std::string& args) {
+  const fs::path dir = fs::temp_directory_path() / ("ctr_cli_" + std::to_string(::getpid()));
+  fs::create_directories(dir);
+  const std::string errf = (dir / "stderr.txt").string();
+  const std::string cmd = std::string(CTR_EXE) + " " + args + " 2>" + errf;
+  Proc r;
+  FILE* p = ::popen(cmd.c_str(), "r");
+  std::array<char, 4096> buf{};
+  while (p && std::fgets(buf.data(), buf.size(), p)) r.out += buf.data();
+  const int st = p ? ::pclose(p) : -1;
+  r.code = WIFEXITED(st) ? WEXITSTATUS(st) : -1;
+  std::ifstream e(errf);
+  std::stringstream ss;
+  ss << e.rdbuf();
+  r.err = ss.str();
+  return r;
+}
+
+std::string robot(const std::string& name) { return std::string(CTR_SOURCE_DIR) + "/examples/robots/" + name; }
+
+fs::path tmp(const std::string& name) {
+  const fs::path dir = fs::temp_directory_path() / ("ctr_cli_out_" + std::to_string(::getpid()));
+  fs::create_directories(dir);
+  return dir / name;
+}
+
+}  // namespace
+
+TEST(Cli, FkJsonHasTheDocumentedKeys) {
+  const Proc r = run("fk --robot " + robot("tube_pair_B.yaml") + " --alpha 0,90deg --beta -0.018,-0.018 --json");
+  ASSERT_EQ(r.code, 0) << r.err;
+  const auto j = nlohmann::json::parse(r.out);
+  EXPECT_TRUE(j.at("converged").get<bool>());
+  EXPECT_TRUE(j.at("stable").get<bool>());
+  EXPECT_EQ(j.at("tip_position").size(), 3u);
+  EXPECT_EQ(j.at("tip_tangent").size(), 3u);
+  ASSERT_EQ(j.at("twist").size(), 1u);
+  EXPECT_NEAR(j["twist"][0].get<double>(), 0.8206, 1e-3);
+  // Exactly one JSON object on stdout.
+  EXPECT_EQ(std::count(r.out.begin(), r.out.end(), '\n'), 1);
+}
+
+TEST(Cli, NegativeListsWorkWithSpaceAndEquals) {
+  const Proc a = run("fk --robot " + robot("tube_pair_B.yaml") + " --beta -0.018,-0.018 --alpha=0,1.5 --json");
+  const Proc b = run("fk --robot " + robot("tube_pair_B.yaml") + " --beta=-0.018,-0.018 --alpha 0,1.5 --json");
+  const Proc c = run("fk --robot " + robot("tube_pair_B.yaml") + " --beta -0.018,-0.018 --alpha -1,-0.5 --json");
+  ASSERT_EQ(a.code, 0) << a.err;
+  ASSERT_EQ(b.code, 0) << b.err;
+  ASSERT_EQ(c.code, 0) << c.err;
+  EXPECT_EQ(a.out, b.out);
+  // (-1, -0.5) is (0, 0.5) rotated by -1 rad about z: same twist, tip rotated.
+  const auto jc = nlohmann::json::parse(c.out);
+  const auto jr = nlohmann::json::parse(
+      run("fk --robot " + robot("tube_pair_B.yaml") + " --beta -0.018,-0.018 --alpha 0,0.5 --json").out);
+  EXPECT_NEAR(jc["twist"][0].get<double>(), jr["twist"][0].get<double>(), 1e-9);
+  const double x = jr["tip_position"][0], y = jr["tip_position"][1];
+  EXPECT_NEAR(jc["tip_position"][0].get<double>(), std::cos(-1.0) * x - std::sin(-1.0) * y, 1e-9);
+  EXPECT_NEAR(jc["tip_position"][1].get<double>(), std::sin(-1.0) * x + std::cos(-1.0) * y, 1e-9);
+}
+
+TEST(Cli, ShapeCsvIsWrittenAtTheRequestedResolution) {
+  const fs::path f = tmp("shape.csv");
+  fs::remove(f);
+  const Proc r = run("fk --robot " + robot("tube_pair_B.yaml") + " --alpha 0,1 --beta -0.018,-0.018 --shape " +
+                    f.string() + " --shape-step 0.002");
+  ASSERT_EQ(r.code, 0) << r.err;
+  std::ifstream in(f);
+  std::string line;
+  std::getline(in, line);
+  EXPECT_EQ(line, "s,x,y,z");
+  int rows = 0;
+  while (std::getline(in, line)) ++rows;
+  EXPECT_EQ(rows, 76);  // 0 .. 0.150 m every 2 mm
+}
+
+TEST(Cli, BadInputsExitTwoWithClearMessages) {
+  const Proc missing = run("fk --robot /nonexistent/robot.yaml");
+  EXPECT_EQ(missing.code, 2);
+  EXPECT_NE(missing.err.find("/nonexistent/robot.yaml"), std::string::npos) << missing.err;
+  const Proc count = run("fk --robot " + robot("tube_pair_B.yaml") + " --alpha 0,1,2");
+  EXPECT_EQ(count.code, 2);
+  EXPECT_NE(count.err.find("--alpha"), std::string::npos) << count.err;
+  const Proc notnum = run("fk --robot " + robot("tube_pair_B.yaml") + " --alpha 0,abc");
+  EXPECT_EQ(notnum.code, 2);
+  EXPECT_NE(notnum.err.find("abc"), std::string::npos) << notnum.err;
+  const Proc inadm = run("fk --robot " + robot("tube_pair_B.yaml") + " --beta -0.01,0");
+  EXPECT_EQ(inadm.code, 2);
+  EXPECT_NE(inadm.err.find("beta_2"), std::string::npos) << inadm.err;
+  const Proc unknown = run("fk --robot " + robot("tube_pair_B.yaml") + " --bogus 1");
+  EXPECT_EQ(unknown.code, 2);
+  const Proc tube = run("sweep --robot " + robot("tube_pair_B.yaml") + " --tube 5 --from 0 --to 1 --step 0.1");
+  EXPECT_EQ(tube.code, 2);
+  EXPECT_NE(tube.err.find("--tube"), std::string::npos) << tube.err;
+}
+
+TEST(Cli, HelpOnEverySubcommand) {
+  for (const char* sub : {"", "fk", "sweep", "simulate", "demo"}) {
+    const Proc r = run(std::string(sub) + " --help");
+    EXPECT_EQ(r.code, 0) << sub;
+    EXPECT_NE(r.out.find("--help"), std::string::npos) << sub;
+  }
+}
+
+TEST(Cli, SweepBothDirectionsWithFrictionShowsTheEnvelope) {
+  const fs::path f = tmp("sweep.csv");
+  const Proc r = run("sweep --robot " + robot("tube_pair_B.yaml") +
+                    " --tube 2 --from 0 --to 360deg --step 30deg --both-directions --boundary-friction 0.12 --csv " +
+                    f.string());
+  ASSERT_EQ(r.code, 0) << r.err;
+  std::ifstream in(f);
+  std::string header;
+  std::getline(in, header);
+  EXPECT_EQ(header.rfind("alpha_1,alpha_2,beta_1,beta_2,twist_2,tip_x,tip_y,tip_z,tip_tx,tip_ty,tip_tz,direction,stable", 0),
+            0u)
+      << header;
+  std::vector<std::vector<double>> rows;
+  std::string line;
+  while (std::getline(in, line)) {
+    std::vector<double> v;
+    std::stringstream ss(line);
+    std::string cell;
+    while (std::getline(ss, cell, ',')) v.push_back(std::stod(cell));
+    rows.push_back(v);
+  }
+  ASSERT_EQ(rows.size(), 25u);
+  // Row 6 (180 deg up) vs row 18 (180 deg down): different twists (column 4).
+  EXPECT_NEAR(rows[6][1], M_PI, 1e-12);
+  EXPECT_NEAR(rows[18][1], M_PI, 1e-12);
+  EXPECT_GT(rows[18][4] - rows[6][4], 1.0);
+  EXPECT_EQ(rows[6][11], 1);
+  EXPECT_EQ(rows[18][11], -1);
+}
+
+TEST(Cli, SimulateWritesARecordingAndNothingOnBadInput) {
+  const fs::path act = tmp("act.csv"), out = tmp("rec.csv");
+  {
+    std::ofstream a(act);
+    a << "alpha_1,alpha_2,beta_1,beta_2\n";
+    for (int k = 0; k <= 12; ++k) a << "0," << k * 0.3 << ",-0.018,-0.018\n";
+    for (int k = 11; k >= 0; --k) a << "0," << k * 0.3 << ",-0.018,-0.018\n";
+  }
+  fs::remove(out);
+  const Proc r = run("simulate --robot " + robot("tube_pair_B.yaml") + " --actuation " + act.string() + " --out " +
+                    out.string() + " --boundary-friction 0.1");
+  ASSERT_EQ(r.code, 0) << r.err;
+  ASSERT_TRUE(fs::exists(out));
+  std::ifstream in(out);
+  std::string header;
+  std::getline(in, header);
+  EXPECT_NE(header.find("twist_2"), std::string::npos);
+  EXPECT_NE(header.find("tip_tz"), std::string::npos);
+  // Bad actuation (inadmissible row): exit 2 and no output file.
+  {
+    std::ofstream a(act);
+    a << "alpha_1,alpha_2,beta_1,beta_2\n0,0,-0.018,-0.018\n0,0,-0.010,0.0\n";
+  }
+  fs::remove(out);
+  const Proc bad = run("simulate --robot " + robot("tube_pair_B.yaml") + " --actuation " + act.string() + " --out " +
+                      out.string());
+  EXPECT_EQ(bad.code, 2);
+  EXPECT_NE(bad.err.find(act.string()), std::string::npos) << bad.err;
+  EXPECT_FALSE(fs::exists(out));
+}
+
+TEST(Cli, DemoRunsTheEmbeddedDefault) {
+  const Proc r = run("demo");
+  ASSERT_EQ(r.code, 0) << r.err;
+  EXPECT_NE(r.out.find("Tube pair B"), std::string::npos);
+  EXPECT_NE(r.out.find("180"), std::string::npos);
+}

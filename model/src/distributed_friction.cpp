@@ -284,7 +284,7 @@ DistributedFrictionSolution solveDistributedFriction(const Robot& robot, const C
     return res;
   }
   Problem P;
-  P.setup(robot, q, nullptr, opt.kinematics.max_step, 1.0);
+  P.setup(robot, q, nullptr, opt.kinematics.max_step, 1.0, opt.kinematics.max_bending_per_step);
   Model M;
   M.P = &P;
   M.mu = opt.mu;

@@ -9,6 +9,7 @@
 #include <Eigen/Geometry>
 #include <Eigen/LU>
 #include <algorithm>
+#include <functional>
 #include <cmath>
 #include <limits>
 #include <sstream>
@@ -80,7 +81,7 @@ namespace detail {
 // Problem set-up: segments between discontinuities, breakpoints with their events, active contacts.
 // ---------------------------------------------------------------------------------------------------------------
 void Problem::setup(const Robot& robot, const Configuration& q, const std::vector<ContactCondition>* conditions,
-                    double max_step, double kappa_scale) {
+                    double max_step, double kappa_scale, double max_bending_per_step) {
   n = robot.size();
   mu_boundary = robot.friction().boundary;
   kb.resize(n);
@@ -100,6 +101,8 @@ void Problem::setup(const Robot& robot, const Configuration& q, const std::vecto
   }
   s_tip = end.maxCoeff();
   s_twist = end[0];
+  const double kmax = kappa.cwiseAbs().maxCoeff();
+  if (kmax > 0.0 && max_bending_per_step > 0.0) max_step = std::min(max_step, max_bending_per_step / kmax);
 
   // Active contacts (those with an unknown torque).
   contacts.clear();
@@ -513,6 +516,7 @@ bool newton(const Problem& P, Evaluator& E, Outputs& out, Eigen::VectorXd& z, co
             int& iterations, double& res_norm, std::string& why) {
   E.evaluate(P, z, true, false, out);
   double nr = maxAbs(E.r);
+  double merit = E.r.squaredNorm();  // Newton directions descend on the 2-norm (not on the max-norm)
   const double step_cap = 4.0 * M_PI / std::max(P.s_tip, 1e-3);  // limit on a base twist rate change (1/m)
   for (int it = 0; it < opt.max_iterations; ++it) {
     if (!allFinite(E.r)) {
@@ -545,10 +549,11 @@ bool newton(const Problem& P, Evaluator& E, Outputs& out, Eigen::VectorXd& z, co
     for (int ls = 0; ls < 12; ++ls) {
       zt = z + t * dz;
       E.evaluate(P, zt, true, false, out);
-      const double nt = maxAbs(E.r);
-      if (allFinite(E.r) && nt < (1.0 - 1e-4 * t) * nr) {
+      const double mt = E.r.squaredNorm();
+      if (allFinite(E.r) && mt < (1.0 - 1e-4 * t) * merit) {
         accepted = true;
-        nr = nt;
+        nr = maxAbs(E.r);
+        merit = mt;
         break;
       }
       t *= 0.5;
@@ -556,6 +561,7 @@ bool newton(const Problem& P, Evaluator& E, Outputs& out, Eigen::VectorXd& z, co
     z = zt;
     if (!accepted) {
       nr = maxAbs(E.r);
+      merit = E.r.squaredNorm();
       if (!(nr < opt.tolerance)) {
         why = "line search failed (no descent direction)";
         res_norm = nr;
@@ -635,13 +641,47 @@ Eigen::VectorXd initialGuess(const Problem& P, const Solution* warm) {
   return z;
 }
 
+// Adaptive continuation in a parameter t from 0 (where z is a solution) to 1. `setAt(t)` sets the problem up.
+bool continuation(const std::function<void(double)>& setAt, const Problem& P, Evaluator& E, Outputs& out,
+                  Eigen::VectorXd& z, const KinematicsOptions& opt, int& iterations, int& steps, std::string& why) {
+  double t = 0.0, dt = 1.0 / std::max(1, opt.homotopy_steps);
+  KinematicsOptions o = opt;
+  o.max_iterations = std::min(opt.max_iterations, 12);  // short Newton runs; shrink the step instead
+  while (t < 1.0) {
+    const double tn = std::min(1.0, t + dt);
+    setAt(tn);
+    Eigen::VectorXd zt = z;
+    double rn = 0;
+    std::string w;
+    ++steps;
+    const bool ok = newton(P, E, out, zt, o, iterations, rn, w);
+    if (ok) {
+      z = zt;
+      t = tn;
+      dt = std::min(0.5, 1.5 * dt);
+    } else {
+      dt *= 0.5;
+      if (dt < 1e-4) {
+        why = w;
+        return false;
+      }
+    }
+    if (steps > 400) {
+      why = "continuation took too many steps";
+      return false;
+    }
+  }
+  return true;
+}
+
 Solution solveImpl(const Robot& robot, const Configuration& q, const std::vector<ContactCondition>* conditions,
                    Workspace& ws, const KinematicsOptions& opt, const Solution* warm) {
   const Admissibility adm = checkAdmissible(robot, q);
   if (!adm) return inadmissible(q, adm.message, robot.size());
   auto& W = ws.impl();
   Problem& P = W.problem;
-  P.setup(robot, q, conditions, opt.max_step, 1.0);
+  const double mbps = opt.max_bending_per_step;
+  P.setup(robot, q, conditions, opt.max_step, 1.0, mbps);
   Eigen::VectorXd z = initialGuess(P, warm);
   int iters = 0;
   double rn = 0.0;
@@ -650,28 +690,50 @@ Solution solveImpl(const Robot& robot, const Configuration& q, const std::vector
   const bool cold = (warm == nullptr);
   int cont_steps = 0;
   if ((!ok || (cold && W.out.stability <= 0.0)) && opt.homotopy) {
-    // Continuation in the precurvatures from the interaction-free robot (a unique, stable solution).
+    const Eigen::VectorXd z_first = z;
+    const bool ok_first = ok;
+    auto finish = [&](Eigen::VectorXd& zc) {
+      P.setup(robot, q, conditions, opt.max_step, 1.0, mbps);
+      return newton(P, W.eval, W.out, zc, opt, iters, rn, why) && W.out.stability > 0.0;
+    };
+    // Fallback 1: continuation in the precurvatures from the interaction-free robot (unique, stable solution).
     Eigen::VectorXd zh = Eigen::VectorXd::Zero(P.m);
-    bool hok = true;
     std::string hwhy;
-    for (int k = 0; k <= opt.homotopy_steps && hok; ++k) {
-      const double lam = static_cast<double>(k) / opt.homotopy_steps;
-      P.setup(robot, q, conditions, opt.max_step, lam);
-      hok = newton(P, W.eval, W.out, zh, opt, iters, rn, hwhy);
-      ++cont_steps;
+    bool found = continuation([&](double lam) { P.setup(robot, q, conditions, opt.max_step, lam, mbps); }, P,
+                              W.eval, W.out, zh, opt, iters, cont_steps, hwhy) &&
+                 finish(zh);
+    // Fallback 2: continuation in rotation from the aligned configuration (relative angles zero: untwisted
+    // solution exact), along the shortest relative rotations (the model is 2 pi periodic in them).
+    if (!found) {
+      Configuration qa = q;
+      Eigen::VectorXd rel(q.size());
+      for (int i = 0; i < q.size(); ++i) {
+        rel[i] = std::remainder(q.alpha[i] - q.alpha[0], 2.0 * M_PI);
+        qa.alpha[i] = q.alpha[0];
+      }
+      zh.setZero(P.m);
+      std::string rwhy;
+      found = continuation(
+                  [&](double t) {
+                    Configuration qt = qa;
+                    qt.alpha = qa.alpha + t * rel;
+                    P.setup(robot, qt, conditions, opt.max_step, 1.0, mbps);
+                  },
+                  P, W.eval, W.out, zh, opt, iters, cont_steps, rwhy) &&
+              finish(zh);
+      if (!found) hwhy += "; rotation continuation from the aligned configuration: " + rwhy;
     }
-    if (hok && (!ok || W.out.stability > 0.0)) {
+    if (found) {
       z = zh;
       ok = true;
     } else {
-      P.setup(robot, q, conditions, opt.max_step, 1.0);
-      if (ok) {
-        W.eval.evaluate(P, z, true, false, W.out);  // restore the first (unstable) solution's outputs
-      } else {
-        why += "; homotopy from zero precurvature also failed: " + hwhy;
-      }
+      z = z_first;
+      ok = ok_first;
+      P.setup(robot, q, conditions, opt.max_step, 1.0, mbps);
+      if (!ok) why += "; homotopy from zero precurvature: " + hwhy;
+      W.eval.evaluate(P, z, true, false, W.out);  // outputs of the returned point
+      rn = maxAbs(W.eval.r);
     }
-    if (!hok && !ok) W.eval.evaluate(P, z, true, false, W.out);
   }
   Solution sol = package(robot, q, P, W.eval, W.out, z, ok, iters, rn, why, opt);
   sol.summary.continuation_steps = cont_steps;

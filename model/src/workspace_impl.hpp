@@ -44,7 +44,7 @@ struct Problem {
   std::vector<Breakpoint> breakpoints;
   std::vector<ActiveContact> contacts;
   void setup(const Robot& robot, const Configuration& q, const std::vector<ContactCondition>* conditions,
-             double max_step, double kappa_scale);
+             double max_step, double kappa_scale, double max_bending_per_step);
 };
 
 struct Outputs {

@@ -8,3 +8,4 @@
 #include "ctr/model/robot.hpp"
 #include "ctr/model/friction.hpp"
 #include "ctr/model/distributed_friction.hpp"
+#include "ctr/model/sampling.hpp"

@@ -9,7 +9,7 @@ PACKAGES=(
   libyaml-cpp-dev
   libcli11-dev
   nlohmann-json3-dev
-  libompl-dev
+  libompl-dev libboost-serialization-dev libboost-filesystem-dev libboost-system-dev libboost-program-options-dev
   libfcl-dev
   liboctomap-dev libdynamicedt3d-dev
   libceres-dev

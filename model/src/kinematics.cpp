@@ -735,6 +735,22 @@ Solution solveImpl(const Robot& robot, const Configuration& q, const std::vector
       rn = maxAbs(W.eval.r);
     }
   }
+  if (ok && opt.refine_below_stability > 0.0 && std::abs(W.out.stability) < opt.refine_below_stability) {
+    // Ill-conditioned twist near a fold: refine the discretisation (warm start, same branch).
+    Eigen::VectorXd zr = z;
+    int it2 = 0;
+    double rn2 = 0;
+    std::string w2;
+    P.setup(robot, q, conditions, 0.25 * opt.max_step, 1.0, 0.25 * mbps);
+    if (newton(P, W.eval, W.out, zr, opt, it2, rn2, w2)) {
+      z = zr;
+      rn = rn2;
+    } else {
+      P.setup(robot, q, conditions, opt.max_step, 1.0, mbps);
+      W.eval.evaluate(P, z, true, false, W.out);
+    }
+    iters += it2;
+  }
   Solution sol = package(robot, q, P, W.eval, W.out, z, ok, iters, rn, why, opt);
   sol.summary.continuation_steps = cont_steps;
   return sol;

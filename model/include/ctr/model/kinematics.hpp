@@ -53,6 +53,9 @@ struct KinematicsOptions {
   double max_rotation_step = 0.035;     ///< Largest rotation change per continuation step (rad, 2 deg).
   double max_translation_step = 2e-3;   ///< Largest translation change per continuation step (m).
   double snap_threshold = 0.5;     ///< A tip twist change above this in one continuation step is a snap (rad).
+  /// Near a fold the twist is ill-conditioned (error ~ discretisation / stability): when |stability| is below this,
+  /// the converged solution is re-solved with a quarter of the step (0 disables).
+  double refine_below_stability = 0.1;
 };
 
 /// @brief Outcome of a solve.

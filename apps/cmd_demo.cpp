@@ -1,10 +1,19 @@
-// `ctr demo`: the embedded default job -- the paper's tube pair B twist sweep, frictionless vs stick-slip friction.
+// `ctr demo`: the embedded default job -- a friction-aware planning query in a procedural intracardiac anatomy
+// (no data download); `--paper` runs the paper's tube pair B twist sweep (frictionless vs stick-slip friction).
 #include <cmath>
 #include <cstdio>
 #include <iostream>
+#include <nlohmann/json.hpp>
 
 #include "commands.hpp"
+#include "ctr/io/recording.hpp"
+#include "ctr/io/robot_yaml.hpp"
 #include "ctr/model/friction.hpp"
+#ifdef CTR_WITH_PLANNER
+#include "ctr/environments/environment_yaml.hpp"
+#include "ctr/planner/planner.hpp"
+#include "demo_data.hpp"
+#endif
 
 namespace ctr::cli {
 
@@ -33,12 +42,71 @@ Robot embeddedPairB() {
 
 }  // namespace
 
+int paperSweep(double mu);
+#ifdef CTR_WITH_PLANNER
+int planningDemo(const std::string& path_csv);
+#endif
+
 void registerDemo(CLI::App& app, Action& action) {
-  auto mu = std::make_shared<double>(0.12);
-  CLI::App* sub = app.add_subcommand("demo", "Embedded default job: tube pair B twist sweep (frictionless vs friction)");
-  sub->add_option("--boundary-friction", *mu, "mu' of the friction branches")->check(CLI::NonNegativeNumber);
-  sub->callback([mu, &action]() {
-    action = [mu]() {
+  struct Opts {
+    double mu = 0.12;
+    bool paper = false;
+    std::string path = "ctr_demo_path.csv";
+  };
+  auto o = std::make_shared<Opts>();
+  CLI::App* sub = app.add_subcommand(
+      "demo", "Embedded default job: plan from the vena cava to the tricuspid valve of a procedural heart");
+  sub->add_flag("--paper", o->paper, "Instead: the paper's tube pair B twist sweep (frictionless vs friction)");
+  sub->add_option("--boundary-friction", o->mu, "mu' of the --paper friction branches")->check(CLI::NonNegativeNumber);
+  sub->add_option("--path", o->path, "Where the demo writes the replayed path (CSV)");
+  sub->callback([o, &action]() {
+    action = [o]() {
+#ifdef CTR_WITH_PLANNER
+      if (!o->paper) return planningDemo(o->path);
+#endif
+      return paperSweep(o->mu);
+    };
+  });
+}
+
+#ifdef CTR_WITH_PLANNER
+int planningDemo(const std::string& path_csv) {
+  const Robot robot = io::parseRobot(demo::kRobot, "embedded:robots/proc_intracardiac.yaml");
+  const env::EnvironmentDescription d =
+      env::parseEnvironmentDescription(demo::kEnvironment, "embedded:environments/proc_intracardiac.yaml", ".");
+  const plan::Query q = plan::parseQuery(demo::kQuery, "embedded:queries/proc_intracardiac.yaml", ".", false);
+  std::cout << "ctr demo: " << robot.size() << "-tube robot in a procedural right atrium, mode " << plan::toString(q.mode)
+            << ", planner " << q.planner << ", mu' = " << (q.friction ? q.friction->boundary : robot.friction().boundary)
+            << "\n";
+  plan::CtrPlanner p(q, robot, env::buildEnvironment(d));
+  const plan::PlanResult r = p.solve();
+  nlohmann::json j = {{"solved", r.solved},
+                      {"mode", plan::toString(r.mode)},
+                      {"planner", r.planner},
+                      {"planning_time", r.planning_time},
+                      {"path_length", r.path_length},
+                      {"waypoints", r.path.size()},
+                      {"replay",
+                       {{"collision_free", r.replay.collision_free},
+                        {"stable", r.replay.stable},
+                        {"tip_error", r.replay.tip_error},
+                        {"min_clearance", r.replay.min_clearance},
+                        {"steps", r.replay.steps}}}};
+  if (!r.message.empty()) j["message"] = r.message;
+  std::cout << j.dump(2) << "\n";
+  if (!r.replay.points.empty()) {
+    io::writeFileAtomic(path_csv, plan::replayCsv(p.context()->robot(), r.replay));
+    std::cout << "replayed path (" << r.replay.points.size() << " steps, with the hysteresis state) written to "
+              << path_csv << "\n";
+  }
+  return r.solved ? static_cast<int>(kOk) : static_cast<int>(kRuntimeFailure);
+}
+#endif
+
+int paperSweep(double mu0) {
+  const double* mu = &mu0;
+  {
+    {
       const Robot fr = embeddedPairB().withFriction({*mu, 0.0});
       const Robot fl = fr.withFriction({0.0, 0.0});
       Workspace ws;
@@ -76,8 +144,8 @@ void registerDemo(CLI::App& app, Action& action) {
         return static_cast<int>(kRuntimeFailure);
       }
       return static_cast<int>(kOk);
-    };
-  });
+    }
+  }
 }
 
 }  // namespace ctr::cli

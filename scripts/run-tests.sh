@@ -11,10 +11,14 @@ cmake -S . -B "$BUILD" -DCMAKE_BUILD_TYPE=Release
 cmake --build "$BUILD" -j"$JOBS"
 ctest --test-dir "$BUILD" --output-on-failure -j"$JOBS" --timeout 900
 
-rm -rf "$BUILD/install" "$BUILD/consumer"
+rm -rf "$BUILD/install" "$BUILD/consumer" "$BUILD/planning_app"
 cmake --install "$BUILD" --prefix "$BUILD/install" > /dev/null
 cmake -S tests/consumer -B "$BUILD/consumer" -DCMAKE_PREFIX_PATH="$PWD/$BUILD/install" > /dev/null
 cmake --build "$BUILD/consumer" -j"$JOBS"
 ctest --test-dir "$BUILD/consumer" --output-on-failure
 "$BUILD/install/bin/ctr" --help > /dev/null
+# The example application plans the intracardiac query through the installed package.
+cmake -S examples/planning_app -B "$BUILD/planning_app" -DCMAKE_PREFIX_PATH="$PWD/$BUILD/install" > /dev/null
+cmake --build "$BUILD/planning_app" -j"$JOBS"
+"$BUILD/planning_app/planning_app" examples/queries/proc_intracardiac.yaml
 echo "run-tests: all passed"

@@ -184,9 +184,25 @@ TEST(Cli, SimulateWritesARecordingAndNothingOnBadInput) {
   EXPECT_FALSE(fs::exists(out));
 }
 
-TEST(Cli, DemoRunsTheEmbeddedDefault) {
-  const Proc r = run("demo");
+TEST(Cli, DemoPaperSweep) {
+  const Proc r = run("demo --paper");
   ASSERT_EQ(r.code, 0) << r.err;
   EXPECT_NE(r.out.find("Tube pair B"), std::string::npos);
   EXPECT_NE(r.out.find("180"), std::string::npos);
 }
+
+#ifdef CTR_TEST_PLANNER
+TEST(Cli, DemoPlansTheEmbeddedDefaultAndWritesThePath) {
+  const fs::path f = tmp("demo_path.csv");
+  fs::remove(f);
+  const Proc r = run("demo --path " + f.string());
+  ASSERT_EQ(r.code, 0) << r.out << r.err;
+  EXPECT_NE(r.out.find("\"solved\": true"), std::string::npos) << r.out;
+  ASSERT_TRUE(fs::exists(f));
+  std::ifstream in(f);
+  std::string header;
+  std::getline(in, header);
+  EXPECT_EQ(header.rfind("alpha_1,alpha_2,alpha_3,beta_1,beta_2,beta_3,twist_2,twist_3,tip_x", 0), 0u) << header;
+  EXPECT_NE(header.find("_mode"), std::string::npos);
+}
+#endif

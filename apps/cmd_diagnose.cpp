@@ -1,0 +1,71 @@
+// `ctr diagnose`: locate where a recording differs from the nominal model, name and fit the left-out physics.
+#include <iostream>
+#include <sstream>
+
+#include "commands.hpp"
+#include "ctr/diagnosis/diagnose.hpp"
+#include "ctr/io/recording.hpp"
+#include "ctr/io/robot_yaml.hpp"
+
+namespace ctr::cli {
+
+void registerDiagnose(CLI::App& app, Action& action) {
+  struct Opts {
+    std::string robot, recording, frame = "base", json, report, plot, candidates;
+    int folds = 4, threads = 2, max_effects = 3;
+    double bic_threshold = 10.0;
+    bool quiet = false;
+  };
+  auto o = std::make_shared<Opts>();
+  CLI::App* sub = app.add_subcommand(
+      "diagnose", "Locate where a recording and the nominal model differ, name the left-out physics, fit it and "
+                  "score it on held-out blocks");
+  sub->add_option("--robot", o->robot, "Nominal robot description YAML")->required();
+  sub->add_option("--recording", o->recording, "Recording CSV (formats.md), rows in the order taken")->required();
+  sub->add_option("--frame", o->frame, "Frame of measured tips: base, or unknown (registration estimated in every model)")
+      ->check(CLI::IsMember({"base", "unknown"}));
+  sub->add_option("--json", o->json, "Diagnosis JSON to write (formats.md)")->required();
+  sub->add_option("--report", o->report, "Plain-language Markdown report to write");
+  sub->add_option("--plot-data", o->plot, "Plot data JSON to write (measured/nominal/fitted curves, binned residuals)");
+  sub->add_option("--candidates", o->candidates, "Comma-separated effect names to try (default: all)");
+  sub->add_option("--folds", o->folds, "Contiguous held-out blocks")->check(CLI::Range(2, 20));
+  sub->add_option("--threads", o->threads, "Candidates fitted in parallel")->check(CLI::Range(1, 64));
+  sub->add_option("--max-effects", o->max_effects, "Largest combination of effects")->check(CLI::Range(0, 3));
+  sub->add_option("--bic-threshold", o->bic_threshold, "BIC decrease needed to accept an effect");
+  sub->add_flag("--quiet", o->quiet, "No progress on stderr");
+  sub->callback([o, &action]() {
+    action = [o]() {
+      const Robot robot = io::loadRobot(o->robot);
+      const io::Recording rec = io::loadRecording(o->recording, robot.size(), true);
+      for (const auto& w : rec.warnings) std::cerr << "warning: " << o->recording << ": " << w << "\n";
+      diagnosis::DiagnoseOptions d;
+      d.frame = o->frame == "unknown" ? diagnosis::FrameMode::Unknown : diagnosis::FrameMode::Base;
+      d.folds = o->folds;
+      d.threads = o->threads;
+      d.max_effects = o->max_effects;
+      d.bic_threshold = o->bic_threshold;
+      if (!o->candidates.empty()) {
+        std::stringstream ss(o->candidates);
+        std::string item;
+        while (std::getline(ss, item, ',')) {
+          try {
+            d.candidates.push_back(diagnosis::parseEffectKind(item));
+          } catch (const std::invalid_argument& e) {
+            throw UsageError(std::string("--candidates: ") + e.what());
+          }
+        }
+      }
+      if (!o->quiet) d.progress = [](const std::string& s) { std::cerr << s << "\n"; };
+      const diagnosis::DiagnosisReport rep = diagnosis::diagnose(robot, rec, d);
+      io::writeFileAtomic(o->json, diagnosis::reportToJson(rep));
+      if (!o->report.empty()) io::writeFileAtomic(o->report, diagnosis::reportToMarkdown(rep, rec));
+      if (!o->plot.empty()) io::writeFileAtomic(o->plot, diagnosis::plotDataJson(rep, rec));
+      std::cout << "verdict: [";
+      for (std::size_t k = 0; k < rep.verdict.size(); ++k) std::cout << (k ? ", " : "") << rep.verdict[k];
+      std::cout << "]\n" << rep.summary << "\n";
+      return kOk;
+    };
+  });
+}
+
+}  // namespace ctr::cli

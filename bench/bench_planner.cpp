@@ -1,0 +1,76 @@
+// Planner benchmarks in a Med-MPD lung (patient 1, 1 mm map): frictionless validity checks (cold and along a
+// motion) and friction-aware quasi-static motion steps (stick-slip step + collision check), 3-tube lung robot.
+#include <benchmark/benchmark.h>
+
+#include <filesystem>
+
+#include "ctr/environments/environment_yaml.hpp"
+#include "ctr/io/robot_yaml.hpp"
+#include "ctr/planner/planner.hpp"
+
+namespace {
+
+using namespace ctr;
+
+std::shared_ptr<const plan::Context> lungContext() {
+  static std::shared_ptr<const plan::Context> ctx = [] {
+    const std::string envf = std::string(CTR_SOURCE_DIR) + "/examples/environments/medmpd_lung_patient1.yaml";
+    if (!std::filesystem::exists(std::string(CTR_SHARED_DIR) + "/data/med-mpd")) return std::shared_ptr<const plan::Context>();
+    auto env = std::make_shared<const env::Environment>(env::loadEnvironment(envf));
+    Robot r = io::loadRobot(std::string(CTR_SOURCE_DIR) + "/examples/robots/medmpd_lung.yaml").withFriction({0.1, 0.0});
+    plan::ContextOptions co;
+    co.friction.kinematics.record_backbone = true;
+    return std::make_shared<const plan::Context>(r, env, co, env::CollisionOptions::fromEnvironment(*env));
+  }();
+  return ctx;
+}
+
+void BM_ValidityCold(benchmark::State& st) {
+  auto ctx = lungContext();
+  if (!ctx) return st.SkipWithError("../shared/data/med-mpd not found");
+  std::mt19937_64 g(1);
+  std::vector<Configuration> qs;
+  for (int k = 0; k < 512; ++k) qs.push_back(sampleConfiguration(ctx->robot(), ctx->translationSampler(), g));
+  std::size_t k = 0, valid = 0;
+  for (auto _ : st) valid += plan::checkFrictionless(*ctx, qs[k++ % qs.size()], plan::scratch()).ok;
+  st.counters["checks/s"] = benchmark::Counter(static_cast<double>(st.iterations()), benchmark::Counter::kIsRate);
+  st.counters["valid_fraction"] = static_cast<double>(valid) / static_cast<double>(st.iterations());
+}
+
+void BM_ValidityAlongMotion(benchmark::State& st) {
+  auto ctx = lungContext();
+  if (!ctx) return st.SkipWithError("../shared/data/med-mpd not found");
+  std::mt19937_64 g(2);
+  Configuration q = sampleConfiguration(ctx->robot(), ctx->translationSampler(), g);
+  plan::ConfigurationCheck prev = plan::checkFrictionless(*ctx, q, plan::scratch());
+  int k = 0;
+  for (auto _ : st) {
+    q.alpha[(k++) % q.size()] += ((k / 200) % 2 ? -1 : 1) * 0.0087;  // 0.5 deg steps, as the motion validator
+    prev = plan::checkFrictionless(*ctx, q, plan::scratch(), prev.shape.converged() ? &prev.shape : nullptr);
+  }
+  st.counters["checks/s"] = benchmark::Counter(static_cast<double>(st.iterations()), benchmark::Counter::kIsRate);
+}
+
+void BM_FrictionMotionStep(benchmark::State& st) {
+  auto ctx = lungContext();
+  if (!ctx) return st.SkipWithError("../shared/data/med-mpd not found");
+  const Configuration q0(Eigen::Vector3d(0.0, 0.5, -0.5), Eigen::Vector3d(-0.118, -0.218, -0.318));
+  const std::shared_ptr<const plan::StateCache> start = plan::startCache(*ctx, q0, plan::StartHistory{});
+  if (!start->physics_ok) return st.SkipWithError(("start not valid: " + start->why).c_str());
+  std::shared_ptr<const plan::StateCache> cur = start;
+  int k = 0;
+  for (auto _ : st) {
+    if (!cur->physics_ok) cur = start;
+    Configuration q = cur->hysteresis.q;
+    q.alpha[1] += ((k++ / 100) % 2 ? -1 : 1) * 0.0087;  // one 0.5 deg quasi-static step with collision check
+    cur = plan::propagateCache(*ctx, *cur, q);
+    benchmark::DoNotOptimize(plan::checkShape(*ctx, cur->solution, plan::scratch()).ok);
+  }
+  st.counters["steps/s"] = benchmark::Counter(static_cast<double>(st.iterations()), benchmark::Counter::kIsRate);
+}
+
+}  // namespace
+
+BENCHMARK(BM_ValidityCold)->Name("planner/lung1/frictionless_validity_cold")->Unit(benchmark::kMicrosecond);
+BENCHMARK(BM_ValidityAlongMotion)->Name("planner/lung1/frictionless_validity_along_motion")->Unit(benchmark::kMicrosecond);
+BENCHMARK(BM_FrictionMotionStep)->Name("planner/lung1/friction_motion_step")->Unit(benchmark::kMicrosecond);

@@ -1,0 +1,111 @@
+/// @file diagnose.hpp
+/// @brief Automatic diagnosis of a recording against a nominal robot: baseline replay, statistical localisation of
+/// the mismatch, a library of candidate left-out physics fitted on training blocks and scored on held-out blocks,
+/// forward selection (held-out error + BIC), and a plain-language explanation.
+#pragma once
+
+#include <functional>
+#include <map>
+#include <string>
+#include <vector>
+
+#include "ctr/diagnosis/effect.hpp"
+#include "ctr/diagnosis/fit.hpp"
+#include "ctr/diagnosis/mismatch.hpp"
+#include "ctr/diagnosis/residuals.hpp"
+#include "ctr/io/recording.hpp"
+
+namespace ctr::diagnosis {
+
+/// @brief Options of diagnose().
+struct DiagnoseOptions {
+  FrameMode frame = FrameMode::Base;   ///< Unknown: registration estimated in every model (baseline included).
+  int folds = 4;                       ///< Contiguous held-out blocks.
+  int max_effects = 3;                 ///< Largest combination of effects.
+  double bic_threshold = 10.0;         ///< Accept only if BIC drops by more than this ("very strong" evidence).
+  double heldout_p = 0.05;             ///< Held-out improvement must be significant at this level.
+  double min_heldout_gain = 0.02;      ///< ... and reduce the held-out normalised error by at least this fraction.
+  int threads = 2;                     ///< Candidates fitted in parallel (one Workspace per thread).
+  std::vector<EffectKind> candidates;  ///< Kinds to try; empty = all (sensor_latency only with time).
+  int max_iterations = 15;             ///< Ceres iterations of a full fit.
+  int screen_iterations = 8;           ///< Ceres iterations when screening a candidate (new parameter only).
+  int cv_iterations = 3;               ///< Ceres iterations of a fold refit (warm-started).
+  int max_rows = 300;                  ///< Longer recordings are decimated uniformly (every k-th row, history kept
+                                       ///< by the quasi-static sub-stepping) to bound the run time; 0 = never.
+  MismatchOptions mismatch;
+  PredictOptions predict;
+  std::function<void(const std::string&)> progress;  ///< Progress messages (e.g. to stderr); may be empty.
+};
+
+/// @brief Scores of one model.
+struct ModelScore {
+  std::string model;                          ///< "nominal" or "nominal+effect+...".
+  std::vector<Effect> effects;
+  std::map<std::string, double> heldout_rmse; ///< Per quantity (SI).
+  std::map<std::string, double> fit_rmse;     ///< In-sample RMSE per quantity (all rows).
+  std::map<std::string, double> last_block_rmse;  ///< Held-out RMSE on the last (latest in time) block only.
+  double heldout_score = 0.0;                 ///< Mean noise-normalised squared error per held-out row.
+  double bic = 0.0;
+};
+
+/// @brief One candidate tried (accepted or not), with the evidence.
+struct Finding {
+  Effect effect;                               ///< Fitted value (alone on top of the model of its round).
+  std::vector<Effect> model;                   ///< The full model it was fitted in.
+  bool accepted = false;
+  int round = 0;                               ///< Selection round (1-based).
+  std::map<std::string, double> parameters;    ///< e.g. {"mu": 0.118} (+ "tube").
+  std::map<std::string, std::array<double, 2>> interval95;
+  std::map<std::string, double> heldout_rmse;
+  double heldout_score = 0.0;
+  double heldout_p = 1.0;                      ///< One-sided p of the held-out improvement.
+  double delta_bic = 0.0;                      ///< BIC(model with it) - BIC(model of its round).
+  std::string explanation;
+};
+
+/// @brief Per-row curves for plots (measured vs nominal vs fitted).
+struct PlotSeries {
+  Prediction nominal, fitted;  ///< In the sensor frame.
+  Residuals nominal_residuals, fitted_residuals;
+  std::vector<ConfigVariable> variables;
+  MismatchReport final_mismatch;  ///< Binned residuals of the final model (for before/after plots).
+};
+
+/// @brief The diagnosis.
+struct DiagnosisReport {
+  std::vector<std::string> verdict;   ///< Effects judged present (JSON names); empty = nominal explains the data.
+  std::vector<Effect> final_effects;  ///< With fitted values.
+  std::map<std::string, std::array<double, 2>> final_intervals;  ///< Keyed by Effect::label().
+  ModelScore baseline, final;
+  MismatchReport mismatch;            ///< Of the baseline.
+  std::vector<Finding> findings;      ///< Every candidate tried.
+  NoiseLevels noise;                  ///< Estimated measurement noise.
+  Registration registration;          ///< Final model's registration (FrameMode::Unknown).
+  FrameMode frame = FrameMode::Base;
+  int rows = 0, folds = 0;
+  int stride = 1;                     ///< Rows used: every stride-th row of the recording (see max_rows).
+  double seconds = 0.0;
+  int evaluations = 0;                ///< Sequence replays.
+  std::vector<std::string> warnings;
+  std::string summary;                ///< Plain-language paragraph.
+  PlotSeries plot;
+};
+
+/// @brief Every k-th row of a recording (k >= 1).
+io::Recording decimateRecording(const io::Recording& rec, int k);
+
+/// @brief The candidate slots (kind, tube) tried for a robot and recording.
+std::vector<Effect> candidateSlots(const Robot& nominal, const io::Recording& rec, const DiagnoseOptions& options);
+
+/// @brief Runs the whole diagnosis. Throws std::invalid_argument when the recording does not fit the robot.
+DiagnosisReport diagnose(const Robot& nominal, const io::Recording& rec, const DiagnoseOptions& options = {});
+
+/// @brief formats.md diagnosis JSON (verdict, baseline, final, mismatch, findings, + noise, timing, registration).
+std::string reportToJson(const DiagnosisReport& report);
+/// @brief Plain-language Markdown report.
+std::string reportToMarkdown(const DiagnosisReport& report, const io::Recording& rec);
+/// @brief Plot data JSON: per-row measured / nominal / fitted values, configuration variables with direction, and
+/// binned residuals vs configuration split by direction (before and after).
+std::string plotDataJson(const DiagnosisReport& report, const io::Recording& rec);
+
+}  // namespace ctr::diagnosis

@@ -1,0 +1,80 @@
+/// @file fit.hpp
+/// @brief Fitting effect parameters to a recording by nonlinear least squares (Ceres, numeric Jacobians of full
+/// replays) on a subset of rows, and held-out scoring on contiguous time blocks (cross-validation).
+#pragma once
+
+#include <array>
+#include <map>
+#include <string>
+#include <vector>
+
+#include "ctr/diagnosis/effect.hpp"
+#include "ctr/diagnosis/forward_model.hpp"
+#include "ctr/diagnosis/residuals.hpp"
+#include "ctr/io/recording.hpp"
+
+namespace ctr::diagnosis {
+
+/// @brief Search range of one effect's parameter and the coarse grid used to start the fit.
+struct ParameterRange {
+  double lo = 0.0, hi = 1.0;
+  std::vector<double> grid;
+};
+
+/// @brief Range of the parameter of (kind, tube) for a robot and recording.
+ParameterRange parameterRange(const Robot& nominal, const io::Recording& rec, EffectKind kind, int tube);
+
+/// @brief Options of fitEffects().
+struct FitOptions {
+  FrameMode frame = FrameMode::Base;
+  NoiseLevels noise;              ///< Residual weights 1/sigma per quantity (must be > 0 for present quantities).
+  int max_iterations = 20;        ///< Ceres iterations.
+  bool grid_search = true;        ///< Scan the grid of the effects flagged `free` whose start is not trusted.
+  bool intervals = true;          ///< 95 % intervals from the Gauss-Newton covariance.
+  double difference_step = 2e-3;  ///< Central-difference step in units of the parameter range.
+  double function_tolerance = 1e-5;  ///< Ceres relative cost-change tolerance.
+  int first_free = 0;             ///< Effects before this index keep their start values (not fitted).
+  PredictOptions predict;
+};
+
+/// @brief A fitted model evaluated on every row.
+struct FitResult {
+  std::vector<Effect> effects;                        ///< Fitted values.
+  std::vector<std::array<double, 2>> interval95;      ///< Per effect (empty when not computed).
+  Registration registration;                          ///< Sensor registration (FrameMode::Unknown).
+  Prediction prediction;                              ///< All rows, in the sensor frame.
+  Residuals residuals;                                ///< All rows.
+  double cost = 0.0;                                  ///< 0.5 * weighted sum of squares on the fit rows.
+  int evaluations = 0;                                ///< Replays of the whole sequence.
+  bool converged = true;
+  std::string message;
+};
+
+/// @brief Evaluates a model (no fitting): replay, registration on the rows in `use`, residuals on all rows.
+FitResult evaluateModel(const Robot& nominal, const io::Recording& rec, const std::vector<Effect>& effects,
+                        const std::vector<char>& use, const FitOptions& options, Workspace& ws);
+
+/// @brief Fits the values of the effects (all of them; `grid_from` and later effects are first scanned on their
+/// grid) on the rows in `use`. Stateful effects are always replayed over the whole sequence.
+FitResult fitEffects(const Robot& nominal, const io::Recording& rec, const std::vector<Effect>& start,
+                     const std::vector<char>& use, const FitOptions& options, Workspace& ws, int grid_from = 0);
+
+/// @brief Held-out evaluation: for each of `folds` contiguous blocks of rows, the effects are refitted (from
+/// `start`, no grid) on the other blocks and the residuals of the block are kept.
+struct CrossValidation {
+  Residuals heldout;                          ///< Each row's residual from the fold that held it out.
+  std::map<std::string, double> rmse;         ///< Held-out RMSE per quantity.
+  Eigen::VectorXd row_score;                  ///< Noise-normalised squared error per row (held out).
+  double score = 0.0;                         ///< Mean of row_score.
+  std::vector<std::vector<Effect>> fold_effects;  ///< Fitted values per fold.
+  int evaluations = 0;
+};
+
+/// @brief Contiguous fold index of each row (0..folds-1).
+std::vector<int> foldOfRows(int rows, int folds);
+
+/// @brief Cross-validates a model. With no effects (baseline) only the registration is refitted per fold.
+CrossValidation crossValidate(const Robot& nominal, const io::Recording& rec, const std::vector<Effect>& start,
+                              int folds, const FitOptions& options, Workspace& ws, int max_iterations = 6);
+
+}  // namespace ctr::diagnosis

@@ -1,0 +1,45 @@
+/// @file statistics.hpp
+/// @brief Small statistics toolbox for the diagnosis: tail probabilities and correlation tests.
+#pragma once
+
+#include <Eigen/Core>
+
+namespace ctr::diagnosis::stats {
+
+/// @brief P(Z > z) for a standard normal.
+double normalSf(double z);
+/// @brief P(X > x) for chi-square with k degrees of freedom.
+double chiSquareSf(double x, double k);
+/// @brief P(T > t) for Student t with nu degrees of freedom.
+double studentSf(double t, double nu);
+/// @brief Regularised lower incomplete gamma P(a, x).
+double gammaP(double a, double x);
+/// @brief Regularised incomplete beta I_x(a, b).
+double betaI(double a, double b, double x);
+
+/// @brief A correlation with its two-sided p-value.
+struct Correlation {
+  double r = 0.0;
+  double p_value = 1.0;
+  int n = 0;
+};
+/// @brief Pearson correlation of the finite pairs, t-test p-value.
+Correlation pearson(const Eigen::VectorXd& x, const Eigen::VectorXd& y);
+/// @brief Spearman rank correlation of the finite pairs (Pearson on ranks).
+Correlation spearman(const Eigen::VectorXd& x, const Eigen::VectorXd& y);
+
+/// @brief One-sided p-value that the mean of d is > 0, from the t statistic of contiguous chunk means
+/// (chunks absorb serial correlation). Returns 1 when too few values.
+double chunkedMeanTest(const Eigen::VectorXd& d, int chunks);
+
+/// @brief One-sided p-value that `after` has smaller errors than `before` (per-row squared errors): t-test of the
+/// log ratios of contiguous chunk sums (scale-free, so a few large improvements do not swamp the variance).
+double chunkedLogRatioTest(const Eigen::VectorXd& before, const Eigen::VectorXd& after, int chunks);
+
+/// @brief One-sided p-value that the total error of `after` is below that of `before` (per-row squared errors):
+/// block bootstrap over contiguous chunks of the ratio sum(after) / sum(before); p = share of resamples with
+/// ratio >= 1. Robust to improvements concentrated in a few chunks and to serial correlation within chunks.
+double chunkedBootstrapTest(const Eigen::VectorXd& before, const Eigen::VectorXd& after, int chunks,
+                            int resamples = 2000, unsigned seed = 12345);
+
+}  // namespace ctr::diagnosis::stats

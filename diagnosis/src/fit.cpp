@@ -1,0 +1,332 @@
+// Nonlinear least squares of effect parameters (Ceres) and held-out cross-validation.
+#include "ctr/diagnosis/fit.hpp"
+
+#include <ceres/ceres.h>
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+
+namespace ctr::diagnosis {
+
+ParameterRange parameterRange(const Robot& nominal, const io::Recording& rec, EffectKind kind, int tube) {
+  ParameterRange r;
+  switch (kind) {
+    case EffectKind::BoundaryFriction:
+      r = {0.0, 1.0, {0.03, 0.08, 0.15, 0.3, 0.6}};
+      break;
+    case EffectKind::DistributedFriction:
+      r = {0.0, 1.0, {0.1, 0.5}};
+      break;
+    case EffectKind::TorsionalStiffness:
+      r = {-0.5, 3.0, {0.0, 0.15, 0.3, 0.45, 0.6, 0.8, 1.1, 1.6, 2.3}};
+      break;
+    case EffectKind::Precurvature: {
+      const double k0 = nominal.tube(tube - 1).curvature;
+      if (k0 > 0)
+        r = {0.5 * k0, 1.6 * k0, {0.7 * k0, 0.85 * k0, 1.15 * k0, 1.3 * k0}};
+      else
+        r = {0.0, 15.0, {2.0, 5.0, 10.0}};
+      break;
+    }
+    case EffectKind::BendingStiffness: {
+      const double e0 = nominal.tube(tube - 1).bending_stiffness;
+      r = {0.33 * e0, 3.0 * e0, {0.5 * e0, 0.7 * e0, 1.4 * e0, 2.0 * e0}};
+      break;
+    }
+    case EffectKind::ActuatorBacklash:
+      r = {0.0, 0.6, {0.03, 0.08, 0.15, 0.25, 0.4}};
+      break;
+    case EffectKind::ActuatorOffset:
+      r = {-0.6, 0.6, {-0.4, -0.3, -0.2, -0.1, -0.05, 0.05, 0.1, 0.2, 0.3, 0.4}};
+      break;
+    case EffectKind::SensorLatency: {
+      double dt = 0.1;
+      if (rec.time.size() > 1) {
+        std::vector<double> d;
+        for (Eigen::Index k = 1; k < rec.time.size(); ++k)
+          if (rec.time[k] > rec.time[k - 1]) d.push_back(rec.time[k] - rec.time[k - 1]);
+        if (!d.empty()) {
+          std::nth_element(d.begin(), d.begin() + static_cast<long>(d.size() / 2), d.end());
+          dt = d[d.size() / 2];
+        }
+      }
+      r = {0.0, 20.0 * dt, {0.5 * dt, dt, 2 * dt, 4 * dt, 8 * dt, 14 * dt}};
+      break;
+    }
+  }
+  return r;
+}
+
+namespace {
+
+struct Layout {
+  std::vector<int> rows;  // rows used
+  std::vector<Quantity> quantities;
+  int components = 0;  // per row
+};
+
+Layout makeLayout(const io::Recording& rec, const std::vector<char>& use) {
+  Layout L;
+  for (int k = 0; k < rec.rows(); ++k)
+    if (k < static_cast<int>(use.size()) && use[static_cast<std::size_t>(k)]) L.rows.push_back(k);
+  L.quantities = presentQuantities(rec);
+  for (Quantity q : L.quantities)
+    L.components += q == Quantity::Twist ? static_cast<int>(rec.twist.cols()) : 3;
+  return L;
+}
+
+/// Evaluates the weighted residual vector for parameter vector x (scaled to [0, 1] per effect).
+class Model {
+public:
+  Model(const Robot& nominal, const io::Recording& rec, std::vector<Effect> effects, const std::vector<char>& use,
+        const FitOptions& o, Workspace& ws)
+      : nominal_(nominal), rec_(rec), effects_(std::move(effects)), use_(use), o_(o), ws_(ws),
+        layout_(makeLayout(rec, use)) {
+    for (int j = std::max(0, o.first_free); j < static_cast<int>(effects_.size()); ++j) {
+      free_.push_back(j);
+      const Effect& e = effects_[static_cast<std::size_t>(j)];
+      ranges_.push_back(parameterRange(nominal, rec, e.kind, e.tube));
+    }
+  }
+  int parameters() const { return static_cast<int>(free_.size()); }
+  /// Index into the effect list of free parameter j.
+  int effectIndex(int j) const { return free_[static_cast<std::size_t>(j)]; }
+  int residuals() const { return static_cast<int>(layout_.rows.size()) * layout_.components; }
+  double toX(int j, double v) const {
+    const auto& r = ranges_[static_cast<std::size_t>(j)];
+    return std::clamp((v - r.lo) / (r.hi - r.lo), 0.0, 1.0);
+  }
+  double toValue(int j, double x) const {
+    const auto& r = ranges_[static_cast<std::size_t>(j)];
+    return r.lo + x * (r.hi - r.lo);
+  }
+  double span(int j) const { return ranges_[static_cast<std::size_t>(j)].hi - ranges_[static_cast<std::size_t>(j)].lo; }
+  const ParameterRange& range(int j) const { return ranges_[static_cast<std::size_t>(j)]; }
+  std::vector<Effect> effectsAt(const double* x) const {
+    std::vector<Effect> e = effects_;
+    for (int j = 0; j < parameters(); ++j) e[static_cast<std::size_t>(effectIndex(j))].value = toValue(j, x[j]);
+    return e;
+  }
+  /// Full evaluation (prediction, registration, residuals).
+  FitResult evaluate(const std::vector<Effect>& e) {
+    ++evaluations;
+    FitResult f;
+    f.effects = e;
+    f.prediction = predict(nominal_, rec_.commands, rec_.time, e, ws_, o_.predict);
+    f.registration = mapToSensor(rec_, f.prediction, o_.frame, use_, o_.noise);
+    f.residuals = computeResiduals(rec_, f.prediction);
+    return f;
+  }
+  void weighted(const Residuals& r, double* out) const {
+    int i = 0;
+    for (int k : layout_.rows)
+      for (Quantity q : layout_.quantities) {
+        const Eigen::MatrixXd& R = r.of(q);
+        const double s = o_.noise.of(q) > 0 ? o_.noise.of(q) : 1.0;
+        for (Eigen::Index c = 0; c < R.cols(); ++c) {
+          const double v = R(k, c);
+          out[i++] = std::isfinite(v) ? v / s : 0.0;
+        }
+      }
+  }
+  double cost(const Residuals& r) const {
+    Eigen::VectorXd v(residuals());
+    weighted(r, v.data());
+    return 0.5 * v.squaredNorm();
+  }
+  Eigen::VectorXd residualAt(const double* x) {
+    Eigen::VectorXd v(residuals());
+    weighted(evaluate(effectsAt(x)).residuals, v.data());
+    return v;
+  }
+  int finiteCount(const Residuals& r) const {
+    int c = 0;
+    for (int k : layout_.rows)
+      for (Quantity q : layout_.quantities)
+        for (Eigen::Index j = 0; j < r.of(q).cols(); ++j) c += std::isfinite(r.of(q)(k, j)) ? 1 : 0;
+    return c;
+  }
+  /// Central-difference Jacobian in x units (one-sided at the bounds).
+  Eigen::MatrixXd jacobian(const double* x, const Eigen::VectorXd* r0) {
+    const int k = parameters();
+    Eigen::MatrixXd J(residuals(), k);
+    std::vector<double> xp(x, x + k);
+    for (int j = 0; j < k; ++j) {
+      const double h = o_.difference_step;
+      const double xj = x[j];
+      double a = std::min(1.0, xj + h), b = std::max(0.0, xj - h);
+      Eigen::VectorXd ra, rb;
+      xp[static_cast<std::size_t>(j)] = a;
+      ra = residualAt(xp.data());
+      if (r0 && (b == xj)) {
+        rb = *r0;
+      } else {
+        xp[static_cast<std::size_t>(j)] = b;
+        rb = residualAt(xp.data());
+      }
+      xp[static_cast<std::size_t>(j)] = xj;
+      J.col(j) = (ra - rb) / std::max(1e-12, a - b);
+    }
+    return J;
+  }
+  int evaluations = 0;
+
+private:
+  const Robot& nominal_;
+  const io::Recording& rec_;
+  std::vector<Effect> effects_;
+  const std::vector<char>& use_;
+  const FitOptions& o_;
+  Workspace& ws_;
+  Layout layout_;
+  std::vector<ParameterRange> ranges_;
+  std::vector<int> free_;
+};
+
+class ReplayCost : public ceres::CostFunction {
+public:
+  explicit ReplayCost(Model& m) : m_(m) {
+    set_num_residuals(m.residuals());
+    mutable_parameter_block_sizes()->push_back(m.parameters());
+  }
+  bool Evaluate(double const* const* p, double* residuals, double** jacobians) const override {
+    const int k = m_.parameters();
+    std::vector<double> x(p[0], p[0] + k);
+    Eigen::VectorXd r0 = m_.residualAt(x.data());
+    if (!r0.allFinite()) return false;
+    Eigen::Map<Eigen::VectorXd>(residuals, num_residuals()) = r0;
+    if (jacobians && jacobians[0]) {
+      const Eigen::MatrixXd J = m_.jacobian(x.data(), &r0);
+      Eigen::Map<Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>>(jacobians[0], num_residuals(), k) = J;
+    }
+    return true;
+  }
+
+private:
+  Model& m_;
+};
+
+}  // namespace
+
+FitResult evaluateModel(const Robot& nominal, const io::Recording& rec, const std::vector<Effect>& effects,
+                        const std::vector<char>& use, const FitOptions& options, Workspace& ws) {
+  Model m(nominal, rec, effects, use, options, ws);
+  FitResult f = m.evaluate(effects);
+  f.cost = m.cost(f.residuals);
+  f.evaluations = m.evaluations;
+  return f;
+}
+
+FitResult fitEffects(const Robot& nominal, const io::Recording& rec, const std::vector<Effect>& start,
+                     const std::vector<char>& use, const FitOptions& o, Workspace& ws, int grid_from) {
+  Model m(nominal, rec, start, use, o, ws);
+  const int k = m.parameters();
+  if (k == 0) return evaluateModel(nominal, rec, start, use, o, ws);
+  std::vector<double> x(static_cast<std::size_t>(k));
+  for (int j = 0; j < k; ++j) x[static_cast<std::size_t>(j)] = m.toX(j, start[static_cast<std::size_t>(m.effectIndex(j))].value);
+  // Coarse grid scan of the new effects (one at a time, others held), keeping the start value if best.
+  if (o.grid_search) {
+    for (int j = 0; j < k; ++j) {
+      if (m.effectIndex(j) < grid_from) continue;
+      double best = m.cost(m.evaluate(m.effectsAt(x.data())).residuals);
+      double bx = x[static_cast<std::size_t>(j)];
+      for (double v : m.range(j).grid) {
+        x[static_cast<std::size_t>(j)] = m.toX(j, v);
+        const double c = m.cost(m.evaluate(m.effectsAt(x.data())).residuals);
+        if (c < best) {
+          best = c;
+          bx = x[static_cast<std::size_t>(j)];
+        }
+      }
+      x[static_cast<std::size_t>(j)] = bx;
+    }
+  }
+  ceres::Problem::Options po;
+  po.cost_function_ownership = ceres::TAKE_OWNERSHIP;
+  ceres::Problem problem(po);
+  problem.AddResidualBlock(new ReplayCost(m), nullptr, x.data());
+  for (int j = 0; j < k; ++j) {
+    problem.SetParameterLowerBound(x.data(), j, 0.0);
+    problem.SetParameterUpperBound(x.data(), j, 1.0);
+  }
+  ceres::Solver::Options so;
+  so.linear_solver_type = ceres::DENSE_QR;
+  so.max_num_iterations = o.max_iterations;
+  so.function_tolerance = o.function_tolerance;
+  so.parameter_tolerance = 1e-4;
+  so.gradient_tolerance = 1e-8;
+  so.num_threads = 1;
+  so.logging_type = ceres::SILENT;
+  so.minimizer_progress_to_stdout = false;
+  ceres::Solver::Summary summary;
+  ceres::Solve(so, &problem, &summary);
+  FitResult f = m.evaluate(m.effectsAt(x.data()));
+  f.cost = m.cost(f.residuals);
+  f.converged = summary.IsSolutionUsable();
+  f.message = summary.BriefReport();
+  if (o.intervals) {
+    Eigen::VectorXd r0(m.residuals());
+    m.weighted(f.residuals, r0.data());
+    const Eigen::MatrixXd J = m.jacobian(x.data(), nullptr);
+    const int dof = std::max(1, m.finiteCount(f.residuals) - k);
+    const double s2 = 2.0 * f.cost / dof;
+    const Eigen::MatrixXd H = J.transpose() * J;
+    Eigen::MatrixXd C = H.completeOrthogonalDecomposition().pseudoInverse() * s2;
+    const double nan = std::numeric_limits<double>::quiet_NaN();
+    f.interval95.assign(f.effects.size(), {nan, nan});
+    for (int j = 0; j < k; ++j) {
+      const double sd = std::sqrt(std::max(0.0, C(j, j))) * m.span(j);
+      const double v = f.effects[static_cast<std::size_t>(m.effectIndex(j))].value;
+      const double half = H(j, j) > 0 ? 1.96 * sd : std::numeric_limits<double>::infinity();
+      f.interval95[static_cast<std::size_t>(m.effectIndex(j))] = {std::max(m.range(j).lo, v - half),
+                                                                 std::min(m.range(j).hi, v + half)};
+    }
+  }
+  f.evaluations = m.evaluations;
+  return f;
+}
+
+std::vector<int> foldOfRows(int rows, int folds) {
+  std::vector<int> f(static_cast<std::size_t>(rows));
+  folds = std::max(1, std::min(folds, rows));
+  for (int k = 0; k < rows; ++k) f[static_cast<std::size_t>(k)] = std::min(folds - 1, k * folds / std::max(1, rows));
+  return f;
+}
+
+CrossValidation crossValidate(const Robot& nominal, const io::Recording& rec, const std::vector<Effect>& start,
+                              int folds, const FitOptions& options, Workspace& ws, int max_iterations) {
+  CrossValidation cv;
+  const int rows = rec.rows();
+  const std::vector<int> fold = foldOfRows(rows, folds);
+  const int nf = rows ? fold.back() + 1 : 0;
+  FitOptions o = options;
+  o.grid_search = false;
+  o.intervals = false;
+  o.max_iterations = max_iterations;
+  for (Quantity q : presentQuantities(rec)) {
+    const Eigen::MatrixXd& M = q == Quantity::Twist ? rec.twist : q == Quantity::TipPosition ? rec.tip_position : rec.tip_tangent;
+    cv.heldout.of(q) = Eigen::MatrixXd::Constant(rows, M.cols(), std::numeric_limits<double>::quiet_NaN());
+  }
+  for (int f = 0; f < nf; ++f) {
+    std::vector<char> train(static_cast<std::size_t>(rows)), test(static_cast<std::size_t>(rows));
+    for (int k = 0; k < rows; ++k) {
+      train[static_cast<std::size_t>(k)] = fold[static_cast<std::size_t>(k)] != f;
+      test[static_cast<std::size_t>(k)] = !train[static_cast<std::size_t>(k)];
+    }
+    FitResult r = start.empty() ? evaluateModel(nominal, rec, start, train, o, ws)
+                                : fitEffects(nominal, rec, start, train, o, ws);
+    cv.evaluations += r.evaluations;
+    cv.fold_effects.push_back(r.effects);
+    for (Quantity q : presentQuantities(rec))
+      for (int k = 0; k < rows; ++k)
+        if (test[static_cast<std::size_t>(k)]) cv.heldout.of(q).row(k) = r.residuals.of(q).row(k);
+  }
+  const std::vector<char> all(static_cast<std::size_t>(rows), 1);
+  cv.rmse = rmse(rec, cv.heldout, all);
+  cv.row_score = rowScores(rec, cv.heldout, options.noise);
+  cv.score = rows ? cv.row_score.mean() : 0.0;
+  return cv;
+}
+
+}  // namespace ctr::diagnosis

@@ -1,0 +1,237 @@
+// Diagnosis output: formats.md JSON, Markdown report, plot data.
+#include <cmath>
+#include <cstdio>
+#include <nlohmann/json.hpp>
+#include <sstream>
+
+#include "ctr/diagnosis/diagnose.hpp"
+
+namespace ctr::diagnosis {
+
+namespace {
+using nlohmann::json;
+
+json num(double v) { return std::isfinite(v) ? json(v) : json(nullptr); }
+
+json mapJson(const std::map<std::string, double>& m) {
+  json j = json::object();
+  for (const auto& kv : m) j[kv.first] = num(kv.second);
+  return j;
+}
+
+json intervalJson(const std::map<std::string, std::array<double, 2>>& m) {
+  json j = json::object();
+  for (const auto& kv : m) j[kv.first] = json::array({num(kv.second[0]), num(kv.second[1])});
+  return j;
+}
+
+json scoreJson(const ModelScore& s) {
+  json j;
+  j["model"] = s.model;
+  j["heldout_rmse"] = mapJson(s.heldout_rmse);
+  j["fit_rmse"] = mapJson(s.fit_rmse);
+  j["last_block_heldout_rmse"] = mapJson(s.last_block_rmse);
+  j["heldout_score"] = num(s.heldout_score);
+  j["bic"] = num(s.bic);
+  return j;
+}
+
+json mismatchJson(const MismatchFinding& f) {
+  return json{{"signature", f.signature}, {"variable", f.variable}, {"quantity", f.quantity},
+              {"p_value", num(f.p_value)}, {"statistic", num(f.statistic)}, {"where", f.where}};
+}
+
+json matrixJson(const Eigen::MatrixXd& M) {
+  json a = json::array();
+  for (Eigen::Index r = 0; r < M.rows(); ++r) {
+    json row = json::array();
+    for (Eigen::Index c = 0; c < M.cols(); ++c) row.push_back(num(M(r, c)));
+    a.push_back(row);
+  }
+  return a;
+}
+
+json vectorJson(const Eigen::VectorXd& v) {
+  json a = json::array();
+  for (Eigen::Index k = 0; k < v.size(); ++k) a.push_back(num(v[k]));
+  return a;
+}
+
+json binsJson(const std::vector<BinSummary>& bins) {
+  json a = json::array();
+  for (const BinSummary& b : bins)
+    a.push_back(json{{"variable", b.variable}, {"quantity", b.quantity}, {"lo", num(b.lo)}, {"hi", num(b.hi)},
+                     {"direction", b.direction}, {"count", b.count}, {"mean", num(b.mean)}, {"rms", num(b.rms)}});
+  return a;
+}
+
+std::string f4(double v) {
+  char b[64];
+  std::snprintf(b, sizeof b, "%.4g", v);
+  return b;
+}
+}  // namespace
+
+std::string reportToJson(const DiagnosisReport& r) {
+  json j;
+  j["verdict"] = r.verdict;
+  j["baseline"] = scoreJson(r.baseline);
+  json fin = scoreJson(r.final);
+  json effects = json::array();
+  for (const Effect& e : r.final_effects) {
+    json x{{"effect", effectName(e.kind)}, {parameterName(e.kind), num(e.value)}};
+    if (isPerTube(e.kind)) x["tube"] = e.tube;
+    if (r.final_intervals.count(e.label())) {
+      const auto& iv = r.final_intervals.at(e.label());
+      x["interval95"] = json::array({num(iv[0]), num(iv[1])});
+    }
+    effects.push_back(x);
+  }
+  fin["effects"] = effects;
+  j["final"] = fin;
+  json mm = json::array();
+  for (const auto& f : r.mismatch.findings) mm.push_back(mismatchJson(f));
+  j["mismatch"] = mm;
+  json tests = json::array();
+  for (const auto& f : r.mismatch.tests) tests.push_back(mismatchJson(f));
+  j["mismatch_tests"] = tests;
+  json fs = json::array();
+  for (const Finding& f : r.findings) {
+    json x;
+    x["effect"] = effectName(f.effect.kind);
+    x["accepted"] = f.accepted;
+    x["round"] = f.round;
+    x["parameters"] = mapJson(f.parameters);
+    x["interval95"] = intervalJson(f.interval95);
+    x["heldout_rmse"] = mapJson(f.heldout_rmse);
+    x["heldout_p"] = num(f.heldout_p);
+    x["delta_bic"] = num(f.delta_bic);
+    x["model"] = [&] {
+      std::string s = "nominal";
+      for (const Effect& e : f.model) s += "+" + e.label();
+      return s;
+    }();
+    x["explanation"] = f.explanation;
+    fs.push_back(x);
+  }
+  j["findings"] = fs;
+  j["noise"] = json::object();
+  if (r.noise.twist > 0) j["noise"]["twist"] = r.noise.twist;
+  if (r.noise.tip_position > 0) j["noise"]["tip_position"] = r.noise.tip_position;
+  if (r.noise.tip_tangent > 0) j["noise"]["tip_tangent"] = r.noise.tip_tangent;
+  j["frame"] = r.frame == FrameMode::Unknown ? "unknown" : "base";
+  if (r.frame == FrameMode::Unknown) {
+    json reg;
+    json R = json::array();
+    for (int a = 0; a < 3; ++a) R.push_back(json::array({r.registration.rotation(a, 0), r.registration.rotation(a, 1), r.registration.rotation(a, 2)}));
+    reg["rotation"] = R;
+    reg["translation"] = json::array({r.registration.translation.x(), r.registration.translation.y(), r.registration.translation.z()});
+    reg["tip_offset"] = r.registration.tip_offset;
+    j["registration"] = reg;
+  }
+  j["rows"] = r.rows;
+  j["stride"] = r.stride;
+  j["folds"] = r.folds;
+  j["seconds"] = r.seconds;
+  j["replays"] = r.evaluations;
+  j["warnings"] = r.warnings;
+  j["summary"] = r.summary;
+  return j.dump(1) + "\n";
+}
+
+std::string reportToMarkdown(const DiagnosisReport& r, const io::Recording& full) {
+  const io::Recording dec = r.stride > 1 ? decimateRecording(full, r.stride) : io::Recording{};
+  const io::Recording& rec = r.stride > 1 ? dec : full;
+  std::ostringstream o;
+  o << "# Diagnosis\n\n";
+  o << "Recording: " << r.rows << " rows, " << rec.tubes << " tubes, measured:";
+  for (Quantity q : presentQuantities(rec)) o << " " << quantityName(q);
+  o << (rec.hasTime() ? ", timed" : ", untimed") << "; frame: " << (r.frame == FrameMode::Unknown ? "unknown (registration estimated in every model)" : "base")
+    << ". Held-out scheme: " << r.folds << " contiguous blocks in time (stateful models replayed over the whole sequence).\n\n";
+  o << "**Verdict:** " << (r.verdict.empty() ? "nothing left out (the nominal model explains the data within the noise)" : "");
+  for (std::size_t k = 0; k < r.verdict.size(); ++k) o << (k ? ", " : "") << "`" << r.verdict[k] << "`";
+  o << "\n\n" << r.summary << "\n\n";
+  o << "## Where the nominal model misses\n\n";
+  o << "Estimated noise (1 sigma per component):";
+  if (r.noise.twist > 0) o << " twist " << f4(r.noise.twist * 180 / M_PI) << " deg;";
+  if (r.noise.tip_position > 0) o << " tip position " << f4(r.noise.tip_position * 1e3) << " mm;";
+  if (r.noise.tip_tangent > 0) o << " tip tangent " << f4(r.noise.tip_tangent) << ";";
+  o << "\n\n";
+  if (r.mismatch.findings.empty()) {
+    o << "No test found residuals beyond the noise.\n\n";
+  } else {
+    o << "| signature | variable | quantity | p-value | where |\n|---|---|---|---|---|\n";
+    for (const auto& f : r.mismatch.findings)
+      o << "| " << f.signature << " | " << f.variable << " | " << f.quantity << " | " << f4(f.p_value) << " | " << f.where << " |\n";
+    o << "\n";
+  }
+  o << "## Candidates\n\n| effect | accepted | parameters | 95 % interval | delta BIC | held-out p | why |\n|---|---|---|---|---|---|---|\n";
+  for (const Finding& f : r.findings) {
+    o << "| " << f.effect.label() << " | " << (f.accepted ? "**yes**" : "no") << " | ";
+    for (const auto& kv : f.parameters) o << kv.first << "=" << f4(kv.second) << " ";
+    o << " | ";
+    for (const auto& kv : f.interval95) o << "[" << f4(kv.second[0]) << ", " << f4(kv.second[1]) << "]";
+    o << " | " << f4(f.delta_bic) << " | " << f4(f.heldout_p) << " | " << f.explanation << " |\n";
+  }
+  o << "\n## Held-out error before and after\n\n| quantity | nominal | " << r.final.model << " |\n|---|---|---|\n";
+  for (const auto& kv : r.baseline.heldout_rmse) {
+    const double after = r.final.heldout_rmse.count(kv.first) ? r.final.heldout_rmse.at(kv.first) : kv.second;
+    const bool ang = kv.first == "twist";
+    const double s = ang ? 180 / M_PI : kv.first == "tip_position" ? 1e3 : 1.0;
+    const char* u = ang ? " deg" : kv.first == "tip_position" ? " mm" : "";
+    o << "| " << kv.first << " | " << f4(kv.second * s) << u << " | " << f4(after * s) << u << " |\n";
+  }
+  o << "\n";
+  if (!r.final_effects.empty()) {
+    o << "## Fitted parameters (all rows)\n\n| effect | parameter | value | 95 % interval |\n|---|---|---|---|\n";
+    for (const Effect& e : r.final_effects) {
+      o << "| " << e.label() << " | " << parameterName(e.kind) << " (" << parameterUnit(e.kind) << ") | " << f4(e.value) << " | ";
+      if (r.final_intervals.count(e.label()))
+        o << "[" << f4(r.final_intervals.at(e.label())[0]) << ", " << f4(r.final_intervals.at(e.label())[1]) << "]";
+      o << " |\n";
+    }
+    o << "\nIntervals are Gauss-Newton intervals assuming independent residuals; serially correlated model error "
+         "makes them optimistic.\n\n";
+  }
+  for (const auto& w : r.warnings) o << "- warning: " << w << "\n";
+  o << "\n" << r.evaluations << " replays of the sequence, " << f4(r.seconds) << " s.\n";
+  return o.str();
+}
+
+std::string plotDataJson(const DiagnosisReport& r, const io::Recording& full) {
+  const io::Recording dec = r.stride > 1 ? decimateRecording(full, r.stride) : io::Recording{};
+  const io::Recording& rec = r.stride > 1 ? dec : full;
+  json j;
+  j["rows"] = r.rows;
+  j["final_model"] = r.final.model;
+  if (rec.hasTime()) j["time"] = vectorJson(rec.time);
+  json vars = json::array();
+  for (const ConfigVariable& v : r.plot.variables)
+    vars.push_back(json{{"name", v.name}, {"angle", v.angle}, {"value", vectorJson(v.value)},
+                        {"direction", vectorJson(v.direction)}});
+  j["variables"] = vars;
+  json meas, nom, fit;
+  if (rec.hasTwist()) {
+    meas["twist"] = matrixJson(rec.twist);
+    nom["twist"] = matrixJson(r.plot.nominal.twist);
+    fit["twist"] = matrixJson(r.plot.fitted.twist);
+  }
+  if (rec.hasTipPosition()) {
+    meas["tip_position"] = matrixJson(rec.tip_position);
+    nom["tip_position"] = matrixJson(r.plot.nominal.tip_position);
+    fit["tip_position"] = matrixJson(r.plot.fitted.tip_position);
+  }
+  if (rec.hasTipTangent()) {
+    meas["tip_tangent"] = matrixJson(rec.tip_tangent);
+    nom["tip_tangent"] = matrixJson(r.plot.nominal.tip_tangent);
+    fit["tip_tangent"] = matrixJson(r.plot.fitted.tip_tangent);
+  }
+  j["measured"] = meas;
+  j["nominal"] = nom;
+  j["fitted"] = fit;
+  j["moment"] = json{{"nominal", vectorJson(r.plot.nominal.moment)}, {"fitted", vectorJson(r.plot.fitted.moment)}};
+  j["residual_bins"] = json{{"nominal", binsJson(r.mismatch.bins)}, {"fitted", binsJson(r.plot.final_mismatch.bins)}};
+  return j.dump() + "\n";
+}
+
+}  // namespace ctr::diagnosis

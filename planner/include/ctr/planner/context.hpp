@@ -1,0 +1,86 @@
+/// @file context.hpp
+/// @brief Everything a planning problem shares between threads: robot (with its friction), environment, collision
+/// checker, planning mode and resolutions. Constant after construction.
+#pragma once
+
+#include <memory>
+#include <string>
+
+#include "ctr/environments/collision.hpp"
+#include "ctr/environments/environment.hpp"
+#include "ctr/model/friction.hpp"
+#include "ctr/model/sampling.hpp"
+
+namespace ctr::plan {
+
+/// @brief How friction (hysteresis) is treated by validity checking.
+enum class Mode {
+  Exact,         ///< States carry the hysteresis state; motions are propagated forward (ompl::control).
+  Robust,        ///< Geometric planners; a configuration is valid when its whole friction band is (any history).
+  Frictionless,  ///< Geometric planners on the frictionless model (the classic approach; for comparison).
+};
+
+/// @brief "exact" / "robust" / "frictionless".
+const char* toString(Mode m);
+/// @brief Parses a mode name; throws std::invalid_argument listing the valid names.
+Mode parseMode(const std::string& s);
+
+/// @brief Resolutions and model options of a planning problem.
+struct ContextOptions {
+  Mode mode = Mode::Exact;
+  /// Motion checking step in rotation (rad). The same resolution as the replay, so that a motion checked valid
+  /// is also valid when replayed (every replayed state is a checked state).
+  double rotation_resolution = 0.0087;
+  double translation_resolution = 5e-4;    ///< Motion checking step in translation (m).
+  int band_interior_samples = 0;           ///< Friction band samples between the vertices (robust mode).
+  double min_protrusion = 1e-3;            ///< Innermost tube at least this far out of the actuation unit (m).
+  FrictionOptions friction;                ///< Stepping options (sub-steps, paper / stick-slip).
+};
+
+/// @brief The shared, constant part of a planning problem.
+class Context {
+public:
+  /// @brief Builds the collision checker (FCL octree + distance field) for `robot` in `env`.
+  Context(Robot robot, std::shared_ptr<const env::Environment> env, ContextOptions options = {},
+          env::CollisionOptions collision = {});
+
+  const Robot& robot() const { return robot_; }
+  /// @brief The robot without friction (frictionless mode and comparisons).
+  const Robot& frictionlessRobot() const { return frictionless_; }
+  /// @brief The robot the validity checker uses in the current mode.
+  const Robot& modelRobot() const { return options_.mode == Mode::Frictionless ? frictionless_ : robot_; }
+  const env::Environment& environment() const { return *env_; }
+  const std::shared_ptr<const env::Environment>& environmentPtr() const { return env_; }
+  const env::CollisionChecker& checker() const { return *checker_; }
+  const ContextOptions& options() const { return options_; }
+  const TranslationSampler& translationSampler() const { return sampler_; }
+  /// @brief Base frame -> world (the environment's base pose).
+  const Eigen::Isometry3d& basePose() const { return env_->basePose(); }
+
+private:
+  Robot robot_, frictionless_;
+  std::shared_ptr<const env::Environment> env_;
+  ContextOptions options_;
+  std::shared_ptr<env::CollisionChecker> checker_;
+  TranslationSampler sampler_;
+};
+
+/// @brief Per-thread mutable scratch of the planner (model workspace + collision query).
+struct ThreadScratch {
+  Workspace ws;
+  env::CollisionChecker::Query query;
+};
+
+/// @brief The calling thread's scratch (one per thread, created on first use).
+ThreadScratch& scratch();
+
+/// @brief Outcome of checking one equilibrium shape against the anatomy.
+struct ShapeCheck {
+  bool ok = false;        ///< Converged, stable, collision-free.
+  std::string reason;     ///< Why not ("not converged", "unstable", "collision (tube 2, s 0.031-0.035 m)").
+};
+
+/// @brief Checks a solved shape (needs a recorded backbone): converged, stable, collision-free.
+ShapeCheck checkShape(const Context& ctx, const Solution& sol, ThreadScratch& t);
+
+}  // namespace ctr::plan

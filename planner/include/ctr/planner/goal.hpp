@@ -1,0 +1,52 @@
+/// @file goal.hpp
+/// @brief Goal region on the tip position (world frame) with a tolerance and an optional tip-direction cone.
+/// Sampleable (for RRTConnect, PRM, BIT*...) through a pool of goal configurations found by damped least-squares
+/// inverse kinematics on the frictionless model, each accepted only if valid in the planning mode.
+#pragma once
+
+#include <ompl/base/goals/GoalSampleableRegion.h>
+#include <ompl/util/RandomNumbers.h>
+
+#include <mutex>
+#include <optional>
+
+#include "ctr/planner/state_space.hpp"
+
+namespace ctr::plan {
+
+/// @brief Tip goal specification.
+struct TipGoalSpec {
+  Eigen::Vector3d position = Eigen::Vector3d::Zero();  ///< Target (world, m).
+  double tolerance = 2e-3;                             ///< Tip distance accepted (m).
+  std::optional<Eigen::Vector3d> direction;            ///< Desired tip tangent (world, unit).
+  double cone_angle = M_PI;                            ///< Accepted angle from `direction` (rad).
+};
+
+/// @brief Inverse kinematics (frictionless model): a configuration near q0 with the tip at `target` (world).
+/// Returns the tip error reached (m), or infinity if the model did not converge.
+double inverseKinematics(const Context& ctx, const Eigen::Vector3d& target, Configuration& q, int iterations = 40);
+
+/// @brief Tip goal region.
+class TipGoal : public ompl::base::GoalSampleableRegion {
+public:
+  TipGoal(const ompl::base::SpaceInformationPtr& si, std::shared_ptr<const Context> ctx, TipGoalSpec spec);
+  /// @brief Distance of the tip to the target (m), plus 0.05 m per rad outside the direction cone.
+  double distanceGoal(const ompl::base::State* st) const override;
+  void sampleGoal(ompl::base::State* st) const override;
+  unsigned int maxSampleCount() const override;
+  /// @brief Fills the pool with up to `count` valid goal configurations within `seconds`. Returns the pool size.
+  std::size_t fillPool(std::size_t count, double seconds, std::uint64_t seed);
+  const TipGoalSpec& spec() const { return spec_; }
+  /// @brief Tip error and direction error (rad) of a shape (base-frame solution).
+  std::pair<double, double> errors(const Solution& sol) const;
+
+private:
+  std::shared_ptr<const Context> ctx_;
+  const CtrStateSpace* space_;
+  TipGoalSpec spec_;
+  std::vector<Configuration> pool_;
+  mutable std::mutex mutex_;
+  mutable ompl::RNG rng_;
+};
+
+}  // namespace ctr::plan

@@ -1,0 +1,73 @@
+/// @file planner.hpp
+/// @brief A SimpleSetup-like facade: plan a query in a few lines.
+/// @code
+///   ctr::plan::Query q = ctr::plan::loadQuery("examples/queries/proc_intracardiac.yaml");
+///   ctr::plan::PlanResult r = ctr::plan::plan(q);
+///   if (r.solved) { /* r.path: waypoints; r.replay: collisions, clearance, tip error */ }
+/// @endcode
+#pragma once
+
+#include <ompl/control/SimpleSetup.h>
+#include <ompl/geometric/SimpleSetup.h>
+
+#include "ctr/planner/goal.hpp"
+#include "ctr/planner/query.hpp"
+#include "ctr/planner/replay.hpp"
+#include "ctr/planner/validity.hpp"
+
+namespace ctr::plan {
+
+/// @brief Result of planning + replay.
+struct PlanResult {
+  bool solved = false;            ///< Planner found a path AND the replay succeeded (collision-free, stable, goal).
+  bool planner_solved = false;    ///< The planner reported an (exact) solution.
+  Mode mode = Mode::Exact;
+  std::string planner;
+  double planning_time = 0.0;     ///< Seconds in the planner (including goal sampling).
+  double replay_time = 0.0;
+  double path_length = 0.0;       ///< Joint-space length of the path (state-space metric).
+  std::size_t goal_pool = 0;      ///< Goal configurations found by IK (sampleable goal).
+  std::vector<Configuration> path;  ///< Waypoints, unwrapped, from the start.
+  ReplayReport replay;
+  std::string message;            ///< Why not solved.
+};
+
+/// @brief Planning problem built from a query: contexts, OMPL set-ups, planner selection.
+class CtrPlanner {
+public:
+  /// @brief Loads robot and environment (throws ctr::io::InputError for bad files) and sets everything up.
+  explicit CtrPlanner(const Query& query);
+  /// @brief With a robot and an environment already loaded (query.robot / query.environment are ignored).
+  CtrPlanner(const Query& query, Robot robot, env::Environment environment);
+  /// @brief Plans within the query's time limit, then replays the path. Never reports an unreplayed path as solved.
+  PlanResult solve();
+  /// @brief Plans with another planner / time (for benchmarks); clears previous planner data.
+  PlanResult solve(const std::string& planner, double time_limit);
+
+  const Query& query() const { return query_; }
+  const std::shared_ptr<const Context>& context() const { return ctx_; }
+  /// @brief The OMPL set-up of geometric modes (null in exact mode).
+  const ompl::geometric::SimpleSetupPtr& geometricSetup() const { return gss_; }
+  /// @brief The OMPL set-up of exact mode (null otherwise).
+  const ompl::control::SimpleSetupPtr& controlSetup() const { return css_; }
+  /// @brief Creates a planner by name for the current mode; throws std::invalid_argument for unknown names.
+  ompl::base::PlannerPtr makePlanner(const std::string& name) const;
+  /// @brief Replays an OMPL solution path of the current set-up.
+  PlanResult replaySolution(const std::string& planner, double planning_time, bool exact);
+
+private:
+  void init(Robot robot, env::Environment e);
+  Query query_;
+  std::shared_ptr<const env::Environment> env_;
+  std::shared_ptr<const Context> ctx_;
+  std::shared_ptr<const CtrStateSpace> space_holder_;
+  ompl::geometric::SimpleSetupPtr gss_;
+  ompl::control::SimpleSetupPtr css_;
+  std::shared_ptr<TipGoal> goal_;
+  std::shared_ptr<const StateCache> start_cache_;
+};
+
+/// @brief loadQuery + CtrPlanner + solve.
+PlanResult plan(const Query& query);
+
+}  // namespace ctr::plan

@@ -1,0 +1,51 @@
+/// @file query.hpp
+/// @brief Planning query file (YAML; docs/planning.md): robot, environment, start configuration and its history,
+/// goal (tip position with tolerance and optional direction cone, or a goal configuration), mode, planner, time
+/// limit, seed, objective.
+#pragma once
+
+#include <optional>
+#include <string>
+
+#include "ctr/planner/context.hpp"
+#include "ctr/planner/goal.hpp"
+#include "ctr/planner/propagator.hpp"
+
+namespace ctr::plan {
+
+/// @brief A parsed query (paths resolved relative to the query file's folder).
+struct Query {
+  std::string file;                 ///< The query file (for messages).
+  std::string name;                 ///< Query name (default: file stem).
+  std::string robot;                ///< Robot YAML path.
+  std::string environment;          ///< Environment YAML path.
+  std::string base_start;           ///< Optional: environment start pose to use as the base pose.
+  std::optional<FrictionCoefficients> friction;  ///< Overrides the robot's friction block.
+  Configuration start;
+  StartHistory history;
+  std::optional<TipGoalSpec> tip_goal;
+  std::string target_name;          ///< Environment target used for tip_goal (if named).
+  std::optional<Configuration> goal_configuration;
+  double goal_configuration_tolerance = 0.05;  ///< In the state-space metric.
+  Mode mode = Mode::Exact;
+  std::string planner = "default";
+  double time_limit = 10.0;         ///< Seconds (> 0).
+  std::uint64_t seed = 1;
+  std::string objective = "path_length";  ///< path_length | clearance
+  double replay_rotation_step = 0.0087;     ///< Replay resolution (rad, 0.5 deg).
+  double replay_translation_step = 5e-4;    ///< Replay resolution (m).
+  double resolution_rotation = 0.0087, resolution_translation = 5e-4;  ///< Motion checking (default: the replay's).
+  double env_resolution = 0.0;      ///< Overrides the environment's octree resolution when > 0 (m).
+};
+
+/// @brief Parses a query file; throws ctr::io::InputError naming file, line and key on any problem.
+Query loadQuery(const std::string& path);
+/// @brief Parses query text; relative paths resolve against base_dir.
+/// With check_files = false the robot / environment paths need not exist (robot and environment given directly).
+Query parseQuery(const std::string& text, const std::string& source, const std::string& base_dir,
+                 bool check_files = true);
+
+/// @brief Known planner names per mode.
+std::vector<std::string> plannerNames(Mode mode);
+
+}  // namespace ctr::plan

@@ -1,0 +1,48 @@
+/// @file replay.hpp
+/// @brief Replays a planned path from the start state at fine resolution through the stateful friction model
+/// (the robot's true friction, whatever the planning mode) and reports collisions, snaps, clearance and goal error.
+#pragma once
+
+#include <functional>
+
+#include "ctr/planner/propagator.hpp"
+
+namespace ctr::plan {
+
+/// @brief One replayed point.
+struct ReplayPoint {
+  Configuration q;                 ///< Unwrapped command.
+  Solution solution;               ///< Equilibrium reached (base frame, without backbone to save memory).
+  HysteresisState hysteresis;      ///< Memory after the step.
+  bool valid = true;               ///< Converged, stable, no snap, collision-free.
+  double clearance = 0.0;          ///< Distance-field clearance (m).
+};
+
+/// @brief Replay outcome.
+struct ReplayReport {
+  bool completed = false;          ///< Every step converged.
+  bool collision_free = true;
+  bool stable = true;              ///< No unstable equilibrium and no snap along the path.
+  bool goal_reached = false;
+  double tip_error = 0.0;          ///< At the end (m).
+  double direction_error = 0.0;    ///< At the end (rad).
+  double min_clearance = 0.0;      ///< Along the path (m).
+  int steps = 0;
+  int collisions = 0, snaps = 0, unstable = 0;
+  std::string first_failure;       ///< What went wrong first, with the step.
+  std::vector<ReplayPoint> points; ///< At every replay step.
+  bool ok() const { return completed && collision_free && stable && goal_reached; }
+};
+
+/// @brief Goal test at the end of a replay: (tip error m, direction error rad, reached).
+using GoalTest = std::function<std::tuple<double, double, bool>(const Solution&)>;
+
+/// @brief Replays `waypoints` (unwrapped configurations, first = start) from the start history.
+ReplayReport replayPath(const Context& ctx, const std::vector<Configuration>& waypoints, const StartHistory& history,
+                        const GoalTest& goal, double rotation_step, double translation_step);
+
+/// @brief CSV of a replay: formats.md recording columns plus clearance, validity and per-contact hysteresis
+/// (mode, torque, relative twist).
+std::string replayCsv(const Robot& robot, const ReplayReport& r);
+
+}  // namespace ctr::plan

@@ -1,0 +1,64 @@
+#include "ctr/planner/context.hpp"
+
+#include <sstream>
+#include <stdexcept>
+
+namespace ctr::plan {
+
+const char* toString(Mode m) {
+  switch (m) {
+    case Mode::Exact: return "exact";
+    case Mode::Robust: return "robust";
+    case Mode::Frictionless: return "frictionless";
+  }
+  return "?";
+}
+
+Mode parseMode(const std::string& s) {
+  if (s == "exact") return Mode::Exact;
+  if (s == "robust") return Mode::Robust;
+  if (s == "frictionless") return Mode::Frictionless;
+  throw std::invalid_argument("unknown mode '" + s + "' (exact, robust, frictionless)");
+}
+
+Context::Context(Robot robot, std::shared_ptr<const env::Environment> env, ContextOptions options,
+                 env::CollisionOptions collision)
+    : robot_(std::move(robot)),
+      frictionless_(robot_.withFriction({0.0, 0.0})),
+      env_(std::move(env)),
+      options_(options),
+      sampler_(robot_, options.min_protrusion) {
+  if (!env_) throw std::invalid_argument("planning context: no environment");
+  if (!sampler_.feasible()) throw std::invalid_argument("robot '" + robot_.name() + "' has no admissible translation");
+  checker_ = std::make_shared<env::CollisionChecker>(env_, robot_, collision);
+}
+
+ThreadScratch& scratch() {
+  thread_local ThreadScratch t;
+  return t;
+}
+
+ShapeCheck checkShape(const Context& ctx, const Solution& sol, ThreadScratch& t) {
+  ShapeCheck c;
+  if (!sol.converged()) {
+    c.reason = sol.summary.status == SolveStatus::Inadmissible ? "inadmissible: " + sol.summary.message
+                                                                : "model not converged: " + sol.summary.message;
+    return c;
+  }
+  if (!sol.summary.stable) {
+    c.reason = "elastically unstable equilibrium";
+    return c;
+  }
+  const env::CollisionResult r = ctx.checker().check(sol, t.query);
+  if (r.collision) {
+    std::ostringstream os;
+    os << "collision (tube " << r.tube + 1 << ", s " << r.s0 << "-" << r.s1 << " m"
+       << (r.outside_map ? ", outside the map" : "") << ")";
+    c.reason = os.str();
+    return c;
+  }
+  c.ok = true;
+  return c;
+}
+
+}  // namespace ctr::plan

@@ -1,0 +1,311 @@
+#include "ctr/planner/planner.hpp"
+
+#include <ompl/base/ScopedState.h>
+#include <ompl/base/goals/GoalState.h>
+#include <ompl/base/objectives/MaximizeMinClearanceObjective.h>
+#include <ompl/base/objectives/PathLengthOptimizationObjective.h>
+#include <ompl/control/SteeredControlSampler.h>
+#include <ompl/control/planners/est/EST.h>
+#include <ompl/control/planners/kpiece/KPIECE1.h>
+#include <ompl/control/planners/pdst/PDST.h>
+#include <ompl/control/planners/rrt/RRT.h>
+#include <ompl/control/planners/sst/SST.h>
+#include <ompl/control/spaces/RealVectorControlSpace.h>
+#include <ompl/geometric/planners/est/EST.h>
+#include <ompl/geometric/planners/informedtrees/BITstar.h>
+#include <ompl/geometric/planners/kpiece/BKPIECE1.h>
+#include <ompl/geometric/planners/kpiece/KPIECE1.h>
+#include <ompl/geometric/planners/prm/LazyPRM.h>
+#include <ompl/geometric/planners/prm/PRM.h>
+#include <ompl/geometric/planners/prm/PRMstar.h>
+#include <ompl/geometric/planners/rrt/RRT.h>
+#include <ompl/geometric/planners/rrt/RRTConnect.h>
+#include <ompl/geometric/planners/rrt/RRTstar.h>
+#include <ompl/geometric/planners/sbl/SBL.h>
+#include <ompl/util/Console.h>
+#include <ompl/util/RandomNumbers.h>
+
+#include <chrono>
+#include <mutex>
+
+#include "ctr/environments/environment_yaml.hpp"
+#include "ctr/io/input_error.hpp"
+#include "ctr/io/robot_yaml.hpp"
+
+namespace ob = ompl::base;
+namespace og = ompl::geometric;
+namespace oc = ompl::control;
+
+namespace ctr::plan {
+namespace {
+
+constexpr double kRotationRate = 1.0;      // rad per unit control time
+constexpr double kTranslationRate = 0.02;  // m per unit control time
+constexpr double kPropagationStep = 0.05;  // one propagation step: <= 0.05 rad / 1 mm
+
+void seedOnce(std::uint64_t seed) {
+  static std::once_flag flag;
+  std::call_once(flag, [&] {
+    ompl::msg::setLogLevel(ompl::msg::LOG_WARN);
+    ompl::RNG::setSeed(static_cast<std::uint_fast32_t>(seed));
+  });
+}
+
+}  // namespace
+
+CtrPlanner::CtrPlanner(const Query& query) : query_(query) {
+  env::BuildOptions bo;
+  if (query.env_resolution > 0) bo.resolution = query.env_resolution;
+  Robot robot = io::loadRobot(query.robot);
+  init(std::move(robot), env::loadEnvironment(query.environment, bo));
+}
+
+CtrPlanner::CtrPlanner(const Query& query, Robot robot, env::Environment environment) : query_(query) {
+  init(std::move(robot), std::move(environment));
+}
+
+void CtrPlanner::init(Robot robot, env::Environment e) {
+  const Query& query = query_;
+  seedOnce(query.seed);
+  if (query.friction) {
+    try {
+      robot = robot.withFriction(*query.friction);
+    } catch (const std::invalid_argument& e) {
+      throw io::InputError(query.file, 0, "friction", e.what());
+    }
+  }
+  const int n = robot.size();
+  if (query.start.size() != n)
+    throw io::InputError(query.file, 0, "start.alpha",
+                         "has " + std::to_string(query.start.size()) + " values, robot '" + robot.name() + "' has " +
+                             std::to_string(n) + " tubes");
+  const Admissibility adm = checkAdmissible(robot, query.start);
+  if (!adm) throw io::InputError(query.file, 0, "start", "not admissible: " + adm.message);
+  if (query.goal_configuration) {
+    if (query.goal_configuration->size() != n)
+      throw io::InputError(query.file, 0, "goal.configuration", "wrong number of tubes");
+    const Admissibility ga = checkAdmissible(robot, *query.goal_configuration);
+    if (!ga) throw io::InputError(query.file, 0, "goal.configuration", "not admissible: " + ga.message);
+  }
+  if (!query.base_start.empty()) {
+    try {
+      e.useStart(query.base_start);
+    } catch (const std::invalid_argument& ex) {
+      throw io::InputError(query.file, 0, "base_start", ex.what());
+    }
+  }
+  if (!query.target_name.empty()) {
+    try {
+      query_.tip_goal->position = e.target(query.target_name).position;
+    } catch (const std::invalid_argument& ex) {
+      throw io::InputError(query.file, 0, "goal.target", ex.what());
+    }
+  }
+  if (query_.tip_goal && !e.bounds().empty() && !e.bounds().contains(query_.tip_goal->position))
+    throw io::InputError(query.file, 0, query.target_name.empty() ? "goal.position" : "goal.target",
+                         "the target lies outside the environment's map");
+  env_ = std::make_shared<const env::Environment>(std::move(e));
+
+  ContextOptions co;
+  co.mode = query.mode;
+  co.rotation_resolution = query.resolution_rotation;
+  co.translation_resolution = query.resolution_translation;
+  co.friction.kinematics.record_backbone = true;
+  ctx_ = std::make_shared<const Context>(robot, env_, co, env::CollisionOptions::fromEnvironment(*env_));
+
+  auto space = std::make_shared<CtrStateSpace>(ctx_->robot(), ctx_->translationSampler());
+  space->registerDefaultProjection(std::make_shared<TipProjection>(space.get(), ctx_));
+  space_holder_ = space;
+  start_cache_ = startCache(*ctx_, query.start, query.history);
+
+  ob::SpaceInformationPtr si;
+  if (query.mode == Mode::Exact) {
+    auto cspace = std::make_shared<oc::RealVectorControlSpace>(space, 2 * n);
+    ob::RealVectorBounds cb(2 * n);
+    for (int i = 0; i < n; ++i) {
+      cb.setLow(i, -kRotationRate);
+      cb.setHigh(i, kRotationRate);
+      cb.setLow(n + i, -kTranslationRate);
+      cb.setHigh(n + i, kTranslationRate);
+    }
+    cspace->setBounds(cb);
+    css_ = std::make_shared<oc::SimpleSetup>(cspace);
+    const oc::SpaceInformationPtr& csi = css_->getSpaceInformation();
+    csi->setPropagationStepSize(kPropagationStep);
+    csi->setMinMaxControlDuration(1, 10);
+    css_->setStatePropagator(std::make_shared<FrictionPropagator>(csi.get(), ctx_, kRotationRate, kTranslationRate));
+    css_->setStateValidityChecker(std::make_shared<ValidityChecker>(csi, ctx_));
+    csi->setDirectedControlSamplerAllocator(
+        [](const oc::SpaceInformation* s) { return std::make_shared<oc::SteeredControlSampler>(s); });
+    si = csi;
+  } else {
+    gss_ = std::make_shared<og::SimpleSetup>(space);
+    si = gss_->getSpaceInformation();
+    gss_->setStateValidityChecker(std::make_shared<ValidityChecker>(si, ctx_));
+    si->setMotionValidator(std::make_shared<ForwardMotionValidator>(si, ctx_));
+  }
+  ob::ScopedState<> start(space);
+  space->setConfiguration(start.get(), query.start);
+  start->as<CtrStateSpace::StateType>()->cache = start_cache_;
+  ob::GoalPtr goal;
+  if (query.goal_configuration) {
+    auto gs = std::make_shared<ob::GoalState>(si);
+    ob::ScopedState<> g(space);
+    space->setConfiguration(g.get(), *query.goal_configuration);
+    gs->setState(g);
+    gs->setThreshold(query.goal_configuration_tolerance);
+    goal = gs;
+  } else {
+    goal_ = std::make_shared<TipGoal>(si, ctx_, *query_.tip_goal);
+    goal = goal_;
+  }
+  auto pdef = std::make_shared<ob::ProblemDefinition>(si);
+  pdef->addStartState(start);
+  pdef->setGoal(goal);
+  if (query.objective == "clearance") {
+    pdef->setOptimizationObjective(std::make_shared<ob::MaximizeMinClearanceObjective>(si));
+  } else {
+    pdef->setOptimizationObjective(std::make_shared<ob::PathLengthOptimizationObjective>(si));
+  }
+  if (gss_) {
+    gss_->setStartState(start);
+    gss_->setGoal(goal);
+    gss_->setOptimizationObjective(pdef->getOptimizationObjective());
+  } else {
+    css_->setStartState(start);
+    css_->setGoal(goal);
+    css_->setOptimizationObjective(pdef->getOptimizationObjective());
+  }
+}
+
+ob::PlannerPtr CtrPlanner::makePlanner(const std::string& name0) const {
+  const std::string name = name0 == "default" ? (css_ ? "rrt" : "rrtconnect") : name0;
+  if (css_) {
+    const oc::SpaceInformationPtr& si = css_->getSpaceInformation();
+    if (name == "rrt") {
+      auto p = std::make_shared<oc::RRT>(si);
+      p->setGoalBias(0.2);  // the goal pool holds valid IK configurations: steer toward them often
+      return p;
+    }
+    if (name == "kpiece") return std::make_shared<oc::KPIECE1>(si);
+    if (name == "sst") return std::make_shared<oc::SST>(si);
+    if (name == "est") return std::make_shared<oc::EST>(si);
+    if (name == "pdst") return std::make_shared<oc::PDST>(si);
+  } else {
+    const ob::SpaceInformationPtr& si = gss_->getSpaceInformation();
+    if (name == "rrtconnect") return std::make_shared<og::RRTConnect>(si);
+    if (name == "rrt") return std::make_shared<og::RRT>(si);
+    if (name == "rrtstar") return std::make_shared<og::RRTstar>(si);
+    if (name == "bitstar") return std::make_shared<og::BITstar>(si);
+    if (name == "prm") return std::make_shared<og::PRM>(si);
+    if (name == "prmstar") return std::make_shared<og::PRMstar>(si);
+    if (name == "lazyprm") return std::make_shared<og::LazyPRM>(si);
+    if (name == "kpiece") return std::make_shared<og::KPIECE1>(si);
+    if (name == "bkpiece") return std::make_shared<og::BKPIECE1>(si);
+    if (name == "est") return std::make_shared<og::EST>(si);
+    if (name == "sbl") return std::make_shared<og::SBL>(si);
+  }
+  std::string known;
+  for (const auto& x : plannerNames(query_.mode)) known += (known.empty() ? "" : ", ") + x;
+  throw std::invalid_argument("unknown planner '" + name0 + "' for mode " + toString(query_.mode) + " (" + known + ")");
+}
+
+PlanResult CtrPlanner::solve() { return solve(query_.planner, query_.time_limit); }
+
+PlanResult CtrPlanner::solve(const std::string& planner_name, double time_limit) {
+  const auto t0 = std::chrono::steady_clock::now();
+  auto elapsed = [&] { return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count(); };
+  std::size_t pool = 0;
+  if (goal_) pool = goal_->fillPool(gss_ ? 16 : 8, std::min(0.25 * time_limit, 5.0), query_.seed);
+  const ob::PlannerPtr p = makePlanner(planner_name);
+  ob::PlannerStatus status;
+  if (gss_) {
+    gss_->clear();
+    gss_->setPlanner(p);
+    gss_->setup();
+    status = gss_->solve(std::max(0.05, time_limit - elapsed()));
+  } else {
+    css_->clear();
+    css_->setPlanner(p);
+    css_->setup();
+    status = css_->solve(std::max(0.05, time_limit - elapsed()));
+  }
+  const double planning_time = elapsed();
+  const bool exact = status == ob::PlannerStatus::EXACT_SOLUTION;
+  PlanResult r;
+  if (exact) {
+    r = replaySolution(p->getName(), planning_time, true);
+  } else {
+    r.mode = query_.mode;
+    r.planner = p->getName();
+    r.planning_time = planning_time;
+    r.message = std::string("planner: ") + status.asString();
+  }
+  r.goal_pool = pool;
+  return r;
+}
+
+PlanResult CtrPlanner::replaySolution(const std::string& planner, double planning_time, bool exact) {
+  PlanResult r;
+  r.mode = query_.mode;
+  r.planner = planner;
+  r.planning_time = planning_time;
+  r.planner_solved = exact;
+  const CtrStateSpace& space = *space_holder_;
+  std::vector<const ob::State*> states;
+  og::PathGeometric* gpath = nullptr;
+  if (gss_) {
+    gss_->simplifySolution(std::min(1.0, 0.1 * query_.time_limit));
+    gpath = &gss_->getSolutionPath();
+    for (const ob::State* s : gpath->getStates()) states.push_back(s);
+  } else {
+    oc::PathControl& cp = css_->getSolutionPath();
+    for (const ob::State* s : cp.getStates()) states.push_back(s);
+  }
+  if (states.empty()) {
+    r.message = "empty solution path";
+    return r;
+  }
+  // Unwrapped waypoints from the query's start.
+  r.path.push_back(query_.start);
+  for (std::size_t k = 1; k < states.size(); ++k) {
+    const auto* st = states[k]->as<CtrStateSpace::StateType>();
+    if (st->cache && st->cache->hysteresis.valid) {
+      r.path.push_back(st->cache->hysteresis.q);
+    } else {
+      const Configuration d = space.difference(states[k - 1], states[k]);
+      r.path.push_back(Configuration(r.path.back().alpha + d.alpha, r.path.back().beta + d.beta));
+    }
+    r.path_length += space.distance(states[k - 1], states[k]);
+  }
+  const auto t0 = std::chrono::steady_clock::now();
+  GoalTest test;
+  if (goal_) {
+    test = [this](const Solution& s) {
+      const auto [e, a] = goal_->errors(s);
+      const bool ok = e <= goal_->spec().tolerance && (!goal_->spec().direction || a <= goal_->spec().cone_angle);
+      return std::make_tuple(e, a, ok);
+    };
+  } else {
+    const Configuration g = *query_.goal_configuration;
+    const double tol = query_.goal_configuration_tolerance;
+    test = [g, tol](const Solution& s) {
+      Eigen::VectorXd da = s.q.alpha - g.alpha;
+      for (int i = 0; i < da.size(); ++i) da[i] = std::remainder(da[i], 2 * M_PI);
+      const double d = std::sqrt(da.squaredNorm() + 2500.0 * (s.q.beta - g.beta).squaredNorm());
+      return std::make_tuple(d, 0.0, d <= tol);
+    };
+  }
+  r.replay = replayPath(*ctx_, r.path, query_.history, test, query_.replay_rotation_step, query_.replay_translation_step);
+  r.replay_time = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  r.solved = exact && r.replay.ok();
+  if (!r.solved) r.message = "replay: " + (r.replay.first_failure.empty() ? "failed" : r.replay.first_failure);
+  return r;
+}
+
+PlanResult plan(const Query& query) {
+  CtrPlanner p(query);
+  return p.solve();
+}
+
+}  // namespace ctr::plan

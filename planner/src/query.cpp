@@ -1,0 +1,216 @@
+#include "ctr/planner/query.hpp"
+
+#include <yaml-cpp/yaml.h>
+
+#include <cmath>
+#include <filesystem>
+#include <set>
+#include <sstream>
+
+#include "ctr/io/input_error.hpp"
+#include "ctr/io/recording.hpp"
+
+namespace ctr::plan {
+namespace {
+
+using io::InputError;
+
+struct Ctx {
+  std::string file;
+  bool check_files = true;
+  [[noreturn]] void fail(const YAML::Node& n, const std::string& key, const std::string& msg) const {
+    throw InputError(file, n.IsDefined() ? n.Mark().line + 1 : 0, key, msg);
+  }
+  void allowOnly(const YAML::Node& map, const std::string& where, const std::set<std::string>& keys) const {
+    for (const auto& kv : map) {
+      const std::string k = kv.first.as<std::string>("");
+      if (!keys.count(k)) {
+        std::string known;
+        for (const auto& x : keys) known += (known.empty() ? "" : ", ") + x;
+        throw InputError(file, kv.first.Mark().line + 1, where.empty() ? k : where + "." + k,
+                         "unknown key (known: " + known + ")");
+      }
+    }
+  }
+  double number(const YAML::Node& n, const std::string& key) const {
+    if (!n.IsScalar()) fail(n, key, "must be a number");
+    double v = 0;
+    try {
+      v = n.as<double>();
+    } catch (const YAML::Exception&) {
+      fail(n, key, "'" + n.Scalar() + "' is not a number");
+    }
+    if (!std::isfinite(v)) fail(n, key, "must be finite");
+    return v;
+  }
+  std::string text(const YAML::Node& n, const std::string& key) const {
+    if (!n.IsScalar()) fail(n, key, "must be a string");
+    return n.Scalar();
+  }
+  Eigen::VectorXd vec(const YAML::Node& n, const std::string& key, int size = -1) const {
+    if (!n.IsSequence()) fail(n, key, "must be a list of numbers");
+    Eigen::VectorXd v(static_cast<int>(n.size()));
+    for (std::size_t i = 0; i < n.size(); ++i) v[static_cast<int>(i)] = number(n[i], key + "[" + std::to_string(i) + "]");
+    if (size >= 0 && v.size() != size)
+      fail(n, key, "needs " + std::to_string(size) + " values, has " + std::to_string(v.size()));
+    return v;
+  }
+  std::string path(const YAML::Node& n, const std::string& key, const std::string& base) const {
+    const std::string p = text(n, key);
+    std::filesystem::path fp(p);
+    if (fp.is_relative()) fp = std::filesystem::path(base) / fp;
+    if (check_files && !std::filesystem::exists(fp)) fail(n, key, "file not found: " + fp.string());
+    return fp.lexically_normal().string();
+  }
+};
+
+Configuration configuration(const Ctx& c, const YAML::Node& n, const std::string& where) {
+  if (!n.IsMap()) c.fail(n, where, "must be a map with alpha and beta");
+  c.allowOnly(n, where, {"alpha", "beta", "history", "approach"});
+  if (!n["alpha"]) c.fail(n, where + ".alpha", "missing");
+  if (!n["beta"]) c.fail(n, where + ".beta", "missing");
+  const Eigen::VectorXd a = c.vec(n["alpha"], where + ".alpha");
+  const Eigen::VectorXd b = c.vec(n["beta"], where + ".beta", static_cast<int>(a.size()));
+  return Configuration(a, b);
+}
+
+}  // namespace
+
+std::vector<std::string> plannerNames(Mode mode) {
+  if (mode == Mode::Exact) return {"rrt", "kpiece", "sst", "est", "pdst"};
+  return {"rrtconnect", "rrt", "rrtstar", "bitstar", "prm", "prmstar", "lazyprm", "kpiece", "bkpiece", "est", "sbl"};
+}
+
+Query parseQuery(const std::string& text, const std::string& source, const std::string& base_dir,
+                 bool check_files) {
+  Ctx c{source, check_files};
+  YAML::Node root;
+  try {
+    root = YAML::Load(text);
+  } catch (const YAML::ParserException& e) {
+    throw InputError(source, e.mark.line + 1, "", std::string("not valid YAML: ") + e.msg);
+  }
+  if (!root.IsMap()) throw InputError(source, 0, "", "a query must be a YAML map");
+  c.allowOnly(root, "", {"name", "robot", "environment", "base_start", "friction", "start", "goal", "mode", "planner",
+                         "time_limit", "seed", "objective", "replay", "resolution", "environment_resolution"});
+  Query q;
+  q.file = source;
+  q.name = root["name"] ? c.text(root["name"], "name") : std::filesystem::path(source).stem().string();
+  for (const char* k : {"robot", "environment", "start", "goal"})
+    if (!root[k]) throw InputError(source, 0, k, "missing (a query needs robot, environment, start and goal)");
+  q.robot = c.path(root["robot"], "robot", base_dir);
+  q.environment = c.path(root["environment"], "environment", base_dir);
+  if (root["base_start"]) q.base_start = c.text(root["base_start"], "base_start");
+  if (root["friction"]) {
+    const YAML::Node f = root["friction"];
+    if (!f.IsMap()) c.fail(f, "friction", "must be a map with boundary and/or distributed");
+    c.allowOnly(f, "friction", {"boundary", "distributed"});
+    FrictionCoefficients fc;
+    if (f["boundary"]) fc.boundary = c.number(f["boundary"], "friction.boundary");
+    if (f["distributed"]) fc.distributed = c.number(f["distributed"], "friction.distributed");
+    if (fc.boundary < 0) c.fail(f["boundary"], "friction.boundary", "must be >= 0");
+    if (fc.distributed < 0) c.fail(f["distributed"], "friction.distributed", "must be >= 0");
+    q.friction = fc;
+  }
+  const YAML::Node st = root["start"];
+  q.start = configuration(c, st, "start");
+  if (st["history"]) {
+    const std::string h = c.text(st["history"], "start.history");
+    if (h == "rest") {
+      q.history.kind = StartHistory::Kind::Rest;
+    } else if (h == "positive") {
+      q.history.kind = StartHistory::Kind::Positive;
+    } else if (h == "negative") {
+      q.history.kind = StartHistory::Kind::Negative;
+    } else {
+      c.fail(st["history"], "start.history", "'" + h + "' is not one of rest, positive, negative");
+    }
+  }
+  if (st["approach"]) {
+    q.history.approach = c.number(st["approach"], "start.approach");
+    if (!(q.history.approach > 0)) c.fail(st["approach"], "start.approach", "must be > 0 (rad)");
+  }
+  const YAML::Node g = root["goal"];
+  if (!g.IsMap()) c.fail(g, "goal", "must be a map");
+  c.allowOnly(g, "goal", {"target", "position", "tolerance", "direction", "cone_angle", "configuration"});
+  const int kinds = (g["target"] ? 1 : 0) + (g["position"] ? 1 : 0) + (g["configuration"] ? 1 : 0);
+  if (kinds != 1) c.fail(g, "goal", "give exactly one of target (a named target), position [x,y,z] or configuration");
+  if (g["configuration"]) {
+    q.goal_configuration = configuration(c, g["configuration"], "goal.configuration");
+    if (q.goal_configuration->size() != q.start.size())
+      c.fail(g["configuration"], "goal.configuration", "has a different number of tubes than start");
+    if (g["tolerance"]) q.goal_configuration_tolerance = c.number(g["tolerance"], "goal.tolerance");
+  } else {
+    TipGoalSpec spec;
+    if (g["position"]) spec.position = c.vec(g["position"], "goal.position", 3);
+    if (g["target"]) q.target_name = c.text(g["target"], "goal.target");
+    if (g["tolerance"]) spec.tolerance = c.number(g["tolerance"], "goal.tolerance");
+    if (!(spec.tolerance > 0)) c.fail(g["tolerance"], "goal.tolerance", "must be > 0 (m)");
+    if (g["direction"]) {
+      const Eigen::Vector3d d = c.vec(g["direction"], "goal.direction", 3);
+      if (d.norm() < 1e-9) c.fail(g["direction"], "goal.direction", "must be a non-zero vector");
+      spec.direction = d.normalized();
+    }
+    if (g["cone_angle"]) spec.cone_angle = c.number(g["cone_angle"], "goal.cone_angle");
+    q.tip_goal = spec;
+  }
+  if (root["mode"]) {
+    try {
+      q.mode = parseMode(c.text(root["mode"], "mode"));
+    } catch (const std::invalid_argument& e) {
+      c.fail(root["mode"], "mode", e.what());
+    }
+  }
+  if (root["planner"]) {
+    q.planner = c.text(root["planner"], "planner");
+    const auto names = plannerNames(q.mode);
+    if (q.planner != "default" && std::find(names.begin(), names.end(), q.planner) == names.end()) {
+      std::string known;
+      for (const auto& x : names) known += (known.empty() ? "" : ", ") + x;
+      c.fail(root["planner"], "planner", "'" + q.planner + "' is not a planner of mode " + toString(q.mode) + " (" + known + ")");
+    }
+  }
+  if (root["time_limit"]) {
+    q.time_limit = c.number(root["time_limit"], "time_limit");
+    if (!(q.time_limit > 0)) c.fail(root["time_limit"], "time_limit", "must be > 0 seconds");
+  }
+  if (root["seed"]) {
+    const double s = c.number(root["seed"], "seed");
+    if (s < 0 || s != std::floor(s)) c.fail(root["seed"], "seed", "must be a non-negative integer");
+    q.seed = static_cast<std::uint64_t>(s);
+  }
+  if (root["objective"]) {
+    q.objective = c.text(root["objective"], "objective");
+    if (q.objective != "path_length" && q.objective != "clearance")
+      c.fail(root["objective"], "objective", "'" + q.objective + "' is not path_length or clearance");
+  }
+  if (root["replay"]) {
+    const YAML::Node r = root["replay"];
+    c.allowOnly(r, "replay", {"rotation_step", "translation_step"});
+    if (r["rotation_step"]) q.replay_rotation_step = c.number(r["rotation_step"], "replay.rotation_step");
+    if (r["translation_step"]) q.replay_translation_step = c.number(r["translation_step"], "replay.translation_step");
+    if (!(q.replay_rotation_step > 0) || !(q.replay_translation_step > 0)) c.fail(r, "replay", "steps must be > 0");
+  }
+  q.resolution_rotation = q.replay_rotation_step;  // default: check motions at the replay resolution
+  q.resolution_translation = q.replay_translation_step;
+  if (root["resolution"]) {
+    const YAML::Node r = root["resolution"];
+    c.allowOnly(r, "resolution", {"rotation", "translation"});
+    if (r["rotation"]) q.resolution_rotation = c.number(r["rotation"], "resolution.rotation");
+    if (r["translation"]) q.resolution_translation = c.number(r["translation"], "resolution.translation");
+    if (!(q.resolution_rotation > 0) || !(q.resolution_translation > 0)) c.fail(r, "resolution", "must be > 0");
+  }
+  if (root["environment_resolution"]) {
+    q.env_resolution = c.number(root["environment_resolution"], "environment_resolution");
+    if (!(q.env_resolution > 0)) c.fail(root["environment_resolution"], "environment_resolution", "must be > 0 (m)");
+  }
+  return q;
+}
+
+Query loadQuery(const std::string& path) {
+  const std::string text = io::readFile(path);
+  if (text.find_first_not_of(" \t\r\n") == std::string::npos) throw io::InputError(path, 0, "", "empty query file");
+  return parseQuery(text, path, std::filesystem::path(path).parent_path().string());
+}
+
+}  // namespace ctr::plan

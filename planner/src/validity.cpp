@@ -1,0 +1,216 @@
+#include "ctr/planner/validity.hpp"
+
+#include <ompl/base/SpaceInformation.h>
+
+#include <cmath>
+#include <sstream>
+
+namespace ob = ompl::base;
+
+namespace ctr::plan {
+namespace {
+
+KinematicsOptions shapeOptions() {
+  KinematicsOptions o;
+  o.record_backbone = true;
+  return o;
+}
+
+int stepsFor(const Context& ctx, const Configuration& d) {
+  const double a = d.alpha.size() ? d.alpha.cwiseAbs().maxCoeff() : 0.0;
+  const double b = d.beta.size() ? d.beta.cwiseAbs().maxCoeff() : 0.0;
+  return std::max(1, static_cast<int>(std::ceil(std::max(a / ctx.options().rotation_resolution,
+                                                          b / ctx.options().translation_resolution) - 1e-9)));
+}
+
+bool jumped(const Solution& a, const Solution& b, double threshold) {
+  return a.twist.size() == b.twist.size() && a.twist.size() > 0 &&
+         (a.twist - b.twist).cwiseAbs().maxCoeff() > threshold;
+}
+
+// The friction band followed along a path: [0] frictionless, then one shape per torque-box vertex.
+struct Band {
+  std::vector<Solution> shapes;
+  std::size_t contacts = 0;
+};
+
+bool bandAt(const Context& ctx, const Configuration& q, ThreadScratch& t, const Band* prev, Band& out,
+            std::string& why) {
+  out.shapes.clear();
+  const Robot& robot = ctx.robot();
+  const double thr = ctx.options().friction.snap_threshold;
+  const Solution base =
+      solve(ctx.frictionlessRobot(), q, t.ws, shapeOptions(), prev && !prev->shapes.empty() ? &prev->shapes[0] : nullptr);
+  if (prev && !prev->shapes.empty() &&
+      (!base.converged() || (prev->shapes[0].summary.stable && !base.summary.stable) || jumped(prev->shapes[0], base, thr))) {
+    why = "frictionless branch snaps";
+    return false;
+  }
+  const ShapeCheck c0 = checkShape(ctx, base, t);
+  if (!c0.ok) {
+    why = "frictionless shape: " + c0.reason;
+    return false;
+  }
+  out.shapes.push_back(base);
+  const std::vector<ContactSite> sites = contactSites(robot, q);
+  out.contacts = sites.size();
+  if (robot.friction().boundary <= 0.0 || sites.empty()) return true;
+  const std::size_t k = sites.size();
+  const bool aligned = prev && prev->contacts == k && prev->shapes.size() == (std::size_t(1) << k) + 1;
+  for (std::size_t code = 0; code < (std::size_t(1) << k); ++code) {
+    std::vector<ContactCondition> cond(k);
+    for (std::size_t c = 0; c < k; ++c)
+      cond[c] = {ContactCondition::Law::Torque, (code >> c) & 1u ? 1.0 : -1.0};
+    const Solution* warm = aligned ? &prev->shapes[code + 1] : &base;
+    const Solution s = solveWithContacts(robot, q, cond, t.ws, shapeOptions(), warm);
+    if (!s.converged()) {
+      why = "friction band vertex not converged: " + s.summary.message;
+      return false;
+    }
+    if (aligned && ((prev->shapes[code + 1].summary.stable && !s.summary.stable) || jumped(prev->shapes[code + 1], s, thr))) {
+      why = "a friction band branch snaps";
+      return false;
+    }
+    const ShapeCheck c = checkShape(ctx, s, t);
+    if (!c.ok) {
+      why = "friction band shape: " + c.reason;
+      return false;
+    }
+    out.shapes.push_back(s);
+  }
+  return true;
+}
+
+}  // namespace
+
+ConfigurationCheck checkFrictionless(const Context& ctx, const Configuration& q, ThreadScratch& t,
+                                     const Solution* warm) {
+  ConfigurationCheck r;
+  r.shape = solve(ctx.frictionlessRobot(), q, t.ws, shapeOptions(), warm);
+  const ShapeCheck c = checkShape(ctx, r.shape, t);
+  r.ok = c.ok;
+  r.reason = c.reason;
+  return r;
+}
+
+ConfigurationCheck checkRobust(const Context& ctx, const Configuration& q, ThreadScratch& t) {
+  ConfigurationCheck r;
+  Band b;
+  r.ok = bandAt(ctx, q, t, nullptr, b, r.reason);
+  if (!b.shapes.empty()) r.shape = b.shapes[0];
+  return r;
+}
+
+double checkMotionForward(const Context& ctx, const Configuration& q0, const Configuration& q1, ThreadScratch& t,
+                          std::string* reason) {
+  const Configuration d(q1.alpha - q0.alpha, q1.beta - q0.beta);
+  const int steps = stepsFor(ctx, d);
+  std::string why;
+  auto fail = [&](int k) {
+    if (reason) *reason = why;
+    return static_cast<double>(k) / steps;
+  };
+  if (ctx.options().mode == Mode::Robust) {
+    Band cur, next;
+    if (!bandAt(ctx, q0, t, nullptr, cur, why)) return fail(0);
+    for (int k = 1; k <= steps; ++k) {
+      const double s = static_cast<double>(k) / steps;
+      const Configuration qk(q0.alpha + s * d.alpha, q0.beta + s * d.beta);
+      if (!bandAt(ctx, qk, t, &cur, next, why)) return fail(k - 1);
+      std::swap(cur, next);
+    }
+    return 1.0;
+  }
+  const double thr = ctx.options().friction.snap_threshold;
+  ConfigurationCheck c = checkFrictionless(ctx, q0, t);
+  if (!c.ok) {
+    why = c.reason;
+    return fail(0);
+  }
+  Solution cur = c.shape;
+  for (int k = 1; k <= steps; ++k) {
+    const double s = static_cast<double>(k) / steps;
+    const Configuration qk(q0.alpha + s * d.alpha, q0.beta + s * d.beta);
+    const Solution next = solve(ctx.frictionlessRobot(), qk, t.ws, shapeOptions(), &cur);
+    if (!next.converged() || (cur.summary.stable && !next.summary.stable) || jumped(cur, next, thr)) {
+      why = "the equilibrium branch snaps";
+      return fail(k - 1);
+    }
+    const ShapeCheck sc = checkShape(ctx, next, t);
+    if (!sc.ok) {
+      why = sc.reason;
+      return fail(k - 1);
+    }
+    cur = next;
+  }
+  return 1.0;
+}
+
+ValidityChecker::ValidityChecker(const ob::SpaceInformationPtr& si, std::shared_ptr<const Context> ctx)
+    : ob::StateValidityChecker(si), ctx_(std::move(ctx)) {
+  space_ = si->getStateSpace()->as<CtrStateSpace>();
+  specs_.clearanceComputationType = ob::StateValidityCheckerSpecs::EXACT;
+}
+
+bool ValidityChecker::isValid(const ob::State* state) const {
+  ThreadScratch& t = scratch();
+  const auto* st = state->as<CtrStateSpace::StateType>();
+  switch (ctx_->options().mode) {
+    case Mode::Exact:
+      if (st->cache) return st->cache->physics_ok && checkShape(*ctx_, st->cache->solution, t).ok;
+      return checkFrictionless(*ctx_, space_->configuration(state), t).ok;
+    case Mode::Robust: return checkRobust(*ctx_, space_->configuration(state), t).ok;
+    case Mode::Frictionless: return checkFrictionless(*ctx_, space_->configuration(state), t).ok;
+  }
+  return false;
+}
+
+double ValidityChecker::clearance(const ob::State* state) const {
+  ThreadScratch& t = scratch();
+  const auto* st = state->as<CtrStateSpace::StateType>();
+  Solution shape;
+  if (st->cache && st->cache->solution.converged()) {
+    shape = st->cache->solution;
+  } else {
+    shape = solve(ctx_->frictionlessRobot(), space_->configuration(state), t.ws, shapeOptions());
+    if (!shape.converged()) return 0.0;
+  }
+  if (!ctx_->checker().distanceField()) return 0.0;
+  return std::max(0.0, ctx_->checker().clearance(shape, t.query).clearance);
+}
+
+ForwardMotionValidator::ForwardMotionValidator(const ob::SpaceInformationPtr& si, std::shared_ptr<const Context> ctx)
+    : ob::MotionValidator(si), ctx_(std::move(ctx)) {
+  space_ = si->getStateSpace()->as<CtrStateSpace>();
+}
+
+bool ForwardMotionValidator::checkMotion(const ob::State* s1, const ob::State* s2) const {
+  const Configuration q0 = space_->configuration(s1);
+  const Configuration d = space_->difference(s1, s2);
+  const Configuration q1(q0.alpha + d.alpha, q0.beta + d.beta);
+  const bool ok = checkMotionForward(*ctx_, q0, q1, scratch()) >= 1.0;
+  if (ok) {
+    ++valid_;
+  } else {
+    ++invalid_;
+  }
+  return ok;
+}
+
+bool ForwardMotionValidator::checkMotion(const ob::State* s1, const ob::State* s2,
+                                         std::pair<ob::State*, double>& lastValid) const {
+  const Configuration q0 = space_->configuration(s1);
+  const Configuration d = space_->difference(s1, s2);
+  const Configuration q1(q0.alpha + d.alpha, q0.beta + d.beta);
+  const double f = checkMotionForward(*ctx_, q0, q1, scratch());
+  if (f >= 1.0) {
+    ++valid_;
+    return true;
+  }
+  ++invalid_;
+  lastValid.second = f;
+  if (lastValid.first) space_->interpolate(s1, s2, f, lastValid.first);
+  return false;
+}
+
+}  // namespace ctr::plan

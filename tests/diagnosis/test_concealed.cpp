@@ -1,0 +1,150 @@
+// Concealed cases built with the injection path: random order, noise comparable to the effect, position-only
+// recordings in an unknown frame, 3-tube robots with translations, two effects at once, sensor latency, null.
+#include <gtest/gtest.h>
+
+#include <algorithm>
+
+#include "ctr/diagnosis/diagnose.hpp"
+#include "ctr/diagnosis/simulate.hpp"
+#include "ctr/io/robot_yaml.hpp"
+
+using namespace ctr;
+using namespace ctr::diagnosis;
+
+namespace {
+
+Robot robot(const std::string& name) {
+  return io::loadRobot(std::string(CTR_SOURCE_DIR) + "/examples/robots/" + name + ".yaml");
+}
+
+struct Result {
+  DiagnosisReport rep;
+  io::Recording rec;
+};
+
+Result run(const Robot& truth_nominal, const Robot& believed, const std::vector<Effect>& effects, ActuationOptions a,
+           SimulationOptions s, FrameMode frame = FrameMode::Base) {
+  std::vector<Configuration> cmd;
+  Eigen::VectorXd time;
+  makeActuation(truth_nominal, a, cmd, time);
+  Result r;
+  r.rec = simulateRecording(truth_nominal, cmd, time, effects, s);
+  DiagnoseOptions o;
+  o.frame = frame;
+  r.rep = diagnose(believed, r.rec, o);
+  return r;
+}
+
+const Effect* find(const DiagnosisReport& rep, EffectKind k) {
+  for (const Effect& e : rep.final_effects)
+    if (e.kind == k) return &e;
+  return nullptr;
+}
+
+void expectHeldOutDown(const DiagnosisReport& rep) {
+  for (const auto& kv : rep.baseline.heldout_rmse) EXPECT_LT(rep.final.heldout_rmse.at(kv.first), kv.second) << kv.first;
+}
+
+}  // namespace
+
+TEST(Concealed, FrictionRandomOrderNoisy) {
+  // Random actuation order (no sweeps), twist noise 3 deg.
+  const Robot r = robot("tube_pair_B");
+  ActuationOptions a;
+  a.pattern = ActuationPattern::Random;
+  a.rows = 32;  // random jumps make every friction replay sub-step a full revolution: keep it small
+  a.dt = 0;
+  a.seed = 11;
+  SimulationOptions s;
+  s.twist_sd = 3 * M_PI / 180;
+  s.position_sd = 1e-3;
+  s.tangent_sd = 2 * M_PI / 180;
+  s.seed = 12;
+  const Result res = run(r, r, {{EffectKind::BoundaryFriction, 0, 0.08}}, a, s);
+  EXPECT_EQ(res.rep.verdict, std::vector<std::string>{"boundary_friction"}) << res.rep.summary;
+  if (const Effect* e = find(res.rep, EffectKind::BoundaryFriction)) {
+    EXPECT_NEAR(e->value, 0.08, 0.016);
+  }
+  expectHeldOutDown(res.rep);
+}
+
+TEST(Concealed, FrictionMaskedByPoissonRatio) {
+  // The description says nu = 0.3; the robot has nu = 0.6 and boundary friction (the paper's situation).
+  const Robot truth = robot("tube_pair_B");
+  const Robot believed = applyToRobot(truth, {{EffectKind::TorsionalStiffness, 0, 0.3}});
+  ActuationOptions a;
+  a.dt = 0;
+  SimulationOptions s;
+  s.seed = 3;
+  const Result res = run(truth, believed, {{EffectKind::BoundaryFriction, 0, 0.06}}, a, s);
+  auto v = res.rep.verdict;
+  std::sort(v.begin(), v.end());
+  EXPECT_EQ(v, (std::vector<std::string>{"boundary_friction", "torsional_stiffness"})) << res.rep.summary;
+  if (const Effect* e = find(res.rep, EffectKind::TorsionalStiffness)) {
+    EXPECT_NEAR(e->value, 0.6, 0.12);
+  }
+  if (const Effect* e = find(res.rep, EffectKind::BoundaryFriction)) {
+    EXPECT_NEAR(e->value, 0.06, 0.012);
+  }
+  expectHeldOutDown(res.rep);
+}
+
+TEST(Concealed, OffsetPositionOnlyUnknownFrameThreeTubes) {
+  // 3 tubes with translations, random walk, only tip positions, in an unknown sensor frame.
+  const Robot r = robot("three_tube_generic");
+  ActuationOptions a;
+  a.pattern = ActuationPattern::RandomWalk;
+  a.rows = 120;
+  a.translate = true;
+  a.dt = 0;
+  a.seed = 5;
+  SimulationOptions s;
+  s.twist = s.tip_tangent = false;
+  s.position_sd = 3e-4;
+  Registration reg;
+  reg.rotation = Eigen::AngleAxisd(1.0, Eigen::Vector3d(0.3, -1, 0.2).normalized()).toRotationMatrix();
+  reg.translation = Eigen::Vector3d(0.05, 0.1, -0.02);
+  reg.tip_offset = 0.004;
+  s.sensor_frame = reg;
+  s.seed = 6;
+  const Result res = run(r, r, {{EffectKind::ActuatorOffset, 3, 0.25}}, a, s, FrameMode::Unknown);
+  EXPECT_EQ(res.rep.verdict, std::vector<std::string>{"actuator_offset"}) << res.rep.summary;
+  if (const Effect* e = find(res.rep, EffectKind::ActuatorOffset)) {
+    EXPECT_EQ(e->tube, 3);
+    EXPECT_NEAR(e->value, 0.25, 0.05);
+  }
+  expectHeldOutDown(res.rep);
+}
+
+TEST(Concealed, LatencyIsNotFriction) {
+  // Timed random walk: the measurement lags by 0.3 s; direction-dependent residuals that scale with speed.
+  const Robot r = robot("tube_pair_A");
+  ActuationOptions a;
+  a.pattern = ActuationPattern::RandomWalk;
+  a.rows = 120;
+  a.dt = 0.1;
+  a.max_speed = 1.0;
+  a.seed = 9;
+  SimulationOptions s;
+  s.seed = 10;
+  const Result res = run(r, r, {{EffectKind::SensorLatency, 0, 0.3}}, a, s);
+  EXPECT_EQ(res.rep.verdict, std::vector<std::string>{"sensor_latency"}) << res.rep.summary;
+  if (const Effect* e = find(res.rep, EffectKind::SensorLatency)) {
+    EXPECT_NEAR(e->value, 0.3, 0.06);
+  }
+  expectHeldOutDown(res.rep);
+}
+
+TEST(Concealed, NullThreeTubeTimedWalk) {
+  const Robot r = robot("three_tube_generic");
+  ActuationOptions a;
+  a.pattern = ActuationPattern::RandomWalk;
+  a.rows = 100;
+  a.translate = true;
+  a.dt = 0.1;
+  a.seed = 21;
+  SimulationOptions s;
+  s.seed = 22;
+  const Result res = run(r, r, {}, a, s);
+  EXPECT_TRUE(res.rep.verdict.empty()) << res.rep.summary;
+}

@@ -1,0 +1,143 @@
+// Unit tests of the diagnosis building blocks: effects, actuation transforms, registration, import, statistics.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <fstream>
+
+#include "ctr/diagnosis/diagnose.hpp"
+#include "ctr/diagnosis/import.hpp"
+#include "ctr/diagnosis/simulate.hpp"
+#include "ctr/diagnosis/statistics.hpp"
+#include "ctr/io/robot_yaml.hpp"
+
+using namespace ctr;
+using namespace ctr::diagnosis;
+
+namespace {
+Robot pairB() { return io::loadRobot(std::string(CTR_SOURCE_DIR) + "/examples/robots/tube_pair_B.yaml"); }
+}  // namespace
+
+TEST(Effect, ParseAndNames) {
+  const Effect e = parseEffect("actuator_backlash:tube=2,width=12deg");
+  EXPECT_EQ(e.kind, EffectKind::ActuatorBacklash);
+  EXPECT_EQ(e.tube, 2);
+  EXPECT_NEAR(e.value, 12 * M_PI / 180, 1e-12);
+  EXPECT_EQ(parseEffect("boundary_friction:mu=0.12").value, 0.12);
+  EXPECT_THROW(parseEffect("friction:mu=1"), std::invalid_argument);
+  EXPECT_THROW(parseEffect("actuator_offset:offset=1"), std::invalid_argument);  // missing tube
+  EXPECT_THROW(parseEffect("boundary_friction:nu=1"), std::invalid_argument);
+  for (EffectKind k : allEffectKinds()) EXPECT_EQ(parseEffectKind(effectName(k)), k);
+}
+
+TEST(Effect, AppliesToRobot) {
+  const Robot r = pairB();
+  const Robot m = applyToRobot(r, {{EffectKind::TorsionalStiffness, 0, 0.3},
+                                   {EffectKind::Precurvature, 2, 5.0},
+                                   {EffectKind::BoundaryFriction, 0, 0.1}});
+  EXPECT_NEAR(m.tube(0).torsional_stiffness, r.tube(0).bending_stiffness / 1.3, 1e-12);
+  EXPECT_EQ(m.tube(1).curvature, 5.0);
+  EXPECT_EQ(m.friction().boundary, 0.1);
+  EXPECT_NEAR(nominalValue(r, EffectKind::TorsionalStiffness, 0), 0.6, 1e-12);
+}
+
+TEST(Actuation, PlayOperatorAndLatency) {
+  Eigen::VectorXd x(7);
+  x << 0, 0.1, 0.2, 0.3, 0.2, 0.1, 0.0;
+  const Eigen::VectorXd y = playOperator(x, 0.1);
+  EXPECT_NEAR(y[0], 0.0, 1e-12);
+  EXPECT_NEAR(y[1], 0.05, 1e-12);
+  EXPECT_NEAR(y[3], 0.25, 1e-12);
+  EXPECT_NEAR(y[4], 0.25, 1e-12);  // reversal inside the dead band
+  EXPECT_NEAR(y[5], 0.15, 1e-12);
+  std::vector<Configuration> c;
+  Eigen::VectorXd t(4);
+  for (int k = 0; k < 4; ++k) {
+    c.emplace_back(Eigen::Vector2d(0, 0.1 * k), Eigen::Vector2d(-0.018, -0.018));
+    t[k] = 0.5 * k;
+  }
+  const auto q = transformActuation(c, t, {{EffectKind::SensorLatency, 0, 0.25}, {EffectKind::ActuatorOffset, 2, 1.0}});
+  EXPECT_NEAR(q[0].alpha[1], 1.0, 1e-12);
+  EXPECT_NEAR(q[2].alpha[1], 1.15, 1e-12);  // t = 1.0 - 0.25 -> alpha 0.15
+}
+
+TEST(Registration, RecoversRigidTransformAndOffset) {
+  const Robot r = pairB();
+  std::vector<Configuration> cmd;
+  Eigen::VectorXd time;
+  ActuationOptions a;
+  makeActuation(r, a, cmd, time);
+  Workspace ws;
+  Prediction p = predict(r, cmd, time, {}, ws);
+  Registration truth;
+  truth.rotation = Eigen::AngleAxisd(0.7, Eigen::Vector3d(1, 2, 3).normalized()).toRotationMatrix();
+  truth.translation = Eigen::Vector3d(0.1, -0.2, 0.05);
+  truth.tip_offset = 0.01;
+  Eigen::MatrixXd P = p.tip_position, T = p.tip_tangent;
+  applyRegistration(truth, P, T);
+  const Registration est = fitRegistration(p.tip_position, p.tip_tangent, P, T, std::vector<char>(P.rows(), 1));
+  EXPECT_LT((est.rotation - truth.rotation).norm(), 1e-6);
+  EXPECT_LT((est.translation - truth.translation).norm(), 1e-6);
+  EXPECT_NEAR(est.tip_offset, 0.01, 1e-6);
+}
+
+TEST(Import, MappingUnwrapAndDupontFormat) {
+  auto m = parseColumnMapping("beta_3=7*0.001");
+  EXPECT_EQ(m.first, "beta_3");
+  EXPECT_EQ(m.second.column, 7);
+  EXPECT_DOUBLE_EQ(m.second.scale, 0.001);
+  m = parseColumnMapping("tip_tx=11*-1+0.5");
+  EXPECT_DOUBLE_EQ(m.second.scale, -1.0);
+  EXPECT_DOUBLE_EQ(m.second.offset, 0.5);
+  EXPECT_THROW(parseColumnMapping("alpha_1"), std::invalid_argument);
+  Eigen::VectorXd a(4);
+  a << 3.0, -3.0, -2.9, 3.1;
+  unwrapAngles(a);
+  EXPECT_NEAR(a[1], 2 * M_PI - 3.0, 1e-12);
+  EXPECT_NEAR(a[3], 3.1, 1e-12);
+  const std::string path = std::string(CTR_SHARED_DIR) + "/data/dupont-lab-ctr-trajectory-hjhdog1/jointTipTrajectory_measured_short.txt";
+  std::ifstream f(path);
+  if (!f) GTEST_SKIP() << "no " << path;
+  const io::Recording rec = importTable(path, dupontLabImportOptions());
+  EXPECT_EQ(rec.rows(), 1307);
+  EXPECT_EQ(rec.tubes, 3);
+  EXPECT_TRUE(rec.hasTime() && rec.hasTipPosition() && rec.hasTipTangent() && !rec.hasTwist());
+  EXPECT_NEAR(rec.commands[0].beta[1], -0.017, 1e-9);
+  EXPECT_NEAR(rec.tip_tangent.row(0).norm(), 1.0, 1e-9);
+  EXPECT_NEAR(rec.tip_position(0, 2), 0.154601, 1e-9);
+  // Unwrapped: no jump larger than pi between consecutive rows.
+  for (int k = 1; k < rec.rows(); ++k)
+    for (int i = 0; i < 3; ++i) EXPECT_LT(std::abs(rec.commands[k].alpha[i] - rec.commands[k - 1].alpha[i]), M_PI);
+  EXPECT_THROW(importTableText("1 2 x\n", "t", dupontLabImportOptions()), io::InputError);
+}
+
+TEST(Statistics, TailProbabilities) {
+  EXPECT_NEAR(stats::normalSf(1.959964), 0.025, 1e-6);
+  EXPECT_NEAR(stats::chiSquareSf(3.841459, 1), 0.05, 1e-6);
+  EXPECT_NEAR(stats::chiSquareSf(18.307038, 10), 0.05, 1e-6);
+  EXPECT_NEAR(stats::studentSf(2.228139, 10), 0.025, 1e-6);
+  Eigen::VectorXd x = Eigen::VectorXd::LinSpaced(20, 0, 1), y = x.array().square();
+  EXPECT_NEAR(stats::spearman(x, y).r, 1.0, 1e-12);
+  EXPECT_LT(stats::spearman(x, y).p_value, 1e-6);
+}
+
+TEST(Diagnose, NullSweepGivesEmptyVerdictAndJson) {
+  const Robot r = pairB();
+  std::vector<Configuration> cmd;
+  Eigen::VectorXd time;
+  ActuationOptions a;
+  a.dt = 0;
+  makeActuation(r, a, cmd, time);
+  SimulationOptions s;
+  s.seed = 7;
+  const io::Recording rec = simulateRecording(r, cmd, time, {}, s);
+  DiagnoseOptions o;
+  o.candidates = {EffectKind::TorsionalStiffness, EffectKind::ActuatorOffset, EffectKind::Precurvature};
+  const DiagnosisReport rep = diagnose(r, rec, o);
+  EXPECT_TRUE(rep.verdict.empty());
+  const std::string js = reportToJson(rep);
+  EXPECT_NE(js.find("\"verdict\": []"), std::string::npos);
+  EXPECT_NE(js.find("\"findings\""), std::string::npos);
+  EXPECT_NE(reportToMarkdown(rep, rec).find("Verdict"), std::string::npos);
+  EXPECT_NE(plotDataJson(rep, rec).find("residual_bins"), std::string::npos);
+  EXPECT_NEAR(rep.noise.twist, s.twist_sd, 0.4 * s.twist_sd);
+}

@@ -1,0 +1,206 @@
+// Planner: query parsing, admissible sampling, forward motion checking (snaps), planning + replay in every mode.
+#include <gtest/gtest.h>
+#include <octomap/OcTree.h>
+
+#include <filesystem>
+#include <fstream>
+
+#include "ctr/io/input_error.hpp"
+#include "ctr/planner/planner.hpp"
+
+using namespace ctr;
+using namespace ctr::plan;
+namespace fs = std::filesystem;
+
+namespace {
+
+std::string src(const std::string& rel) { return std::string(CTR_SOURCE_DIR) + "/" + rel; }
+
+std::string queryText(const std::string& extra_goal = "target: tricuspid", const std::string& extra = "") {
+  return "robot: " + src("examples/robots/proc_intracardiac.yaml") + "\nenvironment: " +
+         src("examples/environments/proc_intracardiac.yaml") +
+         "\nstart: {alpha: [0, 0, 0], beta: [-0.10, -0.16, -0.21], history: positive}\ngoal: {" + extra_goal +
+         ", tolerance: 0.003}\n" + extra;
+}
+
+void expectInputError(const std::string& text, const std::string& key_part) {
+  try {
+    parseQuery(text, "q.yaml", ".");
+    FAIL() << "expected an InputError for key " << key_part;
+  } catch (const io::InputError& e) {
+    const std::string m = e.what();
+    EXPECT_NE(m.find("q.yaml"), std::string::npos) << m;
+    EXPECT_NE(m.find(key_part), std::string::npos) << m;
+  }
+}
+
+Tube curved(const std::string& name, double L, double kappa) {
+  Tube t;
+  t.name = name;
+  t.straight_length = 0.0;
+  t.curved_length = L;
+  t.curvature = kappa;
+  t.bending_stiffness = 0.03;
+  t.torsional_stiffness = 0.03 / 1.3;
+  t.outer_diameter = name == "outer" ? 2e-3 : 1.5e-3;
+  t.inner_diameter = name == "outer" ? 1.7e-3 : 1.0e-3;
+  return t;
+}
+
+}  // namespace
+
+TEST(Query, ParsesTheExampleQueries) {
+  for (const auto& f : fs::directory_iterator(src("examples/queries"))) {
+    const Query q = loadQuery(f.path().string());
+    EXPECT_EQ(q.start.size(), 3) << f.path();
+    EXPECT_TRUE(q.tip_goal.has_value()) << f.path();
+    EXPECT_GT(q.time_limit, 0.0);
+  }
+}
+
+TEST(Query, BadQueriesNameFileAndKey) {
+  expectInputError("robot: x.yaml\n", "environment");
+  expectInputError(queryText() + "mode: sideways\n", "mode");
+  expectInputError(queryText() + "planner: astar\n", "planner");
+  expectInputError(queryText() + "time_limit: 0\n", "time_limit");
+  expectInputError(queryText() + "seed: -3\n", "seed");
+  expectInputError(queryText() + "objective: speed\n", "objective");
+  expectInputError(queryText() + "bogus: 1\n", "bogus");
+  expectInputError(queryText("target: tricuspid, position: [0, 0, 0]"), "goal");
+  expectInputError(queryText("position: [0, 0]"), "goal.position");
+  expectInputError(queryText("target: tricuspid, tolerance: -1"), "goal");
+  expectInputError("robot: /nonexistent/r.yaml\nenvironment: e.yaml\nstart: {alpha: [0], beta: [0]}\ngoal: {target: a}\n",
+                   "robot");
+  std::string h = queryText();
+  h.replace(h.find("history: positive"), 17, "history: sideways");
+  expectInputError(h, "start.history");
+  std::string b = queryText();
+  b.replace(b.find("beta: [-0.10, -0.16, -0.21]"), 27, "beta: [-0.10, -0.16]");
+  expectInputError(b, "start.beta");
+  expectInputError("robot: [", "YAML");
+}
+
+TEST(Query, TargetOutsideTheMapAndBadStartAreInputErrors) {
+  Query q = parseQuery(queryText("position: [5.0, 5.0, 5.0]"), "q.yaml", ".");
+  q.time_limit = 0.1;
+  EXPECT_THROW(CtrPlanner p(q), io::InputError);
+  Query bad = parseQuery(queryText(), "q.yaml", ".");
+  bad.start.beta[2] = 0.05;  // beta > 0: inadmissible
+  EXPECT_THROW(CtrPlanner p(bad), io::InputError);
+}
+
+TEST(StateSpace, SamplerProducesOnlyAdmissibleConfigurations) {
+  const Query q = parseQuery(queryText(), "q.yaml", ".");
+  CtrPlanner p(q);
+  const ompl::base::SpaceInformationPtr si = p.controlSetup()->getSpaceInformation();
+  const auto* space = si->getStateSpace()->as<CtrStateSpace>();
+  ompl::base::StateSamplerPtr s = space->allocDefaultStateSampler();
+  ompl::base::State* st = space->allocState();
+  ompl::base::State* near = space->allocState();
+  for (int k = 0; k < 2000; ++k) {
+    s->sampleUniform(st);
+    ASSERT_TRUE(checkAdmissible(p.context()->robot(), space->configuration(st))) << k;
+    s->sampleUniformNear(near, st, 0.3);
+    ASSERT_TRUE(checkAdmissible(p.context()->robot(), space->configuration(near))) << k;
+  }
+  space->freeState(st);
+  space->freeState(near);
+}
+
+TEST(MotionValidation, ForwardWalkRejectsASnapAndAcceptsASmoothMotion) {
+  // A snapping pair ((1+nu) k^2 L^2 = 2 (pi/2)^2) in an empty map.
+  const double L = 0.1, kappa = std::sqrt(2.0 * (M_PI / 2) * (M_PI / 2) / (1.3 * L * L));
+  const Robot r("snap", {curved("outer", L, kappa), curved("inner", L, kappa)});
+  auto tree = std::make_shared<octomap::OcTree>(0.005);
+  tree->updateNode(octomap::point3d(1.0f, 1.0f, 1.0f), true);
+  tree->updateInnerOccupancy();
+  auto env = std::make_shared<const env::Environment>("empty", tree);
+  ContextOptions co;
+  co.mode = Mode::Frictionless;
+  env::CollisionOptions col;
+  col.distance_field = false;
+  const Context ctx(r, env, co, col);
+  ThreadScratch& t = scratch();
+  const Configuration smooth0(Eigen::Vector2d(0, 0.0), Eigen::Vector2d(0, 0));
+  const Configuration smooth1(Eigen::Vector2d(0, 1.5), Eigen::Vector2d(0, 0));
+  EXPECT_EQ(checkMotionForward(ctx, smooth0, smooth1, t), 1.0);
+  // Rotating up through pi follows the branch past pi until it ends: a snap.
+  const Configuration a(Eigen::Vector2d(0, 2.5), Eigen::Vector2d(0, 0));
+  const Configuration b(Eigen::Vector2d(0, 2 * M_PI - 0.5), Eigen::Vector2d(0, 0));
+  std::string why;
+  const double f = checkMotionForward(ctx, a, b, t, &why);
+  EXPECT_LT(f, 1.0);
+  EXPECT_GT(f, 0.2);  // the branch continues past pi before it ends
+  EXPECT_NE(why.find("snap"), std::string::npos) << why;
+}
+
+TEST(Planning, ExactModeSolvesAndReplaysTheIntracardiacQuery) {
+  Query q = loadQuery(src("examples/queries/proc_intracardiac.yaml"));
+  q.time_limit = 20;
+  CtrPlanner p(q);
+  // OMPL's seed is process-wide and already used by earlier tests here: allow a second randomised attempt
+  // (from the command line, seeds 1-6 all solve this query; docs/planning.md).
+  PlanResult r = p.solve();
+  if (!r.solved) r = p.solve();
+  ASSERT_TRUE(r.solved) << r.message;
+  EXPECT_TRUE(r.planner_solved);
+  EXPECT_TRUE(r.replay.collision_free);
+  EXPECT_TRUE(r.replay.stable);
+  EXPECT_LE(r.replay.tip_error, q.tip_goal->tolerance);
+  EXPECT_GT(r.replay.steps, 10);
+  EXPECT_GE(r.path.size(), 2u);
+  // The replay carries friction memory: some contact is not torque-free at the end.
+  bool loaded = false;
+  for (const auto& c : r.replay.points.back().hysteresis.contacts) loaded = loaded || std::abs(c.torque) > 0;
+  EXPECT_TRUE(loaded);
+  const std::string csv = replayCsv(p.context()->robot(), r.replay);
+  EXPECT_NE(csv.find("end1_mode"), std::string::npos);
+}
+
+TEST(Planning, FrictionlessModePlansWithAGeometricPlannerAndIsReplayedWithFriction) {
+  Query q = loadQuery(src("examples/queries/proc_intracardiac.yaml"));
+  q.mode = Mode::Frictionless;
+  q.planner = "rrtconnect";
+  q.time_limit = 20;
+  CtrPlanner p(q);
+  PlanResult r = p.solve();
+  if (!r.planner_solved) r = p.solve();
+  ASSERT_TRUE(r.planner_solved) << r.message;
+  // The replay ran on the friction model (mu' = 0.1 from the query) from the start history.
+  EXPECT_TRUE(r.replay.completed) << r.replay.first_failure;
+  EXPECT_GT(r.replay.steps, 10);
+  EXPECT_EQ(r.solved, r.replay.ok());
+}
+
+TEST(Planning, RobustValidityCoversTheWholeFrictionBand) {
+  Query q = loadQuery(src("examples/queries/proc_intracardiac.yaml"));
+  q.mode = Mode::Robust;
+  CtrPlanner p(q);
+  const Context& ctx = *p.context();
+  ThreadScratch& t = scratch();
+  ASSERT_GT(ctx.robot().friction().boundary, 0.0);
+  const ConfigurationCheck c = checkRobust(ctx, q.start, t);
+  EXPECT_TRUE(c.ok) << c.reason;
+  // The band at the start contains the shapes of both approach directions (positive and negative history).
+  StartHistory pos, neg;
+  pos.kind = StartHistory::Kind::Positive;
+  neg.kind = StartHistory::Kind::Negative;
+  const auto a = startCache(ctx, q.start, pos), b = startCache(ctx, q.start, neg);
+  ASSERT_TRUE(a->physics_ok && b->physics_ok);
+  const FrictionBand band = frictionBand(ctx.robot(), q.start, t.ws);
+  ASSERT_TRUE(band.converged);
+  for (const auto& cache : {a, b})
+    for (int k = 0; k < band.twist_min.size(); ++k) {
+      EXPECT_GE(cache->solution.twist[k], band.twist_min[k] - 1e-6);
+      EXPECT_LE(cache->solution.twist[k], band.twist_max[k] + 1e-6);
+    }
+  // A short forward motion is robustly valid; a motion into the atrial wall is not.
+  Configuration q1 = q.start;
+  q1.alpha[2] += 0.2;
+  EXPECT_EQ(checkMotionForward(ctx, q.start, q1, t), 1.0);
+  Configuration q2 = q.start;
+  q2.beta << -0.01, -0.03, -0.04;  // pushed far out: the curved tubes hit the chamber
+  std::string why;
+  EXPECT_LT(checkMotionForward(ctx, q.start, q2, t, &why), 1.0);
+  EXPECT_FALSE(why.empty());
+}

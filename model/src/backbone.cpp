@@ -40,4 +40,21 @@ std::vector<BackbonePoint> resampleBackbone(const Solution& sol, double ds) {
   return out;
 }
 
+Eigen::Matrix2Xd tubeBendingMoments(const Robot& robot, const Configuration& q, const BackbonePoint& p) {
+  const int n = robot.size();
+  Eigen::Matrix2Xd m = Eigen::Matrix2Xd::Zero(2, n);
+  for (int i = 0; i < n; ++i) {
+    const Tube& t = robot.tube(i);
+    // At a segment boundary the s- node still has the state before its events, the s+ node after them.
+    const double end = q.beta[i] + t.length(), disc = q.beta[i] + t.straight_length;
+    const bool at_end = std::abs(end - p.s) < 1e-12, at_disc = std::abs(disc - p.s) < 1e-12;
+    if (end < p.s || (at_end && p.segment_start)) continue;  // ended
+    const bool curved = t.curved_length > 0.0 && (at_disc ? p.segment_start || disc <= 0.0 : p.s > disc);
+    Eigen::Vector2d pre = Eigen::Vector2d::Zero();
+    if (curved) pre = t.curvature * Eigen::Vector2d(-std::sin(p.theta[i]), std::cos(p.theta[i]));
+    m.col(i) = t.bending_stiffness * (p.u0 - pre);
+  }
+  return m;
+}
+
 }  // namespace ctr

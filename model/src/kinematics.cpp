@@ -353,9 +353,10 @@ void Evaluator::evaluate(const Problem& P, const Eigen::VectorXd& z, bool jac, b
     }
   }
 
-  auto pushNode = [&](double s, const Segment& sg) {
+  auto pushNode = [&](double s, const Segment& sg, bool segment_start = false) {
     BackbonePoint bp;
     bp.s = s;
+    bp.segment_start = segment_start;
     bp.position = p;
     bp.frame = R;
     bp.theta = Y.head(n);
@@ -375,7 +376,7 @@ void Evaluator::evaluate(const Problem& P, const Eigen::VectorXd& z, bool jac, b
   for (std::size_t si = 0; si < P.segments.size(); ++si) {
     const Segment& sg = P.segments[si];
     const double h = sg.h;
-    if (record && si == 0) pushNode(sg.s0, sg);
+    if (record) pushNode(sg.s0, sg, true);  // after the previous breakpoint's events: both sides of a jump are kept
     for (int st = 0; st < sg.steps; ++st) {
       Eigen::Vector2d u01, u02, u03, u04;
       double* y = Y.data();

@@ -374,3 +374,30 @@ TEST(Kinematics, RobotValidationNamesTubeAndKey) {
     EXPECT_NE(m.find("bending_stiffness"), std::string::npos) << m;
   }
 }
+
+TEST(Kinematics, TubeBendingMomentsBalance) {
+  // Paper eq. 6: without external load the tubes' bending moments sum to zero at every cross section.
+  const Robot robot("three", {makeTube("a", 0.02, 0.10, 5.0, 0.04, 0.3), makeTube("b", 0.05, 0.09, 9.0, 0.02, 0.35),
+                              makeTube("c", 0.12, 0.05, 15.0, 0.006, 0.4)});
+  const Configuration q(Eigen::Vector3d(0.3, 2.0, -1.0), Eigen::Vector3d(-0.01, -0.02, -0.05));
+  Workspace ws;
+  KinematicsOptions opt;
+  opt.max_step = 2e-3;
+  const Solution s = solve(robot, q, ws, opt);
+  ASSERT_TRUE(s.converged());
+  double largest = 0;
+  for (const BackbonePoint& p : s.backbone) {  // integration nodes (both sides of every segment boundary)
+    if (p.s >= s.tipArcLength() - 1e-9) continue;
+    const Eigen::Matrix2Xd m = tubeBendingMoments(robot, q, p);
+    largest = std::max(largest, m.colwise().norm().maxCoeff());
+    EXPECT_LT(m.rowwise().sum().norm(), 1e-9) << "s = " << p.s;
+  }
+  EXPECT_GT(largest, 1e-3);  // the tubes do bend each other
+  // The concentrated moment at the end of tube 1 is tube 1's bending moment just before it.
+  for (const auto& cm : s.moments)
+    if (cm.kind == MomentKind::TubeEnd && cm.tube == 0) {
+      for (const BackbonePoint& p : s.backbone)
+        if (std::abs(p.s - cm.s) < 1e-12 && !p.segment_start)  // the s- side of the end
+          EXPECT_NEAR(tubeBendingMoments(robot, q, p).col(0).norm(), cm.magnitude, 1e-12);
+    }
+}

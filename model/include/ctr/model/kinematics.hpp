@@ -90,6 +90,7 @@ struct BackbonePoint {
   Eigen::VectorXd uz;     ///< Torsional curvature of each tube (1/m).
   Eigen::Vector2d u0 = Eigen::Vector2d::Zero();  ///< Bending curvature of the backbone (x, y) (1/m).
   int outermost = 0;      ///< Outermost tube present at s (0-based).
+  bool segment_start = false;  ///< Recorded after the events of a segment boundary (s+ side), else s- side.
 };
 
 /// @brief A concentrated bending moment: jump of a tube's bending moment at its end or curvature discontinuity.
@@ -118,7 +119,9 @@ struct Solution {
   Eigen::VectorXd twist;            ///< twist_k = theta_k(s1) - theta_1(s1), k = 2..n (size n-1).
   Eigen::Vector3d tip_position = Eigen::Vector3d::Zero();
   Eigen::Matrix3d tip_frame = Eigen::Matrix3d::Identity();
-  std::vector<BackbonePoint> backbone;       ///< At integration nodes, if recorded.
+  /// At integration nodes, if recorded. A segment boundary (tube end, curvature discontinuity) appears twice with the
+  /// same s: before and after its events (u_z and the curvature may jump there).
+  std::vector<BackbonePoint> backbone;
   std::vector<ConcentratedMoment> moments;   ///< Every tube end and curvature discontinuity at s > 0.
   std::vector<ContactResult> contacts;       ///< Contact sites with friction unknowns (empty if frictionless).
   Eigen::VectorXd contact_unknowns;          ///< Internal: scaled torques of the contacts (warm start).

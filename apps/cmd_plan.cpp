@@ -125,9 +125,10 @@ void registerPlan(CLI::App& app, Action& action) {
       std::filesystem::create_directories(b->out);
       nlohmann::json summary = nlohmann::json::array();
       std::map<std::string, nlohmann::json> per;
-      auto post = [&p, &per, &q](const ompl::base::PlannerPtr& planner, ompl::tools::Benchmark::RunProperties& run) {
+      auto post = [&p, &per](const ompl::base::PlannerPtr& planner, ompl::tools::Benchmark::RunProperties& run) {
         const bool has = run.count("solved BOOLEAN") && run["solved BOOLEAN"] == "1";
         auto& s = per[planner->getName()];
+        if (s.is_null()) s = nlohmann::json::object();
         s["runs"] = s.value("runs", 0) + 1;
         if (!has) return;
         const plan::PlanResult r = p.replaySolution(planner->getName(), std::stod(run["time REAL"]), true);
@@ -141,7 +142,6 @@ void registerPlan(CLI::App& app, Action& action) {
         s["replay_failures"] = s.value("replay_failures", 0) + (r.solved ? 0 : 1);
         s["time_sum"] = s.value("time_sum", 0.0) + std::stod(run["time REAL"]);
         s["path_length_sum"] = s.value("path_length_sum", 0.0) + r.path_length;
-        (void)q;
       };
       ompl::tools::Benchmark::Request req(b->time, 4096.0, static_cast<unsigned int>(b->runs), 0.5, true, false, false);
       std::string logfile = (std::filesystem::path(b->out) / (q.name + "_" + plan::toString(q.mode) + ".log")).string();

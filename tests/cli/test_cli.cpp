@@ -192,6 +192,26 @@ TEST(Cli, DemoPaperSweep) {
 }
 
 #ifdef CTR_TEST_PLANNER
+TEST(Cli, BenchWritesOmplLogAndReplaySummary) {
+  const fs::path out = tmp("bench");
+  fs::remove_all(out);
+  const Proc r = run("bench " + std::string(CTR_SOURCE_DIR) +
+                     "/examples/queries/proc_intracardiac.yaml --planners kpiece --runs 1 --time 5 --out " + out.string());
+  ASSERT_EQ(r.code, 0) << r.err;
+  ASSERT_TRUE(fs::exists(out / "summary.json"));
+  ASSERT_TRUE(fs::exists(out / "proc_intracardiac_exact.log"));
+  std::ifstream in(out / "summary.json");
+  const auto j = nlohmann::json::parse(in);
+  ASSERT_EQ(j.size(), 1u);
+  EXPECT_EQ(j[0]["planner"], "KPIECE1");
+  EXPECT_EQ(j[0]["runs"], 1);
+  EXPECT_EQ(j[0]["replay_failures"], 0);
+  const Proc bad = run("bench " + std::string(CTR_SOURCE_DIR) +
+                       "/examples/queries/proc_intracardiac.yaml --planners astar --runs 1 --time 1 --out " + out.string());
+  EXPECT_EQ(bad.code, 2);
+  EXPECT_NE(bad.err.find("astar"), std::string::npos) << bad.err;
+}
+
 TEST(Cli, DemoPlansTheEmbeddedDefaultAndWritesThePath) {
   const fs::path f = tmp("demo_path.csv");
   fs::remove(f);

@@ -32,7 +32,6 @@ struct ContextOptions {
   /// is also valid when replayed (every replayed state is a checked state).
   double rotation_resolution = 0.0087;
   double translation_resolution = 5e-4;    ///< Motion checking step in translation (m).
-  int band_interior_samples = 0;           ///< Friction band samples between the vertices (robust mode).
   double min_protrusion = 1e-3;            ///< Innermost tube at least this far out of the actuation unit (m).
   FrictionOptions friction;                ///< Stepping options (sub-steps, paper / stick-slip).
 };

@@ -45,7 +45,9 @@ void BM_ValidityAlongMotion(benchmark::State& st) {
   plan::ConfigurationCheck prev = plan::checkFrictionless(*ctx, q, plan::scratch());
   int k = 0;
   for (auto _ : st) {
-    q.alpha[(k++) % q.size()] += ((k / 200) % 2 ? -1 : 1) * 0.0087;  // 0.5 deg steps, as the motion validator
+    const int i = k % q.size();
+    q.alpha[i] += ((k / 200) % 2 ? -1 : 1) * 0.0087;  // 0.5 deg steps, as the motion validator
+    ++k;
     prev = plan::checkFrictionless(*ctx, q, plan::scratch(), prev.shape.converged() ? &prev.shape : nullptr);
   }
   st.counters["checks/s"] = benchmark::Counter(static_cast<double>(st.iterations()), benchmark::Counter::kIsRate);

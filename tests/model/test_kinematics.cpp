@@ -394,10 +394,12 @@ TEST(Kinematics, TubeBendingMomentsBalance) {
   }
   EXPECT_GT(largest, 1e-3);  // the tubes do bend each other
   // The concentrated moment at the end of tube 1 is tube 1's bending moment just before it.
-  for (const auto& cm : s.moments)
-    if (cm.kind == MomentKind::TubeEnd && cm.tube == 0) {
-      for (const BackbonePoint& p : s.backbone)
-        if (std::abs(p.s - cm.s) < 1e-12 && !p.segment_start)  // the s- side of the end
-          EXPECT_NEAR(tubeBendingMoments(robot, q, p).col(0).norm(), cm.magnitude, 1e-12);
+  for (const auto& cm : s.moments) {
+    if (cm.kind != MomentKind::TubeEnd || cm.tube != 0) continue;
+    for (const BackbonePoint& p : s.backbone) {
+      if (std::abs(p.s - cm.s) < 1e-12 && !p.segment_start) {  // the s- side of the end
+        EXPECT_NEAR(tubeBendingMoments(robot, q, p).col(0).norm(), cm.magnitude, 1e-12);
+      }
     }
+  }
 }

@@ -10,6 +10,7 @@
 #include <sstream>
 #include <stdexcept>
 
+#include "se3_step.hpp"
 #include "workspace_impl.hpp"
 
 namespace ctr {
@@ -152,21 +153,6 @@ bool stage(Model& M, const Segment& sg, const Eigen::VectorXd& th, const Eigen::
   return ok;
 }
 
-inline void se3Step(Eigen::Matrix3d& R, Eigen::Vector3d& p, const Eigen::Vector2d& w, double a) {
-  const double th = w.norm();
-  Eigen::Matrix3d W;
-  W << 0, 0, w.y(), 0, 0, -w.x(), -w.y(), w.x(), 0;
-  double A = 1, B = 0.5, C = 1.0 / 6;
-  if (th > 1e-8) {
-    A = std::sin(th) / th;
-    B = (1 - std::cos(th)) / (th * th);
-    C = (th - std::sin(th)) / (th * th * th);
-  }
-  const Eigen::Matrix3d W2 = W * W;
-  p += R * (a * (Eigen::Vector3d::UnitZ() + B * W.col(2) + C * W2.col(2)));
-  R = R * (Eigen::Matrix3d::Identity() + A * W + B * W2);
-}
-
 struct Pass {
   Eigen::VectorXd r;  // residuals: u_iz(end_i), n_iz(end_i)
   Eigen::VectorXd twist;
@@ -247,8 +233,8 @@ void integrate(Model& M, const Eigen::VectorXd& z, bool record, Pass& out) {
       th += h / 6 * (d1t + 2 * d2t + 2 * d3t + d4t);
       uz += h / 6 * (d1u + 2 * d2u + 2 * d3u + d4u);
       nz += h / 6 * (d1n + 2 * d2n + 2 * d3n + d4n);
-      se3Step(out.R, out.p, h / 12 * (3 * k1.u0 + 2 * k2.u0 + 2 * k3.u0 - k4.u0), 0.5 * h);
-      se3Step(out.R, out.p, h / 12 * (-k1.u0 + 2 * k2.u0 + 2 * k3.u0 + 3 * k4.u0), 0.5 * h);
+      detail::se3Step(out.R, out.p, h / 12 * (3 * k1.u0 + 2 * k2.u0 + 2 * k3.u0 - k4.u0), 0.5 * h);
+      detail::se3Step(out.R, out.p, h / 12 * (-k1.u0 + 2 * k2.u0 + 2 * k3.u0 + 3 * k4.u0), 0.5 * h);
     }
     const detail::Breakpoint& bp = P.breakpoints[si];
     if (bp.twist_point)

@@ -15,6 +15,7 @@
 #include <sstream>
 #include <stdexcept>
 
+#include "se3_step.hpp"
 #include "workspace_impl.hpp"
 
 namespace ctr {
@@ -248,30 +249,6 @@ void Evaluator::deriv(const Segment& sg, const double* Yin, double* dY, bool sen
 
 namespace {
 
-// (R, p) <- (R, p) * exp(xi) with body twist xi = (w = (wx, wy, 0), v = (0, 0, a)).
-inline void se3Step(Eigen::Matrix3d& R, Eigen::Vector3d& p, const Eigen::Vector2d& w, double a) {
-  const double th2 = w.squaredNorm();
-  double A, B, C;  // sin(t)/t, (1-cos t)/t^2, (t - sin t)/t^3
-  if (th2 < 1e-8) {
-    A = 1.0 - th2 / 6.0 * (1.0 - th2 / 20.0);
-    B = 0.5 - th2 / 24.0 * (1.0 - th2 / 30.0);
-    C = 1.0 / 6.0 - th2 / 120.0 * (1.0 - th2 / 42.0);
-  } else {
-    const double th = std::sqrt(th2);
-    A = std::sin(th) / th;
-    B = (1.0 - std::cos(th)) / th2;
-    C = (th - std::sin(th)) / (th2 * th);
-  }
-  Eigen::Matrix3d W;
-  W << 0, 0, w.y(), 0, 0, -w.x(), -w.y(), w.x(), 0;
-  const Eigen::Matrix3d W2 = W * W;
-  const Eigen::Matrix3d E = Eigen::Matrix3d::Identity() + A * W + B * W2;
-  // V e_z a, with V = I + B W + C W^2.
-  const Eigen::Vector3d t = a * (Eigen::Vector3d::UnitZ() + B * W.col(2) + C * W2.col(2));
-  p += R * t;
-  R = R * E;
-}
-
 void orthonormalize(Eigen::Matrix3d& R) {
   Eigen::Vector3d z = R.col(2).normalized();
   Eigen::Vector3d x = (R.col(0) - z * z.dot(R.col(0))).normalized();
@@ -393,8 +370,8 @@ void Evaluator::evaluate(const Problem& P, const Eigen::VectorXd& z, bool jac, b
       // (exact for constant curvature, stays on SO(3)).
       const Eigen::Vector2d w1 = h / 12.0 * (3.0 * u01 + 2.0 * u02 + 2.0 * u03 - u04);
       const Eigen::Vector2d w2 = h / 12.0 * (-u01 + 2.0 * u02 + 2.0 * u03 + 3.0 * u04);
-      se3Step(R, p, w1, 0.5 * h);
-      se3Step(R, p, w2, 0.5 * h);
+      detail::se3Step(R, p, w1, 0.5 * h);
+      detail::se3Step(R, p, w2, 0.5 * h);
       if (record && st + 1 < sg.steps) pushNode(sg.s0 + (st + 1) * h, sg);
     }
     orthonormalize(R);

@@ -1,6 +1,8 @@
 // Evidence for the lumped stick-slip friction model (paper §II.D) and its hysteresis state.
 #include <gtest/gtest.h>
 
+#include "tube_factory.hpp"
+
 #include <cmath>
 #include <random>
 
@@ -10,16 +12,7 @@ using namespace ctr;
 
 namespace {
 
-Tube makeTube(const std::string& name, double ls, double lc, double kappa, double kb, double nu) {
-  Tube t;
-  t.name = name;
-  t.straight_length = ls;
-  t.curved_length = lc;
-  t.curvature = kappa;
-  t.bending_stiffness = kb;
-  t.torsional_stiffness = kb / (1.0 + nu);
-  return t;
-}
+using test::makeTube;
 
 // Tube pair B of Lock & Dupont 2011 (150 mm curved length assumed), beta = -18 mm.
 Robot pairB(double mu) {

@@ -2,6 +2,8 @@
 // solve, invariants, convergence under refinement and the snapping bifurcation.
 #include <gtest/gtest.h>
 
+#include "tube_factory.hpp"
+
 #include <Eigen/Geometry>
 #include <cmath>
 #include <functional>
@@ -13,17 +15,7 @@ using namespace ctr;
 
 namespace {
 
-Tube makeTube(const std::string& name, double ls, double lc, double kappa, double kb, double nu) {
-  Tube t;
-  t.name = name;
-  t.straight_length = ls;
-  t.curved_length = lc;
-  t.curvature = kappa;
-  t.bending_stiffness = kb;
-  t.torsional_stiffness = kb / (1.0 + nu);
-  t.poisson_ratio = nu;
-  return t;
-}
+using test::makeTube;
 
 // Independent solution of alpha'' = c sin(alpha), alpha(0) = a0, alpha'(L) = 0 by scalar shooting (secant on
 // alpha'(0), fine RK4 of the scalar second-order ODE).

@@ -11,6 +11,28 @@ namespace ctr::diagnosis::stats {
 
 double normalSf(double z) { return 0.5 * std::erfc(z / std::sqrt(2.0)); }
 
+namespace {
+
+// Upper regularised incomplete gamma Q(a, x) by its continued fraction (Lentz), valid for x >= a + 1.
+double gammaQContinuedFraction(double a, double x, double gln) {
+  double b = x + 1.0 - a, c = 1.0 / 1e-300, d = 1.0 / b, h = d;
+  for (int i = 1; i < 1000; ++i) {
+    const double an = -i * (i - a);
+    b += 2.0;
+    d = an * d + b;
+    if (std::abs(d) < 1e-300) d = 1e-300;
+    c = b + an / c;
+    if (std::abs(c) < 1e-300) c = 1e-300;
+    d = 1.0 / d;
+    const double del = d * c;
+    h *= del;
+    if (std::abs(del - 1.0) < 1e-15) break;
+  }
+  return std::exp(-x + a * std::log(x) - gln) * h;
+}
+
+}  // namespace
+
 double gammaP(double a, double x) {
   if (!(x > 0)) return 0.0;
   if (!(a > 0)) return 1.0;
@@ -25,21 +47,7 @@ double gammaP(double a, double x) {
     }
     return std::min(1.0, sum * std::exp(-x + a * std::log(x) - gln));
   }
-  // Continued fraction for Q.
-  double b = x + 1.0 - a, c = 1.0 / 1e-300, d = 1.0 / b, h = d;
-  for (int i = 1; i < 1000; ++i) {
-    const double an = -i * (i - a);
-    b += 2.0;
-    d = an * d + b;
-    if (std::abs(d) < 1e-300) d = 1e-300;
-    c = b + an / c;
-    if (std::abs(c) < 1e-300) c = 1e-300;
-    d = 1.0 / d;
-    const double del = d * c;
-    h *= del;
-    if (std::abs(del - 1.0) < 1e-15) break;
-  }
-  return std::max(0.0, 1.0 - std::exp(-x + a * std::log(x) - gln) * h);
+  return std::max(0.0, 1.0 - gammaQContinuedFraction(a, x, gln));
 }
 
 double chiSquareSf(double x, double k) {
@@ -48,21 +56,7 @@ double chiSquareSf(double x, double k) {
   // Q = 1 - P computed directly where P ~ 1 to keep tiny p-values.
   const double a = 0.5 * k, xx = 0.5 * x;
   if (xx < a + 1.0) return std::max(0.0, 1.0 - gammaP(a, xx));
-  const double gln = std::lgamma(a);
-  double b = xx + 1.0 - a, c = 1.0 / 1e-300, d = 1.0 / b, h = d;
-  for (int i = 1; i < 1000; ++i) {
-    const double an = -i * (i - a);
-    b += 2.0;
-    d = an * d + b;
-    if (std::abs(d) < 1e-300) d = 1e-300;
-    c = b + an / c;
-    if (std::abs(c) < 1e-300) c = 1e-300;
-    d = 1.0 / d;
-    const double del = d * c;
-    h *= del;
-    if (std::abs(del - 1.0) < 1e-15) break;
-  }
-  return std::exp(-xx + a * std::log(xx) - gln) * h;
+  return gammaQContinuedFraction(a, xx, std::lgamma(a));
 }
 
 namespace {

@@ -105,9 +105,37 @@ Prediction predict(const Robot& nominal, const std::vector<Configuration>& comma
     }
   };
   if (friction) {
-    const std::vector<StepResult> r = replay(robot, p.actuation, ws, options.friction);
-    for (int k = 0; k < rows && k < static_cast<int>(r.size()); ++k) store(k, r[static_cast<std::size_t>(k)].solution);
-    for (int k = static_cast<int>(r.size()); k < rows; ++k) store(k, Solution{});
+    // Same semantics as ctr::replay(), with a coarse pass per row and the fine sub-steps as fallback.
+    FrictionOptions coarse = options.friction;
+    const bool try_coarse = options.coarse_rotation_step > options.friction.max_rotation_step;
+    coarse.max_rotation_step = std::max(options.coarse_rotation_step, options.friction.max_rotation_step);
+    // A snap is a twist jump much larger than the commanded sub-step: scale the detector with the sub-step (at most
+    // 2 rad, below the ~pi jump of a real snap); a flagged coarse row is replayed with the fine sub-steps.
+    coarse.snap_threshold = std::min(2.0, options.friction.snap_threshold * coarse.max_rotation_step /
+                                              std::max(options.friction.max_rotation_step, 1e-9));
+    StepResult last = initialState(robot, p.actuation[0], ws, options.friction);
+    store(0, last.solution);
+    for (int k = 1; k < rows; ++k) {
+      const Configuration& q = p.actuation[static_cast<std::size_t>(k)];
+      if (!last.state.valid) {
+        last = initialState(robot, q, ws, options.friction);  // restart after a failure (reported per row)
+      } else {
+        StepResult r;
+        bool done = false;
+        // Coarse sub-steps reproduce the fine replay exactly only for a rotation-only row with at most one
+        // friction site (the end state is then slip at the target or stick from the start); with several sites
+        // or a translation the return mapping is path dependent and the fine sub-steps are the model.
+        const Configuration& from = p.actuation[static_cast<std::size_t>(k - 1)];
+        if (try_coarse && q.beta == from.beta && contactSites(robot, q).size() <= 1 &&
+            contactSites(robot, from).size() <= 1) {
+          r = step(robot, last.state, q, ws, coarse);
+          done = r.summary.converged && !r.summary.snapped && r.summary.substeps > 0;
+        }
+        if (!done) r = step(robot, last.state, q, ws, options.friction);
+        last = std::move(r);
+      }
+      store(k, last.solution);
+    }
   } else {
     Solution prev;
     bool have_prev = false;

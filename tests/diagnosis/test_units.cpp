@@ -141,3 +141,68 @@ TEST(Diagnose, NullSweepGivesEmptyVerdictAndJson) {
   EXPECT_NE(plotDataJson(rep, rec).find("residual_bins"), std::string::npos);
   EXPECT_NEAR(rep.noise.twist, s.twist_sd, 0.4 * s.twist_sd);
 }
+
+// The replay tries coarse sub-steps per row and falls back to the fine ones; sub-steps only carry the branch, so
+// both must give the same outputs (the stick-slip state at a row's end does not depend on the sub-steps).
+TEST(ForwardModel, CoarsePassEqualsFineReplay) {
+  struct Case {
+    std::string robot;
+    ActuationPattern pattern;
+    bool translate;
+    std::vector<Effect> effects;
+    int rows;
+  };
+  const std::vector<Case> cases = {
+      {"tube_pair_B", ActuationPattern::Random, false, {{EffectKind::BoundaryFriction, 0, 0.12}}, 80},
+      {"tube_pair_B", ActuationPattern::Sweep, false, {{EffectKind::BoundaryFriction, 0, 0.3}}, 0},
+      {"tube_pair_A", ActuationPattern::RandomWalk, false, {{EffectKind::BoundaryFriction, 0, 0.2}}, 80},
+      {"dupont_lab_3tube", ActuationPattern::Random, true, {{EffectKind::BoundaryFriction, 0, 0.1}}, 60},
+      {"three_tube_generic", ActuationPattern::RandomWalk, true, {{EffectKind::BoundaryFriction, 0, 0.15}}, 60},
+      {"tube_pair_B", ActuationPattern::Random, false, {{EffectKind::DistributedFriction, 0, 0.3}}, 12},
+  };
+  for (const Case& c : cases) {
+    const Robot r = io::loadRobot(std::string(CTR_SOURCE_DIR) + "/examples/robots/" + c.robot + ".yaml");
+    ActuationOptions ao;
+    ao.pattern = c.pattern;
+    ao.rows = c.rows;
+    ao.translate = c.translate;
+    ao.seed = 7;
+    std::vector<Configuration> cmd;
+    Eigen::VectorXd time;
+    makeActuation(r, ao, cmd, time);
+    Workspace ws;
+    PredictOptions coarse, fine;
+    fine.coarse_rotation_step = 0.0;
+    const Prediction a = predict(r, cmd, time, c.effects, ws, coarse);
+    const Prediction b = predict(r, cmd, time, c.effects, ws, fine);
+    SCOPED_TRACE(c.robot + " " + effectName(c.effects[0].kind));
+    ASSERT_EQ(a.failures, b.failures);
+    EXPECT_EQ(a.failures, 0);
+    EXPECT_LT((a.tip_position - b.tip_position).cwiseAbs().maxCoeff(), 1e-8);
+    EXPECT_LT((a.tip_tangent - b.tip_tangent).cwiseAbs().maxCoeff(), 1e-8);
+    if (a.twist.size()) {
+      EXPECT_LT((a.twist - b.twist).cwiseAbs().maxCoeff(), 1e-8);
+    }
+  }
+}
+
+// Found by fuzz_import: a mapping named alpha_<not a number> escaped from importTableText as std::invalid_argument
+// (std::stoi) when the tube count is inferred.
+TEST(Import, BadAlphaMappingNamesAreInputErrors) {
+  for (const char* name : {"alpha_x", "alpha_", "alpha_99999999999", "alpha_1e3"}) {
+    SCOPED_TRACE(name);
+    ImportOptions o;
+    o.columns[name] = {1, 1.0, 0.0};
+    o.columns["beta_1"] = {2, 1.0, 0.0};
+    o.columns["twist_2"] = {3, 1.0, 0.0};
+    EXPECT_THROW(importTableText("1 2 3\n", "t", o), io::InputError);
+  }
+}
+
+// Found by fuzz_import (UBSan): a column number beyond int (2888888888) was cast to int.
+TEST(Import, HugeColumnNumbersAreRejected) {
+  EXPECT_THROW(parseColumnMapping("alpha_2=2888888888"), std::invalid_argument);
+  EXPECT_THROW(parseColumnMapping("alpha_2=1e300"), std::invalid_argument);
+  EXPECT_THROW(parseColumnMapping("alpha_2=0"), std::invalid_argument);
+  EXPECT_EQ(parseColumnMapping("alpha_2=1000000").second.column, 1000000);
+}

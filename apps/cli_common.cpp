@@ -2,6 +2,7 @@
 
 #include <cctype>
 #include <cmath>
+#include <filesystem>
 #include <sstream>
 
 namespace ctr::cli {
@@ -98,6 +99,28 @@ std::vector<std::string> normalizeArguments(int argc, char** argv) {
     out.push_back(a);
   }
   return out;
+}
+
+void checkOutputPath(const std::string& option, const std::string& path,
+                     const std::vector<std::pair<std::string, std::string>>& inputs) {
+  namespace fs = std::filesystem;
+  if (path.empty()) return;
+  const fs::path p(path);
+  std::error_code ec;
+  if (fs::is_directory(p, ec)) throw UsageError(option + ": '" + path + "' is a directory, not a file name");
+  if (!p.has_filename()) throw UsageError(option + ": '" + path + "' is not a file name (ends with a separator)");
+  const fs::path folder = p.has_parent_path() ? p.parent_path() : fs::path(".");
+  if (!fs::is_directory(folder, ec))
+    throw UsageError(option + ": cannot write '" + path + "': the folder '" + folder.string() + "' does not exist");
+  for (const auto& [in_option, in_path] : inputs) {
+    if (in_path.empty()) continue;
+    const bool same = fs::exists(p, ec) && fs::exists(in_path, ec) ? fs::equivalent(p, in_path, ec)
+                                                                     : fs::absolute(p, ec).lexically_normal() ==
+                                                                           fs::absolute(in_path, ec).lexically_normal();
+    if (same)
+      throw UsageError(option + ": '" + path + "' is the input file of " + in_option +
+                       "; refusing to overwrite an input (choose another output file)");
+  }
 }
 
 }  // namespace ctr::cli

@@ -43,6 +43,12 @@ Configuration defaultConfiguration(const Robot& robot);
 /// argv with negative-number values joined to their option ("--beta -0.01,-0.02" -> "--beta=-0.01,-0.02").
 std::vector<std::string> normalizeArguments(int argc, char** argv);
 
+/// Checks an output path before any work is done (exit code 2 instead of a late failure or a clobbered input):
+/// not empty, not an existing directory, its folder exists, and it is none of the `inputs` (option, path) pairs.
+/// Empty `path` (output not requested) is accepted. `option` names the output option in the message.
+void checkOutputPath(const std::string& option, const std::string& path,
+                     const std::vector<std::pair<std::string, std::string>>& inputs = {});
+
 }  // namespace ctr::cli
 
 #include "ctr/model/friction.hpp"

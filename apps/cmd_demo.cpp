@@ -62,6 +62,7 @@ void registerDemo(CLI::App& app, Action& action) {
   sub->callback([o, &action]() {
     action = [o]() {
 #ifdef CTR_WITH_PLANNER
+      if (!o->paper) checkOutputPath("--path", o->path);
       if (!o->paper) return planningDemo(o->path);
 #endif
       return paperSweep(o->mu);

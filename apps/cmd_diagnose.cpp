@@ -6,12 +6,13 @@
 #include "ctr/diagnosis/diagnose.hpp"
 #include "ctr/io/recording.hpp"
 #include "ctr/io/robot_yaml.hpp"
+#include "html_report.hpp"
 
 namespace ctr::cli {
 
 void registerDiagnose(CLI::App& app, Action& action) {
   struct Opts {
-    std::string robot, recording, frame = "base", json, report, plot, candidates;
+    std::string robot, recording, frame = "base", json, report, plot, candidates, html;
     int folds = 4, threads = 2, max_effects = 3;
     double bic_threshold = 10.0;
     bool quiet = false;
@@ -27,6 +28,7 @@ void registerDiagnose(CLI::App& app, Action& action) {
   sub->add_option("--json", o->json, "Diagnosis JSON to write (formats.md)")->required();
   sub->add_option("--report", o->report, "Plain-language Markdown report to write");
   sub->add_option("--plot-data", o->plot, "Plot data JSON to write (measured/nominal/fitted curves, binned residuals)");
+  sub->add_option("--html", o->html, "Self-contained HTML report to write (plots, candidates; docs/reports.md)");
   sub->add_option("--candidates", o->candidates, "Comma-separated effect names to try (default: all)");
   sub->add_option("--folds", o->folds, "Contiguous held-out blocks")->check(CLI::Range(2, 20));
   sub->add_option("--threads", o->threads, "Candidates fitted in parallel")->check(CLI::Range(1, 64));
@@ -35,9 +37,16 @@ void registerDiagnose(CLI::App& app, Action& action) {
   sub->add_flag("--quiet", o->quiet, "No progress on stderr");
   sub->callback([o, &action]() {
     action = [o]() {
+      requireHtmlReports(o->html);
+      for (const auto& [opt, path] : {std::pair<std::string, std::string>{"--json", o->json}, {"--report", o->report},
+                                      {"--plot-data", o->plot}, {"--html", o->html}})
+        checkOutputPath(opt, path, {{"--robot", o->robot}, {"--recording", o->recording}});
       const Robot robot = io::loadRobot(o->robot);
       const io::Recording rec = io::loadRecording(o->recording, robot.size(), true);
       for (const auto& w : rec.warnings) std::cerr << "warning: " << o->recording << ": " << w << "\n";
+      if (rec.rows() < 8)  // diagnosis::diagnose needs 8 rows (held-out blocks); say which file is too short
+        throw io::InputError(o->recording, 0, "", "the recording has " + std::to_string(rec.rows()) +
+                                                      " data row(s); the diagnosis needs at least 8");
       diagnosis::DiagnoseOptions d;
       d.frame = o->frame == "unknown" ? diagnosis::FrameMode::Unknown : diagnosis::FrameMode::Base;
       d.folds = o->folds;
@@ -60,6 +69,10 @@ void registerDiagnose(CLI::App& app, Action& action) {
       io::writeFileAtomic(o->json, diagnosis::reportToJson(rep));
       if (!o->report.empty()) io::writeFileAtomic(o->report, diagnosis::reportToMarkdown(rep, rec));
       if (!o->plot.empty()) io::writeFileAtomic(o->plot, diagnosis::plotDataJson(rep, rec));
+#ifdef CTR_WITH_REPORTS
+      if (!o->html.empty())
+        reports::writeHtml(o->html, reports::diagnosisHtml(rep, rec, "Diagnosis: " + o->recording));
+#endif
       std::cout << "verdict: [";
       for (std::size_t k = 0; k < rep.verdict.size(); ++k) std::cout << (k ? ", " : "") << rep.verdict[k];
       std::cout << "]\n" << rep.summary << "\n";

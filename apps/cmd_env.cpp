@@ -185,6 +185,7 @@ void registerEnv(CLI::App& app, Action& action) {
         const bool ok_ext = (path.size() > 3 && (path.compare(path.size() - 3, 3, ".bt") == 0 ||
                                                   path.compare(path.size() - 3, 3, ".ot") == 0));
         if (!ok_ext) throw UsageError("-o: the output must end in .bt or .ot");
+        checkOutputPath("-o", path, {{"ENV", o->file}});
         const env::Environment e = buildFrom(*o);
         e.write(path);  // atomic: OUT.tmp + rename
         const env::OccupancyStats st = e.stats();

@@ -28,6 +28,7 @@ void registerFk(CLI::App& app, Action& action) {
   sub->add_option("--shape-step", o->ds, "Backbone resolution for --shape (m)")->check(CLI::PositiveNumber);
   sub->callback([o, &action]() {
     action = [o]() {
+      checkOutputPath("--shape", o->shape, {{"--robot", o->robot}});
       const Robot robot = io::loadRobot(o->robot);
       const Configuration q = o->config.resolve(robot);
       Workspace ws;

@@ -9,6 +9,7 @@
 #include "commands.hpp"
 #include "ctr/io/recording.hpp"
 #include "ctr/planner/planner.hpp"
+#include "html_report.hpp"
 #include "output.hpp"
 
 namespace ctr::cli {
@@ -56,7 +57,7 @@ void checkStart(const plan::CtrPlanner& p) {
 
 void registerPlan(CLI::App& app, Action& action) {
   struct Opts {
-    std::string query, json, path, planner, mode;
+    std::string query, json, path, planner, mode, html;
     double time = 0;
     long seed = -1;
   };
@@ -65,12 +66,17 @@ void registerPlan(CLI::App& app, Action& action) {
   sub->add_option("query", o->query, "Query YAML (docs/planning.md)")->required();
   sub->add_option("--json", o->json, "Write the result as JSON");
   sub->add_option("--path", o->path, "Write the replayed path CSV (recording columns + hysteresis state)");
+  sub->add_option("--html", o->html, "Write the interactive 3D viewer of the replayed path (self-contained HTML)");
   sub->add_option("--planner", o->planner, "Override the query's planner");
   sub->add_option("--mode", o->mode, "Override the mode: exact, robust, frictionless");
   sub->add_option("--time", o->time, "Override the time limit (s)")->check(CLI::PositiveNumber);
   sub->add_option("--seed", o->seed, "Override the seed")->check(CLI::NonNegativeNumber);
   sub->callback([o, &action]() {
     action = [o]() {
+      checkOutputPath("--json", o->json, {{"query", o->query}});
+      checkOutputPath("--path", o->path, {{"query", o->query}, {"--json", o->json}});
+      requireHtmlReports(o->html);
+      checkOutputPath("--html", o->html, {{"query", o->query}, {"--json", o->json}, {"--path", o->path}});
       plan::Query q = plan::loadQuery(o->query);
       if (!o->mode.empty()) q.mode = plan::parseMode(o->mode);
       if (!o->planner.empty()) q.planner = o->planner;
@@ -87,6 +93,21 @@ void registerPlan(CLI::App& app, Action& action) {
       if (!o->json.empty()) io::writeFileAtomic(o->json, j.dump(2) + "\n");
       if (!o->path.empty() && !r.replay.points.empty())
         io::writeFileAtomic(o->path, plan::replayCsv(p.context()->robot(), r.replay));
+#ifdef CTR_WITH_REPORTS
+      if (!o->html.empty()) {
+        std::vector<Configuration> wps;
+        for (const auto& pt : r.replay.points) wps.push_back(pt.q);
+        if (wps.empty()) wps = r.path;
+        if (wps.empty()) wps.push_back(q.start);
+        reports::PlanningViewOptions vo;
+        vo.title = "Plan: " + q.name + " (" + plan::toString(q.mode) + ")";
+        vo.info_json = j.dump();
+        const auto start = plan::startCache(*p.context(), q.start, q.history);
+        if (start && start->physics_ok) vo.start = start->hysteresis;
+        reports::writeHtml(o->html, reports::planningHtml(*p.context(), wps, viewGoal(q), vo));
+        std::cerr << "wrote " << o->html << "\n";
+      }
+#endif
       if (!r.solved) {
         std::cerr << "not solved: " << r.message << "\n";
         return static_cast<int>(kRuntimeFailure);
@@ -109,6 +130,11 @@ void registerPlan(CLI::App& app, Action& action) {
   bs->add_option("--out", b->out, "Output folder (OMPL .log + summary.json)")->required();
   bs->callback([b, &action]() {
     action = [b]() {
+      {
+        std::error_code ec;
+        if (std::filesystem::exists(b->out, ec) && !std::filesystem::is_directory(b->out, ec))
+          throw UsageError("--out: '" + b->out + "' exists and is not a folder");
+      }
       plan::Query q = plan::loadQuery(b->query);
       plan::CtrPlanner p(q);
       checkStart(p);

@@ -38,6 +38,7 @@ void registerImport(CLI::App* parent, Action& action) {
   sub->add_option("--delimiter", o->delimiter, "Column delimiter (default: whitespace or comma, detected)");
   sub->callback([o, &action]() {
     action = [o]() {
+      checkOutputPath("--out", o->out, {{"--input", o->input}});
       diagnosis::ImportOptions io = o->format == "dupont-lab" ? diagnosis::dupontLabImportOptions() : diagnosis::ImportOptions{};
       for (const auto& c : o->columns) {
         try {
@@ -99,6 +100,8 @@ void registerInject(CLI::App* parent, Action& action) {
   sub->add_option("--truth", o->truth, "Truth JSON to write (verdict + parameters)");
   sub->callback([o, &action]() {
     action = [o]() {
+      checkOutputPath("--out", o->out, {{"--robot", o->robot}, {"--actuation", o->actuation}});
+      checkOutputPath("--truth", o->truth, {{"--robot", o->robot}, {"--actuation", o->actuation}, {"--out", o->out}});
       const Robot robot = io::loadRobot(o->robot);
       std::vector<diagnosis::Effect> effects;
       for (const auto& e : o->effects) {

@@ -23,6 +23,7 @@ void registerSimulate(CLI::App& app, Action& action) {
   o->friction.add(sub);
   sub->callback([o, &action]() {
     action = [o]() {
+      checkOutputPath("--out", o->out, {{"--robot", o->robot}, {"--actuation", o->actuation}});
       const Robot robot = o->friction.apply(io::loadRobot(o->robot));
       const io::Recording act = io::loadRecording(o->actuation, robot.size(), false);
       for (int r = 0; r < act.rows(); ++r) {

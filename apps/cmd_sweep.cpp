@@ -7,13 +7,14 @@
 #include "ctr/io/recording.hpp"
 #include "ctr/io/robot_yaml.hpp"
 #include "ctr/model/friction.hpp"
+#include "html_report.hpp"
 #include "output.hpp"
 
 namespace ctr::cli {
 
 void registerSweep(CLI::App& app, Action& action) {
   struct Opts {
-    std::string robot, csv, from, to, step;
+    std::string robot, csv, from, to, step, html;
     int tube = 2;
     bool both = false;
     ConfigOptions config;
@@ -28,10 +29,14 @@ void registerSweep(CLI::App& app, Action& action) {
   sub->add_option("--step", o->step, "Angle step (rad, or e.g. 10deg)")->required();
   sub->add_flag("--both-directions", o->both, "Sweep back to the start afterwards");
   sub->add_option("--csv", o->csv, "Write the rows to this CSV (default: standard output)");
+  sub->add_option("--html", o->html, "Self-contained HTML plots to write (twist, tip, friction band, stability)");
   o->config.add(sub);
   o->friction.add(sub);
   sub->callback([o, &action]() {
     action = [o]() {
+      requireHtmlReports(o->html);
+      checkOutputPath("--csv", o->csv, {{"--robot", o->robot}});
+      checkOutputPath("--html", o->html, {{"--robot", o->robot}, {"--csv", o->csv}});
       const Robot robot = o->friction.apply(io::loadRobot(o->robot));
       const int n = robot.size();
       if (o->tube < 1 || o->tube > n)
@@ -68,6 +73,15 @@ void registerSweep(CLI::App& app, Action& action) {
       csv << "tip_x,tip_y,tip_z,tip_tx,tip_ty,tip_tz,direction,stable,converged,snapped\n";
       StepResult cur = initialState(robot, q, ws, fo);
       int failures = 0;
+#ifdef CTR_WITH_REPORTS
+      reports::SweepPlot plot;
+      plot.robot = robot.name();
+      plot.tube = o->tube;
+      plot.tubes = n;
+      plot.boundary_friction = robot.friction().boundary;
+      plot.distributed_friction = robot.friction().distributed;
+      plot.friction_mode = o->friction.mode;
+#endif
       for (std::size_t k = 0; k < angles.size(); ++k) {
         if (k > 0) {
           q.alpha[K] = angles[k];
@@ -88,6 +102,20 @@ void registerSweep(CLI::App& app, Action& action) {
         for (int d = 0; d < 3; ++d) csv << (ok ? num(t[d]) : "") << ',';
         csv << dirs[k] << ',' << (s.summary.stable ? 1 : 0) << ',' << (ok ? 1 : 0) << ','
             << (cur.summary.snapped ? 1 : 0) << '\n';
+#ifdef CTR_WITH_REPORTS
+        if (!o->html.empty()) {
+          reports::SweepRow row;
+          row.angle = angles[k];
+          row.direction = dirs[k];
+          row.converged = ok;
+          row.stable = s.summary.stable;
+          row.snapped = cur.summary.snapped;
+          row.stability = s.summary.stability;
+          if (ok) row.twist.assign(s.twist.data(), s.twist.data() + s.twist.size());
+          for (int d = 0; d < 3; ++d) row.tip[static_cast<std::size_t>(d)] = s.tip_position[d];
+          plot.rows.push_back(row);
+        }
+#endif
       }
       if (o->csv.empty()) {
         std::cout << csv.str();
@@ -95,6 +123,34 @@ void registerSweep(CLI::App& app, Action& action) {
         io::writeFileAtomic(o->csv, csv.str());
         std::cerr << "wrote " << angles.size() << " rows to " << o->csv << "\n";
       }
+#ifdef CTR_WITH_REPORTS
+      if (!o->html.empty()) {
+        // Friction band at up to 73 angles of the first pass (every equilibrium reachable under some history).
+        if (robot.friction().boundary > 0) {
+          const std::size_t first = o->both ? (angles.size() + 1) / 2 : angles.size();
+          const std::size_t every = std::max<std::size_t>(1, (first + 71) / 72);
+          Configuration qb = o->config.resolve(robot);
+          std::vector<std::size_t> picks;
+          for (std::size_t k = 0; k < first; k += every) picks.push_back(k);
+          if (picks.back() + 1 != first) picks.push_back(first - 1);
+          for (std::size_t k : picks) {
+            qb.alpha[K] = angles[k];
+            const FrictionBand fb = frictionBand(robot, qb, ws);
+            if (fb.converged) {
+              reports::SweepBand b;
+              b.angle = angles[k];
+              b.twist_min.assign(fb.twist_min.data(), fb.twist_min.data() + fb.twist_min.size());
+              b.twist_max.assign(fb.twist_max.data(), fb.twist_max.data() + fb.twist_max.size());
+              b.tip_spread = fb.tip_spread;
+              plot.band.push_back(b);
+            }
+          }
+        }
+        const std::string title = "Sweep of tube " + std::to_string(o->tube) + ": " + robot.name();
+        reports::writeHtml(o->html, reports::sweepHtml(plot, title));
+        std::cerr << "wrote " << o->html << "\n";
+      }
+#endif
       if (failures) {
         std::cerr << "error: " << failures << " of " << angles.size()
                   << " steps did not converge (their measurement cells are empty)\n";

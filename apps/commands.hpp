@@ -19,5 +19,8 @@ void registerRecording(CLI::App& app, Action& action);
 #ifdef CTR_WITH_PLANNER
 void registerPlan(CLI::App& app, Action& action);
 #endif
+#ifdef CTR_WITH_VIEW
+void registerView(CLI::App& app, Action& action);
+#endif
 
 }  // namespace ctr::cli

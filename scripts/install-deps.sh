@@ -18,6 +18,8 @@ PACKAGES=(
   libgtest-dev libgmock-dev
   libbenchmark-dev
   zlib1g-dev
+  clang libclang-rt-14-dev llvm   # fuzzing (libFuzzer runtime) and the sanitizer build; llvm: llvm-symbolizer
+  chromium fonts-liberation       # HTML report tests (headless Chromium)
 )
 
 SUDO=""
@@ -31,6 +33,12 @@ for p in "${PACKAGES[@]}"; do
     missing+=("$p")
   fi
 done
+
+# HTML reports: Node.js + npm bundle the report scripts at build time (reports/web). Any node/npm on PATH will do
+# (a NodeSource nodejs already ships npm and conflicts with Debian's npm package), else Debian's.
+if ! command -v node >/dev/null 2>&1 || ! command -v npm >/dev/null 2>&1; then
+  missing+=(nodejs npm)
+fi
 
 if [ "${#missing[@]}" -eq 0 ]; then
   echo "install-deps: all ${#PACKAGES[@]} packages already installed"

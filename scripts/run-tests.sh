@@ -21,4 +21,16 @@ ctest --test-dir "$BUILD/consumer" --output-on-failure
 cmake -S examples/planning_app -B "$BUILD/planning_app" -DCMAKE_PREFIX_PATH="$PWD/$BUILD/install" > /dev/null
 cmake --build "$BUILD/planning_app" -j"$JOBS"
 "$BUILD/planning_app/planning_app" examples/queries/proc_intracardiac.yaml
+# Reliability (issue 8): the test suite under ASan + UBSan (clang), then every libFuzzer target for 30 s, in one
+# shared clang tree. CI (CI=true) always runs both; locally CTR_SKIP_SANITIZERS=1 / CTR_SKIP_FUZZ=1 skip them.
+RELIABILITY_BUILD=${CTR_RELIABILITY_BUILD_DIR:-build-asan}
+# Under ASan the wall-clock-limited planning runs (they would plan 3-5x fewer states in their time limit and fail
+# for that reason alone) and the heaviest fitting cases are left out; docs/reliability.md ("Sanitizers") lists them.
+export CTR_CTEST_ARGS=${CTR_CTEST_ARGS:--LE test_diagnosis_concealed -E Planning\.ExactMode|Planning\.FrictionlessMode|Cli\.BenchWrites|Cli\.DemoPlans}
+if [ "${CI:-}" = true ] || [ "${CTR_SKIP_SANITIZERS:-0}" != 1 ]; then
+  scripts/run-sanitizers.sh "$RELIABILITY_BUILD"
+fi
+if [ "${CI:-}" = true ] || [ "${CTR_SKIP_FUZZ:-0}" != 1 ]; then
+  scripts/run-fuzzers.sh "${CTR_FUZZ_SECONDS:-30}" "$RELIABILITY_BUILD"
+fi
 echo "run-tests: all passed"

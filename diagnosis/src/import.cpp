@@ -61,7 +61,9 @@ std::pair<std::string, ColumnSource> parseColumnMapping(const std::string& text)
   }
   const auto star = rest.find('*');
   const double col = num(rest.substr(0, star), "column");
-  if (col < 1 || col != std::floor(col)) throw std::invalid_argument("column mapping '" + text + "': column is 1-based");
+  // The upper bound keeps the cast to int defined (2.9e9 was UB; found by fuzz_import).
+  if (col < 1 || col != std::floor(col) || col > 1e6)
+    throw std::invalid_argument("column mapping '" + text + "': column must be an integer in [1, 1000000]");
   src.column = static_cast<int>(col);
   if (star != std::string::npos) src.scale = num(rest.substr(star + 1), "scale");
   return {name, src};
@@ -86,7 +88,13 @@ io::Recording importTableText(const std::string& text, const std::string& source
   int n = o.tubes;
   if (n <= 0)
     for (const auto& kv : o.columns)
-      if (kv.first.rfind("alpha_", 0) == 0) n = std::max(n, std::stoi(kv.first.substr(6)));
+      if (kv.first.rfind("alpha_", 0) == 0) {
+        // "alpha_<tube>" (a bad suffix used to escape as std::invalid_argument from std::stoi; found by fuzz_import).
+        const std::string digits = kv.first.substr(6);
+        if (digits.empty() || digits.size() > 6 || digits.find_first_not_of("0123456789") != std::string::npos)
+          throw io::InputError(source, 0, kv.first, "mapped column is not alpha_<tube number>");
+        n = std::max(n, std::stoi(digits));
+      }
   if (n <= 0) throw io::InputError(source, 0, "alpha_1", "no alpha_* column mapped");
   for (int i = 1; i <= n; ++i)
     for (const char* p : {"alpha_", "beta_"})

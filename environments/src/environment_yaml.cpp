@@ -302,8 +302,9 @@ ProceduralSpec parseProcedural(const Ctx& c, const YAML::Node& n) {
 
 }  // namespace
 
-EnvironmentDescription parseEnvironmentDescription(const std::string& text_in, const std::string& source,
-                                                   const std::string& base_dir) {
+namespace {
+EnvironmentDescription parseDescription(const std::string& text_in, const std::string& source,
+                                        const std::string& base_dir) {
   Ctx c{source, base_dir};
   YAML::Node root;
   try {
@@ -406,6 +407,18 @@ EnvironmentDescription parseEnvironmentDescription(const std::string& text_in, c
     }
   }
   return d;
+}
+}  // namespace
+
+EnvironmentDescription parseEnvironmentDescription(const std::string& text_in, const std::string& source,
+                                                   const std::string& base_dir) {
+  try {
+    return parseDescription(text_in, source, base_dir);
+  } catch (const YAML::Exception& e) {
+    // E.g. a key that is not a scalar ({[1]: 2}): a conversion error of yaml-cpp, reported as bad input (it used
+    // to escape as YAML::TypedBadConversion; found by fuzz_environment_yaml).
+    throw io::InputError(source, e.mark.line >= 0 ? e.mark.line + 1 : 0, "", "malformed description: " + e.msg);
+  }
 }
 
 EnvironmentDescription loadEnvironmentDescription(const std::string& path) {

@@ -64,7 +64,10 @@ TriangleMesh loadMesh(const std::string& path, double scale, const Eigen::Isomet
   Assimp::Importer importer;
   importer.SetPropertyInteger(AI_CONFIG_PP_SBP_REMOVE, aiPrimitiveType_POINT | aiPrimitiveType_LINE);
   const aiScene* scene =
-      importer.ReadFile(path, aiProcess_Triangulate | aiProcess_PreTransformVertices | aiProcess_SortByPType);
+      // ValidateDataStructure runs first and rejects a malformed scene (e.g. faces without indices) that would
+      // otherwise trip an ai_assert -> abort() in Debian's assimp post-processing (found by fuzz_mesh).
+      importer.ReadFile(path, aiProcess_ValidateDataStructure | aiProcess_Triangulate |
+                                  aiProcess_PreTransformVertices | aiProcess_SortByPType);
   if (scene == nullptr)
     throw io::InputError(path, 0, "", std::string("cannot read the mesh: ") + importer.GetErrorString());
   TriangleMesh mesh;
@@ -87,6 +90,9 @@ TriangleMesh loadMesh(const std::string& path, double scale, const Eigen::Isomet
     for (unsigned f = 0; f < am->mNumFaces; ++f) {
       const aiFace& face = am->mFaces[f];
       if (face.mNumIndices != 3) continue;
+      if (face.mIndices[0] >= am->mNumVertices || face.mIndices[1] >= am->mNumVertices ||
+          face.mIndices[2] >= am->mNumVertices)
+        throw io::InputError(path, 0, "", "the mesh has a face with a vertex index out of range");
       mesh.triangles.push_back({remap[face.mIndices[0]], remap[face.mIndices[1]], remap[face.mIndices[2]]});
     }
   }

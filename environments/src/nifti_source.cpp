@@ -7,6 +7,7 @@
 #include <cmath>
 #include <cstdlib>
 #include <cstring>
+#include <filesystem>
 #include <fstream>
 #include <memory>
 #include <set>
@@ -203,7 +204,23 @@ NiftiVolume readNifti(const std::string& path, NiftiAffine affine) {
   A.topRows<3>() *= vol.unit_to_metre;
   A.row(3) << 0, 0, 0, 1;
   vol.ijk_to_world = A;
-  // Data.
+  // Data. libnifti allocates the whole volume before reading it: bound that allocation by what the file can hold
+  // (a few hundred bytes claiming 100000^3 voxels must not allocate terabytes). Deflate expands at most ~1032:1.
+  {
+    const std::size_t need = vol.voxels() * static_cast<std::size_t>(std::max(h.nbyper, 1));
+    const char* data_file = h.iname ? h.iname : path.c_str();
+    std::error_code ec;
+    const auto on_disk = std::filesystem::file_size(data_file, ec);
+    const bool gz = nifti_is_gzfile(data_file) != 0;
+    const long double offset = h.iname_offset > 0 ? static_cast<long double>(h.iname_offset) : 0.0L;
+    if (!ec && static_cast<long double>(need) + (gz ? 0.0L : offset) >
+                   static_cast<long double>(on_disk) * (gz ? 1100.0L : 1.0L)) {
+      std::ostringstream os;
+      os << "the voxel data is shorter than the dimensions say (" << vol.dims.x() << "x" << vol.dims.y() << "x"
+         << vol.dims.z() << " voxels of " << h.nbyper << " byte(s) cannot fit in a " << on_disk << "-byte file)";
+      fail(path, os.str());
+    }
+  }
   if (nifti_image_load(nim.get()) < 0 || nim->data == nullptr)
     fail(path, "cannot read the voxel data (truncated or corrupt file)");
   const std::size_t bytes = vol.voxels() * static_cast<std::size_t>(vol.bytes_per_voxel);

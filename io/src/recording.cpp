@@ -191,7 +191,9 @@ Recording parse(const std::string& text, const std::string& src, int tubes, bool
   int last_time_line = 0;
   double last_time = kNaN;
   for (int r = 0; r < rows; ++r) {
-    const auto& [line, content] = lines[static_cast<std::size_t>(r) + 1];
+    // Not a structured binding: the lambdas below capture `line` (clang < 16 cannot capture bindings).
+    const int line = lines[static_cast<std::size_t>(r) + 1].first;
+    const std::string_view content = lines[static_cast<std::size_t>(r) + 1].second;
     std::vector<std::string> cells = splitCells(content);
     // Cells past the header must be empty (trailing commas).
     while (cells.size() > cols.size() && cells.back().empty()) cells.pop_back();

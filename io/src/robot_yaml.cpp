@@ -217,10 +217,22 @@ Tube RobotParser::tube(const YAML::Node& node, int k) {
                                  formatNumber(x));
   };
 
+  // Lengths and diameters are in metres (formats.md): values a robot cannot have are almost always mm or um.
+  auto plausible = [&](const std::string& key, double hi) {
+    if (!has(key)) return;
+    const double x = v[key];
+    if (x > hi)
+      fail(lineAt(key), key, where + formatNumber(x) + " m is implausible (> " + formatNumber(hi) +
+                                 " m); lengths and diameters are in metres: was it given in mm?");
+  };
   t.straight_length = require("straight_length", "proximal straight length in m; may be 0");
   atLeast("straight_length", 0.0, false, " m");
+  plausible("straight_length", 5.0);
   t.curved_length = require("curved_length", "distal precurved length in m");
   atLeast("curved_length", 0.0, false, " m");
+  plausible("curved_length", 5.0);
+  plausible("outer_diameter", 0.05);
+  plausible("inner_diameter", 0.05);
   if (t.length() <= 0.0)
     fail(lineAt("curved_length"), "curved_length", where + "straight_length + curved_length must be > 0 m");
   t.curvature = require("curvature", "precurvature of the curved part in 1/m; 0 for a straight tube");

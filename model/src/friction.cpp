@@ -236,9 +236,13 @@ SubstepOutcome solveSubstep(const Robot& robot, const HysteresisState& prev, con
     }
   }
   if (out.ok && best_v > 0.0) {
+    // No quasi-static equilibrium respects the friction bounds here (typically where the branch folds): the robot
+    // would move dynamically. The least-violating shape exceeds a bound, so it is not returned as an answer.
     std::ostringstream os;
-    os << "no fully consistent stick/slip mode set (least violation " << best_v << ")";
+    os << "no consistent stick/slip mode set (least bound violation " << best_v
+       << "): no quasi-static equilibrium with friction here (dynamic slip)";
     out.message = os.str();
+    out.ok = false;
   } else if (!out.ok && out.message.empty()) {
     out.message = "no contact mode set converged";
   }

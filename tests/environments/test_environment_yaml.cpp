@@ -218,5 +218,16 @@ TEST(EnvironmentYaml, BadInputs) {
   expectInputError([&] { load("pi.yaml", "stay_inside: {points: p.xyz}\n"); }, {"cannot be a stay_inside"});
 }
 
+// Found by fuzz_environment_yaml: a mapping key that is not a scalar escaped as YAML::TypedBadConversion.
+TEST(EnvironmentYaml, NonScalarKeysAreInputErrors) {
+  for (const char* text : {"{{type: nope}}\n", "{[1, 2]: 3}\n", "procedural: {type: airway, [1]: 2}\n",
+                           "procedural: {type: airway}\nstarts: {[a]: {position: [0, 0, 0], direction: [0, 0, 1]}}\n",
+                           "procedural: {type: airway}\ntargets: {{a: 1}: [0, 0, 0]}\n",
+                           "procedural: {type: airway}\ncollision: {{x: 1}: 2}\n"}) {
+    SCOPED_TRACE(text);
+    EXPECT_THROW(parseEnvironmentDescription(text, "keys.yaml", "."), io::InputError);
+  }
+}
+
 }  // namespace
 }  // namespace ctr::env

@@ -313,5 +313,43 @@ TEST(OcTreeSource, ReadAndReject) {
   expectInputError([&] { loadOcTreeFile(dir.file("empty.bt")); }, {"empty.bt", "empty"});
 }
 
+// Found by review while fuzzing NIfTI: a few hundred bytes whose header claims 100000 x 100000 x 100 voxels made
+// libnifti allocate the whole (10 GB) volume before noticing the data is missing. Now refused from the file size.
+TEST(NiftiSource, HeaderClaimingMoreDataThanTheFileHoldsIsRefusedWithoutAllocating) {
+  TempDir dir;
+  std::string h(352, '\0');
+  auto put16 = [&](std::size_t at, std::int16_t v) { std::memcpy(&h[at], &v, 2); };
+  auto put32f = [&](std::size_t at, float v) { std::memcpy(&h[at], &v, 4); };
+  const std::int32_t sizeof_hdr = 348;
+  std::memcpy(&h[0], &sizeof_hdr, 4);
+  const std::int16_t dims[8] = {3, 30000, 30000, 100, 1, 1, 1, 1};
+  for (int i = 0; i < 8; ++i) put16(40 + 2 * i, dims[i]);
+  put16(70, DT_UINT8);
+  put16(72, 8);
+  for (int i = 0; i < 8; ++i) put32f(76 + 4 * i, 1.0f);
+  put32f(108, 352.0f);
+  put16(254, 1);  // sform_code
+  put32f(280, 1.0f);
+  put32f(300, 1.0f);
+  put32f(320, 1.0f);
+  std::memcpy(&h[344], "n+1\0", 4);
+  const std::string path = dir.write("huge.nii", h + std::string(64, '\1'));
+  expectInputError([&] { readNifti(path); }, {"huge.nii", "shorter than the dimensions say"});
+}
+
+// Found by fuzz_mesh: a malformed OFF file tripped an ai_assert (abort) in assimp's triangulation; a malformed STL
+// leaked inside assimp (suppressed in tests/sanitizers/lsan.supp). Both must be plain bad input.
+TEST(MeshSource, MalformedFilesFoundByFuzzingAreInputErrorsOrMeshes) {
+  TempDir dir;
+  dir.write("bad.off", "OFF\n4 4 0\n0 0  0\n0 1 0\n0 0 10 0 1\n3 0 2 1\n3 0 1 3\n3 0 3 2\n3 1 2 3\n");
+  try {
+    const TriangleMesh m = loadMesh(dir.file("bad.off"));
+    for (const auto& t : m.triangles)
+      for (int v : t) EXPECT_LT(static_cast<std::size_t>(v), m.vertices.size());
+  } catch (const io::InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("bad.off"), std::string::npos);
+  }
+}
+
 }  // namespace
 }  // namespace ctr::env

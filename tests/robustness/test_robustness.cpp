@@ -5,6 +5,7 @@
 
 #include "ctr/io/robot_yaml.hpp"
 #include "robustness_sweep.hpp"
+#include "stickslip_walks.hpp"
 
 using namespace ctr;
 
@@ -18,6 +19,29 @@ TEST(Robustness, NoSilentWrongAnswersOnExampleRobots) {
     EXPECT_GE(static_cast<double>(cold.converged), 0.99 * cold.samples) << name;
     EXPECT_GE(static_cast<double>(warm.converged), 0.99 * warm.samples) << name;
     for (auto& [k, v] : cold.failure_classes) std::cout << name << " cold: " << k << ": " << v << "\n";
+  }
+}
+
+TEST(Robustness, StickSlipRandomWalksTerminateKeepBoundsAndReport) {
+  // Fast subset of `ctr_robustness --walks 1000` (docs/reliability.md): 20 walks x 200 steps, mu' = 0.12 and 0.3.
+  for (const char* name : {"dupont_lab_3tube.yaml", "medmpd_lung.yaml"}) {
+    const Robot r = io::loadRobot(std::string(CTR_SOURCE_DIR) + "/examples/robots/" + name);
+    for (double mu : {0.12, 0.3}) {
+      robustness::WalkOptions wo;
+      wo.walks = std::string(name) == "dupont_lab_3tube.yaml" ? 20 : 6;
+      wo.steps = 200;
+      wo.seed = 5;
+      wo.mu = mu;
+      const robustness::WalkTally t = robustness::stickSlipWalks(r, wo);
+      for (auto& [k, v] : t.failure_classes) std::cout << name << " mu " << mu << ": " << k << ": " << v << "\n";
+      EXPECT_EQ(t.silent_wrong, 0) << name << " mu " << mu;
+      EXPECT_EQ(t.steps, wo.walks * wo.steps) << name;  // every walk ran to the end (every step returned)
+      EXPECT_GE(static_cast<double>(t.converged), 0.95 * (t.steps - t.inadmissible)) << name << " mu " << mu;
+      EXPECT_GT(t.inadmissible, 0);    // inadmissible commands were reported as such
+      EXPECT_GT(t.slipping_contacts, 0);  // the walks do exercise slipping
+      EXPECT_GT(t.resolved, 0);
+      EXPECT_LE(t.max_bound_ratio, 1.0 + 1e-8);
+    }
   }
 }
 

@@ -1,0 +1,189 @@
+// Diagnosis report: verdict, located mismatch (binned residuals by direction of approach with the noise band),
+// measured vs nominal vs fitted curves, candidates with held-out RMSE and BIC, fitted parameters with intervals.
+import { readData, h, fmt, unitOf, chart, line, publish, header, table, COLORS, PALETTE, DEG } from './common.js';
+
+const data = readData();
+const rep = data.report;
+const plot = data.plot;
+const app = document.getElementById('app');
+
+const quantities = Object.keys(rep.baseline.heldout_rmse || {});
+const noiseOf = (q) => (rep.noise || {})[q];
+
+function paramText(params, intervals) {
+  return Object.entries(params || {}).map(([k, v]) => {
+    const iv = (intervals || {})[k];
+    return `${k} = ${fmt(v)}` + (iv ? ` [${fmt(iv[0])}, ${fmt(iv[1])}]` : '');
+  }).join('; ');
+}
+function rmseText(m) {
+  return quantities.map((q) => {
+    const u = unitOf(q);
+    return `${q}: ${fmt((m || {})[q] * u.scale)}${u.unit ? ' ' + u.unit : ''}`;
+  }).join(', ');
+}
+
+// Header and verdict.
+app.appendChild(header('Diagnosis report',
+  `${data.recording_rows} recorded rows (${rep.rows} used, every ${rep.stride}. row), ${data.tubes} tubes, ` +
+  `frame: ${rep.frame}, ${rep.folds} held-out blocks, ${rep.replays} replays in ${fmt(rep.seconds, 3)} s`));
+const verdict = rep.verdict.length ? rep.verdict.join(' + ') : 'nothing left out';
+app.appendChild(h('section', { class: 'card verdict ' + (rep.verdict.length ? 'found' : 'none'), id: 'verdict' },
+  h('h2', {}, 'Verdict: ', h('span', { class: 'verdict-name' }, verdict)),
+  h('p', {}, rep.summary || ''),
+  rep.warnings && rep.warnings.length ? h('ul', { class: 'warnings' }, rep.warnings.map((w) => h('li', {}, w))) : null));
+
+// Fitted parameters.
+const eff = (rep.final && rep.final.effects) || [];
+if (eff.length) {
+  const rows = eff.map((e) => {
+    const keys = Object.keys(e).filter((k) => !['effect', 'tube', 'interval95'].includes(k));
+    const k = keys[0];
+    return [e.effect + (e.tube !== undefined ? ` (tube ${e.tube})` : ''), k || '', fmt(e[k]),
+      e.interval95 ? `[${fmt(e.interval95[0])}, ${fmt(e.interval95[1])}]` : '–'];
+  });
+  app.appendChild(h('section', { class: 'card', id: 'parameters' }, h('h2', {}, 'Fitted parameters (all rows)'),
+    table(['effect', 'parameter', 'value', '95 % interval'], rows, { class: 'params' }),
+    h('p', { class: 'note' }, 'Gauss-Newton intervals assuming independent residuals; serially correlated model error makes them optimistic.')));
+}
+
+// Held-out error before / after.
+app.appendChild(h('section', { class: 'card', id: 'scores' }, h('h2', {}, 'Held-out error'),
+  table(['quantity', 'noise (1σ)', 'nominal', rep.final.model], quantities.map((q) => {
+    const u = unitOf(q);
+    const t = (v) => fmt(v * u.scale) + (u.unit ? ' ' + u.unit : '');
+    return [q, noiseOf(q) ? t(noiseOf(q)) : '–', t(rep.baseline.heldout_rmse[q]), t(rep.final.heldout_rmse[q])];
+  })),
+  h('p', { class: 'note' }, `BIC: nominal ${fmt(rep.baseline.bic, 6)}, final ${fmt(rep.final.bic, 6)}.`)));
+
+// Located mismatch.
+const mm = h('section', { class: 'card', id: 'mismatch' }, h('h2', {}, 'Where the nominal model misses'));
+app.appendChild(mm);
+if (rep.mismatch.length) {
+  mm.appendChild(table(['signature', 'variable', 'quantity', 'p-value', 'where'],
+    rep.mismatch.map((f) => [f.signature, f.variable, f.quantity, fmt(f.p_value, 3), f.where])));
+} else {
+  mm.appendChild(h('p', {}, 'No test found residuals beyond the noise.'));
+}
+const binGrid = h('div', { class: 'grid' });
+mm.appendChild(binGrid);
+// Pairs (variable, quantity): those with findings first, then the rest, at most 6.
+const pairs = [];
+const addPair = (v, q) => { if (!pairs.some((p) => p[0] === v && p[1] === q)) pairs.push([v, q]); };
+for (const f of rep.mismatch) if (/^(alpha|beta)_/.test(f.variable)) addPair(f.variable, f.quantity);
+for (const b of plot.residual_bins.nominal) addPair(b.variable, b.quantity);
+for (const [v, q] of pairs.slice(0, 6)) {
+  const uq = unitOf(q), uv = unitOf(v);
+  const ds = [];
+  const pts = (model, dir) => plot.residual_bins[model]
+    .filter((b) => b.variable === v && b.quantity === q && b.direction === dir && b.count > 0)
+    .sort((a, b) => a.lo - b.lo)
+    .map((b) => ({ x: 0.5 * (b.lo + b.hi) * uv.scale, y: b.rms * uq.scale }));
+  const nom_p = pts('nominal', 1), nom_m = pts('nominal', -1);
+  const xs = nom_p.concat(nom_m).map((p) => p.x);
+  const x0 = Math.min(...xs), x1 = Math.max(...xs);
+  const sigma = noiseOf(q);
+  if (sigma && xs.length) {
+    const level = (q === 'twist' ? 1 : Math.sqrt(3)) * sigma * uq.scale;
+    ds.push(line('noise level', [{ x: x0, y: level }, { x: x1, y: level }], 'rgba(44,160,44,0.9)',
+      { fill: { target: 'origin' }, backgroundColor: COLORS.noise, borderDash: [2, 2], borderWidth: 1 }));
+  }
+  ds.push(line('nominal, increasing', nom_p, COLORS.plus, { pointRadius: 2.5 }));
+  ds.push(line('nominal, decreasing', nom_m, COLORS.minus, { pointRadius: 2.5 }));
+  if (rep.verdict.length) {
+    ds.push(line('fitted, increasing', pts('fitted', 1), COLORS.plus, { borderDash: [6, 4], pointRadius: 0 }));
+    ds.push(line('fitted, decreasing', pts('fitted', -1), COLORS.minus, { borderDash: [6, 4], pointRadius: 0 }));
+  }
+  chart(binGrid, {
+    title: `${q} residual vs ${v}`, xLabel: `${v} (${uv.unit})`, yLabel: `RMS residual (${uq.unit || '–'})`, datasets: ds,
+    note: `Binned residual RMS, split by direction of approach of ${v}; shaded: the level pure measurement noise would give.`,
+    height: 280,
+  });
+}
+
+// Measured vs nominal vs fitted curves.
+const cv = h('section', { class: 'card', id: 'curves' }, h('h2', {}, 'Measured, nominal and fitted model'));
+app.appendChild(cv);
+const curveGrid = h('div', { class: 'grid' });
+cv.appendChild(curveGrid);
+const rows = plot.rows;
+const angleVars = plot.variables.filter((v) => v.angle);
+const mainVar = angleVars[0] || plot.variables[0];
+const hasFit = rep.verdict.length > 0;
+// Measured values of every recording row (the diagnosis may have used every k-th row only).
+const full = data.recording || {};
+const fullVar = mainVar && (full.variables || []).find((v) => v.name === mainVar.name);
+const measuredAll = (key, col, scale) => {
+  const M = full[key];
+  if (!M || !fullVar) return null;
+  const pts = [];
+  for (let k = 0; k < M.length; ++k)
+    pts.push({ x: fullVar.value[k] * (fullVar.angle ? DEG : 1e3), y: M[k][col] === null ? NaN : M[k][col] * scale });
+  return { m: 'measured', pts };
+};
+const series3 = (key, col, scale, x) => ['measured', 'nominal', 'fitted'].map((m) => {
+  if (m === 'measured') { const all = measuredAll(key, col, scale); if (all) return all; }
+  const M = plot[m][key];
+  if (!M) return null;
+  const pts = [];
+  for (let k = 0; k < M.length; ++k) {
+    const y = M[k][col];
+    // A wrapped angle (359 deg -> 0 deg) breaks the line instead of drawing across the plot.
+    if (k > 0 && mainVar && mainVar.angle && Math.abs(x(k) - x(k - 1)) > 180) pts.push({ x: x(k - 1), y: null });
+    pts.push({ x: x(k), y: y === null ? NaN : y * scale });
+  }
+  return { m, pts };
+}).filter(Boolean);
+if (plot.measured.twist && mainVar) {
+  // Twist vs motor angle (paper Fig. 11-12).
+  const n = plot.measured.twist[0] ? plot.measured.twist[0].length : 0;
+  for (let c = 0; c < n; ++c) {
+    const xs = (k) => mainVar.value[k] * (mainVar.angle ? DEG : 1e3);
+    const ds = series3('twist', c, DEG, xs).filter((s) => s.m !== 'fitted' || hasFit).map((s) => line(s.m, s.pts, COLORS[s.m],
+      s.m === 'measured' ? { showLine: false, pointRadius: 1.5 } : { borderWidth: 1.4 }));
+    chart(curveGrid, { title: `Tip twist of tube ${c + 2} vs ${mainVar.name}`, xLabel: `${mainVar.name} (${mainVar.angle ? 'deg' : 'mm'})`,
+      yLabel: 'twist (deg)', datasets: ds, note: 'As in Lock & Dupont Fig. 11–12: the loop opens where friction holds the tubes.' });
+  }
+}
+if (plot.measured.tip_position) {
+  const t = plot.time;
+  const xs = (k) => (t ? t[k] : k);
+  const err = (m) => plot[m].tip_position.map((p, k) => {
+    const q = plot.measured.tip_position[k];
+    if (!p || !q || p.some((v) => v === null) || q.some((v) => v === null)) return { x: xs(k), y: NaN };
+    return { x: xs(k), y: 1e3 * Math.hypot(p[0] - q[0], p[1] - q[1], p[2] - q[2]) };
+  });
+  const ds = [line('nominal', err('nominal'), COLORS.nominal)];
+  if (hasFit) ds.push(line('fitted', err('fitted'), COLORS.fitted));
+  const sigma = noiseOf('tip_position');
+  if (sigma) {
+    const x0 = xs(0), x1 = xs(rows - 1), lv = Math.sqrt(3) * sigma * 1e3;
+    ds.unshift(line('noise level', [{ x: x0, y: lv }, { x: x1, y: lv }], 'rgba(44,160,44,0.9)',
+      { fill: { target: 'origin' }, backgroundColor: COLORS.noise, borderDash: [2, 2], borderWidth: 1 }));
+  }
+  chart(curveGrid, { title: 'Tip position error along the recording', xLabel: t ? 'time (s)' : 'row', yLabel: 'tip error (mm)', datasets: ds,
+    note: 'Distance between the measured tip and the model’s prediction at every row used.' });
+  if (mainVar) {
+    const xsv = (k) => mainVar.value[k] * (mainVar.angle ? DEG : 1e3);
+    for (let c = 0; c < 3; ++c) {
+      const ds2 = series3('tip_position', c, 1e3, xsv).filter((s) => s.m !== 'fitted' || hasFit).map((s) => line(s.m, s.pts, COLORS[s.m],
+        s.m === 'measured' ? { showLine: false, pointRadius: 1.2 } : { borderWidth: 1.2 }));
+      chart(curveGrid, { title: `Tip ${'xyz'[c]} vs ${mainVar.name}`, xLabel: `${mainVar.name} (${mainVar.angle ? 'deg' : 'mm'})`,
+        yLabel: `tip ${'xyz'[c]} (mm)`, datasets: ds2, height: 240 });
+    }
+  }
+}
+
+// Candidates.
+const cand = h('section', { class: 'card', id: 'candidates' }, h('h2', {}, 'Candidates tried'));
+app.appendChild(cand);
+const candRows = [{ cells: ['nominal (baseline)', '–', '', '–', rmseText(rep.baseline.heldout_rmse), fmt(rep.baseline.bic, 6), '–', '–', ''], attrs: { class: 'baseline' } }]
+  .concat(rep.findings.map((f) => ({
+    attrs: { class: f.accepted ? 'accepted candidate' : 'candidate' },
+    cells: [f.effect, String(f.round), f.accepted ? 'yes' : 'no', paramText(f.parameters, f.interval95), rmseText(f.heldout_rmse),
+      '', fmt(f.delta_bic, 4), fmt(f.heldout_p, 3), f.explanation],
+  })));
+cand.appendChild(table(['effect', 'round', 'accepted', 'parameters [95 % interval]', 'held-out RMSE', 'BIC', 'ΔBIC', 'held-out p', 'why'],
+  candRows, { class: 'candidates', id: 'candidates-table' }));
+
+publish('diagnosis', { candidateRows: () => document.querySelectorAll('#candidates-table tbody tr.candidate, #candidates-table tbody tr.accepted').length });

@@ -1,0 +1,199 @@
+#!/usr/bin/env node
+// Produces one HTML report with the real `ctr` binary, opens it in headless Chromium and checks it: no console or
+// page errors, nothing fetched from the network, the expected elements (plotted series, candidate rows, the slider
+// moving the robot), and a PNG screenshot kept as a test artefact. Registered by tests/reports/CMakeLists.txt.
+//
+// Usage: node check_report.js --kind diagnosis|sweep|planning --html OUT.html --png OUT.png
+//          [--metrics OUT.json] [--make-path SPEC] [--min-series N] [--accept-exit 0,1] -- COMMAND...
+'use strict';
+const fs = require('fs');
+const os = require('os');
+const path = require('path');
+const { spawnSync } = require('child_process');
+
+function fail(msg) {
+  console.error('FAIL: ' + msg);
+  process.exit(1);
+}
+
+const argv = process.argv.slice(2);
+const opt = { accept: [0], minSeries: 1 };
+let cmd = [];
+for (let i = 0; i < argv.length; ++i) {
+  const a = argv[i];
+  if (a === '--') { cmd = argv.slice(i + 1); break; }
+  const v = argv[++i];
+  if (a === '--kind') opt.kind = v;
+  else if (a === '--html') opt.html = v;
+  else if (a === '--png') opt.png = v;
+  else if (a === '--metrics') opt.metrics = v;
+  else if (a === '--make-path') opt.makePath = v;
+  else if (a === '--min-series') opt.minSeries = Number(v);
+  else if (a === '--accept-exit') opt.accept = v.split(',').map(Number);
+  else fail('unknown option ' + a);
+}
+if (!opt.kind || !opt.html || !opt.png) fail('--kind, --html and --png are required');
+
+const chromiumPath = process.env.CTR_CHROMIUM || '/usr/bin/chromium';
+if (!fs.existsSync(chromiumPath))
+  fail(`Chromium not found at ${chromiumPath}: install it with scripts/install-deps.sh (Debian package chromium) ` +
+       'or set CTR_CHROMIUM to its path. The report tests need a headless browser.');
+let chromium;
+try {
+  ({ chromium } = require('playwright-core'));
+} catch (e) {
+  fail('playwright-core not found (NODE_PATH should point at the build\'s reports/web/node_modules): ' + e.message);
+}
+
+// Optional synthetic path: "lung:ROWS:OUT.csv" interpolates a long insertion + rotation from the lung query start.
+if (opt.makePath) {
+  const [shape, rowsText, out] = opt.makePath.split(':');
+  const rows = Number(rowsText);
+  if (shape !== 'lung' || !(rows > 1) || !out) fail('bad --make-path ' + opt.makePath);
+  const a0 = [0, 0, 0], a1 = [0.9, -0.7, 0.0];
+  const b0 = [-0.118, -0.218, -0.318], b1 = [-0.08, -0.17, -0.26];
+  let text = 'alpha_1,alpha_2,alpha_3,beta_1,beta_2,beta_3\n';
+  for (let k = 0; k < rows; ++k) {
+    const t = k / (rows - 1);
+    const lerp = (x, y) => x + (y - x) * t;
+    text += a0.map((x, i) => lerp(x, a1[i]).toFixed(7)).concat(b0.map((x, i) => lerp(x, b1[i]).toFixed(7))).join(',') + '\n';
+  }
+  fs.writeFileSync(out, text);
+}
+
+// 1. Produce the report.
+if (cmd.length) {
+  fs.rmSync(opt.html, { force: true });
+  const t = Date.now();
+  const r = spawnSync(cmd[0], cmd.slice(1), { encoding: 'utf8', maxBuffer: 256 << 20 });
+  const secs = (Date.now() - t) / 1000;
+  if (r.error) fail('could not run ' + cmd[0] + ': ' + r.error.message);
+  process.stderr.write((r.stderr || '').split('\n').slice(-15).join('\n') + '\n');
+  if (!opt.accept.includes(r.status)) fail(`${cmd.join(' ')} exited with ${r.status}`);
+  console.log(`produced ${opt.html} in ${secs.toFixed(1)} s`);
+}
+if (!fs.existsSync(opt.html)) fail('no report written: ' + opt.html);
+const bytes = fs.statSync(opt.html).size;
+const htmlText = fs.readFileSync(opt.html, 'utf8');
+if (/<script[^>]+src=|<link[^>]+href=["']?https?:/i.test(htmlText)) fail('the report references external scripts or styles');
+
+// 2. Open it in headless Chromium with exactly the project's flags and a fresh profile.
+(async () => {
+  const profile = fs.mkdtempSync(path.join(os.tmpdir(), 'ctr-report-profile-'));
+  const browser = await chromium.launch({
+    executablePath: chromiumPath,
+    ignoreDefaultArgs: true,
+    timeout: 60000,
+    args: ['--headless', '--no-sandbox', '--disable-gpu', '--no-first-run', '--disable-background-networking',
+      '--disable-component-update', '--disable-sync', '--disable-quic', `--user-data-dir=${profile}`,
+      '--remote-debugging-pipe'],
+  });
+  const problems = [];
+  try {
+    const page = await browser.newPage({ viewport: { width: 1400, height: 1000 } });
+    page.on('console', (m) => {
+      if (m.type() === 'error') problems.push('console error: ' + m.text());
+    });
+    page.on('pageerror', (e) => problems.push('page error: ' + e.message));
+    page.on('crash', () => problems.push('the page crashed'));
+    page.on('request', (r) => {
+      if (!r.url().startsWith('file://') && !r.url().startsWith('data:')) problems.push('network request: ' + r.url());
+    });
+    const url = 'file://' + path.resolve(opt.html);
+    const t0 = Date.now();
+    await page.goto(url, { waitUntil: 'load', timeout: 120000 });
+    await page.waitForFunction(() => window.ctrReport && window.ctrReport.ready, null, { timeout: 120000 });
+    const loadMs = Date.now() - t0;
+    const info = await page.evaluate(() => ({
+      kind: window.ctrReport.kind,
+      charts: window.ctrReport.charts(),
+      series: window.ctrReport.seriesCount(),
+      data: JSON.parse(document.getElementById('ctr-data').textContent),
+    }));
+    const check = (cond, msg) => { if (!cond) problems.push(msg); };
+    check(info.kind === opt.kind, `kind ${info.kind} != ${opt.kind}`);
+    const metrics = { kind: opt.kind, html_bytes: bytes, load_ms: loadMs, charts: info.charts.length, series: info.series };
+    if (opt.kind === 'diagnosis' || opt.kind === 'sweep') {
+      check(info.charts.length >= 2, `only ${info.charts.length} charts`);
+      check(info.series >= opt.minSeries, `only ${info.series} plotted series (expected >= ${opt.minSeries})`);
+      for (const c of info.charts) check(c.points > 0 && c.series > 0, `empty chart '${c.title}'`);
+    }
+    if (opt.kind === 'diagnosis') {
+      const d = info.data;
+      const rows = await page.locator('#candidates-table tbody tr').count();
+      check(rows === d.report.findings.length + 1, `candidate table has ${rows} rows, expected ${d.report.findings.length + 1}`);
+      check(await page.locator('#verdict').count() === 1, 'no verdict');
+      const verdict = await page.locator('#verdict .verdict-name').textContent();
+      const want = d.report.verdict.length ? d.report.verdict.join(' + ') : 'nothing left out';
+      check(verdict === want, `verdict shows '${verdict}', expected '${want}'`);
+      check(info.charts.some((c) => /residual vs/.test(c.title)), 'no residual-vs-configuration chart');
+      check(info.charts.some((c) => /Tip position error|twist/i.test(c.title)), 'no measured-vs-model chart');
+      if (d.report.final.effects.length) check(await page.locator('#parameters tbody tr').count() === d.report.final.effects.length, 'parameters table rows');
+      metrics.candidate_rows = rows;
+      metrics.recording_rows = d.recording_rows;
+      metrics.plot_rows = d.plot.rows;
+    }
+    if (opt.kind === 'sweep') {
+      const d = info.data;
+      const expected = (d.tubes - 1) + 2 + (d.band.length ? 1 : 0);
+      check(info.charts.length === expected, `${info.charts.length} charts, expected ${expected}`);
+      const twist = info.charts.filter((c) => /Tip twist/.test(c.title));
+      const dirs = new Set(d.direction).size;
+      const snaps = d.snapped.some((v) => v) ? 1 : 0;
+      for (const c of twist) check(c.series >= dirs + (d.band.length ? 1 : 0) && c.series <= dirs + (d.band.length ? 1 : 0) + snaps,
+        `twist chart has ${c.series} series`);
+    }
+    if (opt.kind === 'planning') {
+      const r = await page.evaluate(async () => {
+        const c = window.ctrReport;
+        const n = c.waypoints;
+        const s0 = c.robotSignature(), m0 = c.robotMeshes();
+        const f0 = c.frames();
+        c.setWaypoint(Math.floor((n - 1) / 2));
+        const s1 = c.robotSignature();
+        // Move the slider as a user would.
+        const sl = document.getElementById('waypoint-slider');
+        sl.value = String(n - 1);
+        sl.dispatchEvent(new Event('input', { bubbles: true }));
+        const s2 = c.robotSignature();
+        const t = performance.now();
+        for (let k = 0; k < 50; ++k) c.setWaypoint(Math.floor((k * (n - 1)) / 49));
+        const stepMs = (performance.now() - t) / 50;
+        c.setWaypoint(Math.floor((n - 1) * 0.75));
+        await c.nextFrame();
+        return { n, m0, s0, s1, s2, current: c.current(), frames: c.frames() - f0, stepMs, voxels: c.voxels, bands: c.bands.length,
+          bandVisible: c.bandVisible(), canvas: !!document.querySelector('#viewport canvas'), jsLoadMs: c.loadMs };
+      });
+      check(r.canvas, 'no WebGL canvas');
+      check(r.m0 >= 1, 'no tube mesh');
+      check(r.s1 !== r.s0 && r.s2 !== r.s1, 'the slider does not change the robot geometry');
+      check(r.current === Math.floor((r.n - 1) * 0.75), 'setWaypoint did not move');
+      check(r.frames > 0, 'nothing rendered');
+      check(r.n === info.data.waypoints, 'waypoint count');
+      check(r.voxels > 0, 'no anatomy voxels');
+      Object.assign(metrics, { waypoints: r.n, voxels: r.voxels, bands: r.bands, slider_step_ms: r.stepMs, js_setup_ms: r.jsLoadMs });
+      // Play button toggles.
+      // The play button starts and stops the animation (clicked through the DOM: software WebGL makes
+      // pointer-event actionability waits slow).
+      const played = await page.evaluate(async () => {
+        const c = window.ctrReport;
+        c.setWaypoint(0);
+        document.getElementById('play').click();
+        for (let t = 0; t < 80 && c.current() === 0; ++t) await new Promise((r) => setTimeout(r, 100));
+        document.getElementById('play').click();
+        return c.current();
+      });
+      check(r.n === 1 || played > 0, 'the play button does not advance the path');
+      await page.evaluate((k) => { window.ctrReport.setWaypoint(k); return window.ctrReport.nextFrame(); }, Math.floor((r.n - 1) * 0.75));
+    }
+    await page.screenshot({ path: opt.png, fullPage: opt.kind !== 'planning' });
+    if (opt.metrics) fs.writeFileSync(opt.metrics, JSON.stringify(metrics, null, 1) + '\n');
+    console.log('metrics ' + JSON.stringify(metrics));
+    console.log('screenshot ' + opt.png);
+  } finally {
+    await browser.close();
+    fs.rmSync(profile, { recursive: true, force: true });
+  }
+  if (problems.length) fail(problems.join('\n'));
+  console.log('PASS');
+})().catch((e) => fail(String(e && e.stack ? e.stack : e)));

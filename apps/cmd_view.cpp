@@ -15,7 +15,7 @@ void registerView(CLI::App& app, Action& action) {
   struct Opts {
     std::string path, env, robot, html, query;
     double env_resolution = 0;
-    int max_voxels = 60000, band_waypoints = 12;
+    int max_voxels = 60000, band_waypoints = 120;
   };
   auto o = std::make_shared<Opts>();
   CLI::App* sub = app.add_subcommand("view", "Write the interactive 3D viewer (HTML) of a path CSV in an anatomy");

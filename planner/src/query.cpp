@@ -81,8 +81,9 @@ std::vector<std::string> plannerNames(Mode mode) {
   return {"rrtconnect", "rrt", "rrtstar", "bitstar", "prm", "prmstar", "lazyprm", "kpiece", "bkpiece", "est", "sbl"};
 }
 
-Query parseQuery(const std::string& text, const std::string& source, const std::string& base_dir,
-                 bool check_files) {
+namespace {
+Query parseQueryYaml(const std::string& text, const std::string& source, const std::string& base_dir,
+                     bool check_files) {
   Ctx c{source, check_files};
   YAML::Node root;
   try {
@@ -205,6 +206,18 @@ Query parseQuery(const std::string& text, const std::string& source, const std::
     if (!(q.env_resolution > 0)) c.fail(root["environment_resolution"], "environment_resolution", "must be > 0 (m)");
   }
   return q;
+}
+}  // namespace
+
+Query parseQuery(const std::string& text, const std::string& source, const std::string& base_dir,
+                 bool check_files) {
+  try {
+    return parseQueryYaml(text, source, base_dir, check_files);
+  } catch (const YAML::Exception& e) {
+    // A node of the wrong kind where a map is expected (e.g. `resolution: 1`) throws from yaml-cpp's operator[]:
+    // bad input, reported with its line (it used to escape as YAML::BadSubscript; found by fuzz_query_yaml in CI).
+    throw InputError(source, e.mark.line >= 0 ? e.mark.line + 1 : 0, "", "malformed query: " + e.msg);
+  }
 }
 
 Query loadQuery(const std::string& path) {

@@ -205,7 +205,7 @@ std::string planningHtml(const plan::Context& ctx, const std::vector<Configurati
         for (const Solution& s : fb.shapes) {
           if (!s.converged()) continue;
           double len = 0;
-          json p = shapePoints(s, T, std::max(8, m / 2), len);
+          json p = shapePoints(s, T, std::max(8, o.band_shape_points), len);
           if (!p.empty()) gs.push_back(p);
         }
         bands.push_back({{"waypoint", k}, {"shapes", gs}, {"tip_spread", r5(fb.tip_spread)}});

@@ -80,6 +80,18 @@ TEST(Query, BadQueriesNameFileAndKey) {
   expectInputError("robot: [", "YAML");
 }
 
+TEST(Query, ScalarWhereAMapIsExpectedIsAnInputError) {
+  // Found by fuzz_query_yaml: `resolution: 30` used to escape from parseQuery as YAML::BadSubscript.
+  for (const char* extra : {"resolution: 30\n", "replay: 5\n", "resolution: [1, 2]\n"}) {
+    try {
+      parseQuery(queryText("target: tricuspid", extra), "q.yaml", ".", false);
+      ADD_FAILURE() << "expected an InputError for " << extra;
+    } catch (const io::InputError& e) {
+      EXPECT_NE(std::string(e.what()).find("q.yaml"), std::string::npos) << e.what();
+    }
+  }
+}
+
 TEST(Query, TargetOutsideTheMapAndBadStartAreInputErrors) {
   Query q = parseQuery(queryText("position: [5.0, 5.0, 5.0]"), "q.yaml", ".");
   q.time_limit = 0.1;

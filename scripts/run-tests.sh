@@ -32,6 +32,6 @@ if [ "${CI:-}" = true ] || [ "${CTR_SKIP_SANITIZERS:-0}" != 1 ]; then
   scripts/run-sanitizers.sh "$RELIABILITY_BUILD"
 fi
 if [ "${CI:-}" = true ] || [ "${CTR_SKIP_FUZZ:-0}" != 1 ]; then
-  scripts/run-fuzzers.sh "${CTR_FUZZ_SECONDS:-30}" "$RELIABILITY_BUILD"
+  CTR_FUZZ_SEED=${CTR_FUZZ_SEED:-1} scripts/run-fuzzers.sh "${CTR_FUZZ_SECONDS:-30}" "$RELIABILITY_BUILD"
 fi
 echo "run-tests: all passed"

@@ -54,12 +54,88 @@ struct VecHash {
   }
 };
 
+// OFF and PLY headers declare element counts that assimp allocates before reading the data: a count larger than
+// the file's size in bytes cannot be genuine (every element takes at least one byte), so it is refused before
+// assimp allocates gigabytes for a few hundred bytes (found by fuzz_mesh in CI: "OFF\n44444444444 4 0").
+void checkDeclaredCounts(const std::string& path, std::istream& in) {
+  in.seekg(0, std::ios::end);
+  const auto bytes = static_cast<unsigned long long>(std::max<std::streamoff>(0, in.tellg()));
+  in.seekg(0);
+  auto tooMany = [&](const std::string& token, int line) {
+    const std::size_t digits = token.find_first_not_of("0123456789");
+    if (token.empty() || digits == 0) return;
+    const std::string d = token.substr(0, digits);
+    if (d.size() > 18 || std::stoull(d) > bytes)
+      throw io::InputError(path, line, "", "the header declares " + d + " elements but the file has only " +
+                                               std::to_string(bytes) + " bytes");
+  };
+  std::string ext = path.substr(path.find_last_of('.') == std::string::npos ? path.size() : path.find_last_of('.'));
+  std::transform(ext.begin(), ext.end(), ext.begin(), [](unsigned char ch) { return std::tolower(ch); });
+  std::string line;
+  if (ext == ".off") {
+    // Header keyword line, then (after comments / blank lines) the counts line.
+    int n = 0;
+    bool header = false;
+    while (n < 64 && std::getline(in, line)) {
+      ++n;
+      const std::size_t a = line.find_first_not_of(" \t\r");
+      if (a == std::string::npos || line[a] == '#') continue;
+      if (!header && line.find("OFF") != std::string::npos) {
+        header = true;
+        std::istringstream rest(line.substr(line.find("OFF") + 3));
+        std::string tok;
+        while (rest >> tok) tooMany(tok, n);  // counts on the header line itself
+        continue;
+      }
+      std::istringstream ss(line);
+      std::string tok;
+      for (int k = 0; k < 3 && ss >> tok; ++k) tooMany(tok, n);
+      break;
+    }
+  } else if (ext == ".ply") {
+    int n = 0;
+    bool end = false;
+    while (n < 1000 && std::getline(in, line)) {
+      ++n;
+      std::istringstream ss(line);
+      std::string kw, name, count;
+      ss >> kw;
+      if (kw == "end_header") {
+        end = true;
+        break;
+      }
+      // assimp's PLY reader can loop forever on a header line it does not know: allow only the PLY keywords.
+      if (n > 1 && !kw.empty() && kw != "format" && kw != "element" && kw != "property" && kw != "comment" &&
+          kw != "obj_info")
+        throw io::InputError(path, n, "", "malformed PLY header line '" + line + "'");
+      if (kw == "element" && ss >> name >> count) tooMany(count, n);
+      if (kw == "property") {
+        // assimp's PLY reader loops forever on a property with an unknown type (found by fuzz_mesh: "property 0 0").
+        static const char* const kTypes[] = {"char",  "uchar",  "short", "ushort", "int",    "uint",
+                                             "float", "double", "int8",  "uint8",  "int16",  "uint16",
+                                             "int32", "uint32", "float32", "float64"};
+        auto known = [&](const std::string& t) {
+          return std::any_of(std::begin(kTypes), std::end(kTypes), [&](const char* k) { return t == k; });
+        };
+        std::string type, a, b, c;
+        ss >> type >> a;
+        bool ok = known(type) && !a.empty();                                         // property TYPE NAME
+        if (type == "list") ok = static_cast<bool>(ss >> b >> c) && known(a) && known(b);  // property list T T NAME
+        if (!ok) throw io::InputError(path, n, "", "malformed PLY property line '" + line + "'");
+      }
+    }
+    // Without end_header assimp's PLY reader can loop forever (found by fuzz_mesh).
+    if (!end) throw io::InputError(path, n, "", "the PLY header has no end_header line");
+  }
+}
+
 }  // namespace
 
 TriangleMesh loadMesh(const std::string& path, double scale, const Eigen::Isometry3d& transform) {
   {
     std::ifstream probe(path, std::ios::binary);
     if (!probe) throw io::InputError(path, 0, "", "cannot open the mesh file (missing or unreadable)");
+    checkDeclaredCounts(path, probe);
   }
   Assimp::Importer importer;
   importer.SetPropertyInteger(AI_CONFIG_PP_SBP_REMOVE, aiPrimitiveType_POINT | aiPrimitiveType_LINE);

@@ -2,6 +2,7 @@
 
 #include <cctype>
 #include <cmath>
+#include <cstdlib>
 #include <filesystem>
 #include <sstream>
 
@@ -127,12 +128,31 @@ void checkOutputPath(const std::string& option, const std::string& path,
 
 namespace ctr::cli {
 
+namespace {
+CLI::Validator finiteAtLeast(bool strict) {
+  return CLI::Validator(
+      [strict](std::string& text) -> std::string {
+        char* end = nullptr;
+        const double v = std::strtod(text.c_str(), &end);
+        if (text.empty() || end != text.c_str() + text.size()) return text + " is not a number";
+        if (!std::isfinite(v)) return text + " is not allowed: must be a finite number";
+        if (strict && !(v > 0)) return text + " is not allowed: must be > 0";
+        if (!strict && v < 0) return text + " is not allowed: must not be negative";
+        return std::string();
+      },
+      strict ? "POSITIVE" : "NONNEGATIVE");
+}
+}  // namespace
+
+CLI::Validator finitePositive() { return finiteAtLeast(true); }
+CLI::Validator finiteNonNegative() { return finiteAtLeast(false); }
+
 void FrictionCli::add(CLI::App* app) {
   app->add_option("--boundary-friction", boundary, "Lumped friction coefficient mu' (overrides the robot's)")
-      ->check(CLI::NonNegativeNumber);
+      ->check(finiteNonNegative());
   app->add_option("--distributed-friction", distributed,
                   "Distributed Coulomb coefficient mu (overrides the robot's)")
-      ->check(CLI::NonNegativeNumber);
+      ->check(finiteNonNegative());
   app->add_option("--friction-mode", mode, "stick-slip (default) or paper (always slipping, eq. 34-35)")
       ->check(CLI::IsMember({"stick-slip", "paper"}));
 }

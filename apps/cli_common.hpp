@@ -49,6 +49,11 @@ std::vector<std::string> normalizeArguments(int argc, char** argv);
 void checkOutputPath(const std::string& option, const std::string& path,
                      const std::vector<std::pair<std::string, std::string>>& inputs = {});
 
+/// @brief CLI11 check: a finite number > 0 (CLI::PositiveNumber lets nan and inf through).
+CLI::Validator finitePositive();
+/// @brief CLI11 check: a finite number >= 0.
+CLI::Validator finiteNonNegative();
+
 }  // namespace ctr::cli
 
 #include "ctr/model/friction.hpp"

@@ -57,7 +57,7 @@ void registerDemo(CLI::App& app, Action& action) {
   CLI::App* sub = app.add_subcommand(
       "demo", "Embedded default job: plan from the vena cava to the tricuspid valve of a procedural heart");
   sub->add_flag("--paper", o->paper, "Instead: the paper's tube pair B twist sweep (frictionless vs friction)");
-  sub->add_option("--boundary-friction", o->mu, "mu' of the --paper friction branches")->check(CLI::NonNegativeNumber);
+  sub->add_option("--boundary-friction", o->mu, "mu' of the --paper friction branches")->check(finiteNonNegative());
   sub->add_option("--path", o->path, "Where the demo writes the replayed path (CSV)");
   sub->callback([o, &action]() {
     action = [o]() {

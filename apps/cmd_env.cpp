@@ -48,7 +48,7 @@ struct EnvOptions {
 
 void addEnvOptions(CLI::App* sub, EnvOptions& o) {
   sub->add_option("ENV", o.file, "Environment description (YAML)")->required();
-  sub->add_option("--resolution", o.resolution, "Override the map resolution (m)")->check(CLI::PositiveNumber);
+  sub->add_option("--resolution", o.resolution, "Override the map resolution (m)")->check(finitePositive());
   sub->add_option("--start", o.start, "Use this named start pose as the robot base pose");
   sub->add_flag("--verbose", o.verbose, "Print build progress on stderr");
 }
@@ -214,11 +214,11 @@ void registerEnv(CLI::App& app, Action& action) {
     sub->add_option("--robot", o->robot, "Robot description YAML")->required();
     o->config.add(sub);
     sub->add_option("--margin", o->margin, "Safety margin added to every tube radius (m); default: the environment's")
-        ->check(CLI::NonNegativeNumber);
+        ->check(finiteNonNegative());
     sub->add_option("--unknown", o->unknown, "Unknown space: free or occupied; default: the environment's")
         ->check(CLI::IsMember({"free", "occupied"}));
     sub->add_option("--max-distance", o->max_distance, "Clearance saturates at this distance (m)")
-        ->check(CLI::PositiveNumber);
+        ->check(finitePositive());
     sub->add_flag("--json", o->env.json, "Print one JSON object");
     sub->callback([o, &action]() {
       action = [o]() {

@@ -25,7 +25,7 @@ void registerFk(CLI::App& app, Action& action) {
   o->config.add(sub);
   sub->add_flag("--json", o->json, "Print one JSON object");
   sub->add_option("--shape", o->shape, "Write the backbone (s,x,y,z) to this CSV");
-  sub->add_option("--shape-step", o->ds, "Backbone resolution for --shape (m)")->check(CLI::PositiveNumber);
+  sub->add_option("--shape-step", o->ds, "Backbone resolution for --shape (m)")->check(finitePositive());
   sub->callback([o, &action]() {
     action = [o]() {
       checkOutputPath("--shape", o->shape, {{"--robot", o->robot}});

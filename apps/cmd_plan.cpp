@@ -23,6 +23,8 @@ nlohmann::json resultJson(const plan::Query& q, const plan::PlanResult& r) {
   j["mode"] = plan::toString(r.mode);
   j["planner"] = r.planner;
   j["planning_time"] = r.planning_time;
+  j["planning_wall_time"] = r.planning_wall_time;
+  j["time_limit_clock"] = q.cpu_time_limit ? "cpu" : "wall";
   j["replay_time"] = r.replay_time;
   j["path_length"] = r.path_length;
   j["waypoints"] = r.path.size();
@@ -48,9 +50,9 @@ void checkStart(const plan::CtrPlanner& p) {
   plan::ThreadScratch& t = plan::scratch();
   const plan::Query& q = p.query();
   const std::shared_ptr<const plan::StateCache> c = plan::startCache(ctx, q.start, q.history);
-  if (!c->solution.converged()) throw io::InputError(q.file, 0, "start", "the model does not converge at the start: " + c->why);
+  if (!c->solution.converged()) throw io::InputError(q.file, q.lineOf("start"), "start", "the model does not converge at the start: " + c->why);
   const plan::ShapeCheck sc = plan::checkShape(ctx, c->solution, t);
-  if (!sc.ok) throw io::InputError(q.file, 0, "start", "start configuration is invalid: " + sc.reason);
+  if (!sc.ok) throw io::InputError(q.file, q.lineOf("start"), "start", "start configuration is invalid: " + sc.reason);
 }
 
 }  // namespace
@@ -60,6 +62,7 @@ void registerPlan(CLI::App& app, Action& action) {
     std::string query, json, path, planner, mode, html;
     double time = 0;
     long seed = -1;
+    bool cpu_time = false;
   };
   auto o = std::make_shared<Opts>();
   CLI::App* sub = app.add_subcommand("plan", "Plan a query (YAML) with friction-aware validity, then replay the path");
@@ -69,8 +72,9 @@ void registerPlan(CLI::App& app, Action& action) {
   sub->add_option("--html", o->html, "Write the interactive 3D viewer of the replayed path (self-contained HTML)");
   sub->add_option("--planner", o->planner, "Override the query's planner");
   sub->add_option("--mode", o->mode, "Override the mode: exact, robust, frictionless");
-  sub->add_option("--time", o->time, "Override the time limit (s)")->check(CLI::PositiveNumber);
-  sub->add_option("--seed", o->seed, "Override the seed")->check(CLI::NonNegativeNumber);
+  sub->add_option("--time", o->time, "Override the time limit (s)")->check(finitePositive());
+  sub->add_option("--seed", o->seed, "Override the seed")->check(finiteNonNegative());
+  sub->add_flag("--cpu-time", o->cpu_time, "Time limit and planning time in CPU seconds of the process (reproducible on a loaded machine)");
   sub->callback([o, &action]() {
     action = [o]() {
       checkOutputPath("--json", o->json, {{"query", o->query}});
@@ -82,6 +86,7 @@ void registerPlan(CLI::App& app, Action& action) {
       if (!o->planner.empty()) q.planner = o->planner;
       if (o->time > 0) q.time_limit = o->time;
       if (o->seed >= 0) q.seed = static_cast<std::uint64_t>(o->seed);
+      if (o->cpu_time) q.cpu_time_limit = true;
       plan::CtrPlanner p(q);
       checkStart(p);
       p.makePlanner(q.planner);  // unknown planner: usage error before planning
@@ -125,8 +130,8 @@ void registerPlan(CLI::App& app, Action& action) {
   CLI::App* bs = app.add_subcommand("bench", "Benchmark planners on a query with ompl::tools::Benchmark (+ replay)");
   bs->add_option("query", b->query, "Query YAML")->required();
   bs->add_option("--planners", b->planners, "Comma-separated planner names (default: the query's)");
-  bs->add_option("--runs", b->runs, "Runs per planner")->check(CLI::PositiveNumber);
-  bs->add_option("--time", b->time, "Time limit per run (s)")->check(CLI::PositiveNumber);
+  bs->add_option("--runs", b->runs, "Runs per planner")->check(finitePositive());
+  bs->add_option("--time", b->time, "Time limit per run (s)")->check(finitePositive());
   bs->add_option("--out", b->out, "Output folder (OMPL .log + summary.json)")->required();
   bs->callback([b, &action]() {
     action = [b]() {

@@ -25,7 +25,7 @@ void registerView(CLI::App& app, Action& action) {
   sub->add_option("--html", o->html, "HTML file to write")->required();
   sub->add_option("--query", o->query, "Query YAML: goal, friction override and base start pose of the plan");
   sub->add_option("--env-resolution", o->env_resolution, "Override the environment's octree resolution (m)")
-      ->check(CLI::PositiveNumber);
+      ->check(finitePositive());
   sub->add_option("--max-voxels", o->max_voxels, "Most anatomy surface voxels drawn (coarsened beyond)")
       ->check(CLI::Range(1000, 2000000));
   sub->add_option("--band-waypoints", o->band_waypoints, "Waypoints with a friction band (evenly spaced)")

@@ -39,18 +39,11 @@ int main(int argc, char** argv) {
   try {
     std::vector<std::string> rev(args.rbegin(), args.rend() - 1);
     app.parse(rev);
+  } catch (const CLI::ValidationError& e) {
+    // Our checks (finitePositive, ...) already say plainly what is wrong: "--time: 0 is not allowed: must be > 0".
+    std::cerr << "error: " << e.what() << "\n";
+    return kUsage;
   } catch (const CLI::ParseError& e) {
-    // CLI11's PositiveNumber / NonNegativeNumber print the whole double range ("Value 0 not in range 0.000000 to
-    // 1797...8.000000"): say plainly what is wrong instead.
-    const std::string what = e.what();
-    const std::size_t v = what.find("Value "), at = what.find(" not in range 0.000000 to 1797693134862315");
-    if (v != std::string::npos && at != std::string::npos && v < at) {
-      const std::string value = what.substr(v + 6, at - v - 6);
-      const bool zero = std::strtod(value.c_str(), nullptr) == 0.0;
-      std::cerr << "error: " << what.substr(0, v) << value << " is not allowed: "
-                << (zero ? "must be > 0" : "must not be negative") << "\n";
-      return kUsage;
-    }
     return app.exit(e) == 0 ? kOk : kUsage;
   }
   if (!action) return kOk;

@@ -44,13 +44,16 @@ void BM_ValidityAlongMotion(benchmark::State& st) {
   Configuration q = sampleConfiguration(ctx->robot(), ctx->translationSampler(), g);
   plan::ConfigurationCheck prev = plan::checkFrictionless(*ctx, q, plan::scratch());
   int k = 0;
+  std::size_t valid = 0;
   for (auto _ : st) {
     const int i = k % q.size();
     q.alpha[i] += ((k / 200) % 2 ? -1 : 1) * 0.0087;  // 0.5 deg steps, as the motion validator
     ++k;
     prev = plan::checkFrictionless(*ctx, q, plan::scratch(), prev.shape.converged() ? &prev.shape : nullptr);
+    valid += prev.ok;
   }
   st.counters["checks/s"] = benchmark::Counter(static_cast<double>(st.iterations()), benchmark::Counter::kIsRate);
+  st.counters["valid_fraction"] = static_cast<double>(valid) / static_cast<double>(st.iterations());
 }
 
 void BM_FrictionMotionStep(benchmark::State& st) {

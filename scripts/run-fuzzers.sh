@@ -60,14 +60,6 @@ runs_for() {
 
 run_one() {
   local t=$1 dir=$WORK/$1
-  # mesh: assimp 5.2.5 (Debian) aborts or hangs on malformed PLY content beyond what loadMesh pre-validates
-  # (docs/reliability.md, "Fuzzing"); seeded CI runs leave it to fuzz_corpus_replay (corpus + regressions).
-  if [ -n "${CTR_FUZZ_SEED:-}" ] && [ "$t" = mesh ]; then
-    mkdir -p "$dir/artifacts"
-    echo "0" > "$dir/rc"
-    echo "skipped in seeded runs: replayed by the CTest test fuzz_corpus_replay" > "$dir/log"
-    return
-  fi
   mkdir -p "$dir/corpus" "$dir/artifacts"
   cp tests/fuzz/corpus/"$t"/* "$dir/corpus/"
   if [ -d tests/fuzz/regressions/"$t" ]; then cp tests/fuzz/regressions/"$t"/* "$dir/corpus/" 2>/dev/null || true; fi

@@ -188,7 +188,7 @@ DiagnosisReport diagnose(const Robot& nominal, const io::Recording& full, const 
   for (const auto& f : rep.mismatch.findings) progress("mismatch: " + f.signature + " " + f.variable + ": " + f.where);
   Candidate cur;
   cur.fit = base;
-  cur.cv = crossValidate(nominal, rec, {}, o.folds, fo, ws);
+  cur.cv = crossValidate(nominal, rec, {}, o.folds, fo, ws, 6, o.threads);
   cur.bic = bic(rec, base.residuals, all, 0);
   rep.folds = std::min(o.folds, rows);
   rep.evaluations += base.evaluations + cur.cv.evaluations + 2;
@@ -265,7 +265,7 @@ DiagnosisReport diagnose(const Robot& nominal, const io::Recording& full, const 
           }
         }
         if (c.delta_bic < -o.bic_threshold) {
-          c.cv = crossValidate(nominal, rec, c.fit.effects, o.folds, fo, tws, o.cv_iterations);
+          c.cv = crossValidate(nominal, rec, c.fit.effects, o.folds, fo, tws, o.cv_iterations, o.threads);
           c.cv_done = true;
           evals += c.cv.evaluations;
           c.heldout_p = stats::chunkedBootstrapTest(cur.cv.row_score, c.cv.row_score, chunks);
@@ -382,7 +382,7 @@ DiagnosisReport diagnose(const Robot& nominal, const io::Recording& full, const 
     progress("backward elimination: removed " + lab);
     cur.fit = std::move(best_fit);
     cur.bic = best_b;
-    cur.cv = crossValidate(nominal, rec, cur.fit.effects, o.folds, fo, ws, o.cv_iterations);
+    cur.cv = crossValidate(nominal, rec, cur.fit.effects, o.folds, fo, ws, o.cv_iterations, o.threads);
   }
   // 3. Final model: fitted values with intervals (already from its full-data fit).
   rep.final_effects = cur.fit.effects;

@@ -3,9 +3,14 @@
 
 #include <ceres/ceres.h>
 
+#include "ctr/diagnosis/statistics.hpp"
+
 #include <algorithm>
+#include <atomic>
 #include <cmath>
+#include <exception>
 #include <limits>
+#include <thread>
 
 namespace ctr::diagnosis {
 
@@ -93,6 +98,7 @@ public:
   /// Index into the effect list of free parameter j.
   int effectIndex(int j) const { return free_[static_cast<std::size_t>(j)]; }
   int residuals() const { return static_cast<int>(layout_.rows.size()) * layout_.components; }
+  int componentsPerRow() const { return layout_.components; }
   double toX(int j, double v) const {
     const auto& r = ranges_[static_cast<std::size_t>(j)];
     return std::clamp((v - r.lo) / (r.hi - r.lo), 0.0, 1.0);
@@ -272,11 +278,16 @@ FitResult fitEffects(const Robot& nominal, const io::Recording& rec, const std::
     const int dof = std::max(1, m.finiteCount(f.residuals) - k);
     const double s2 = 2.0 * f.cost / dof;
     const Eigen::MatrixXd H = J.transpose() * J;
-    Eigen::MatrixXd C = H.completeOrthogonalDecomposition().pseudoInverse() * s2;
+    const Eigen::MatrixXd C = H.completeOrthogonalDecomposition().pseudoInverse() * s2;
+    // Residuals of consecutive rows are serially correlated (model error varies smoothly along a path): the
+    // interval uses the pre-whitened Newey-West (HAC) covariance over rows, never narrower than the classical one.
+    const stats::HacCovariance hac = stats::hacCovariance(J, r0, m.componentsPerRow());
+    f.interval_serial_correlation = hac.rho;
     const double nan = std::numeric_limits<double>::quiet_NaN();
     f.interval95.assign(f.effects.size(), {nan, nan});
     for (int j = 0; j < k; ++j) {
-      const double sd = std::sqrt(std::max(0.0, C(j, j))) * m.span(j);
+      const double var = std::max(C(j, j), hac.covariance(j, j));
+      const double sd = std::sqrt(std::max(0.0, var)) * m.span(j);
       const double v = f.effects[static_cast<std::size_t>(m.effectIndex(j))].value;
       const double half = H(j, j) > 0 ? 1.96 * sd : std::numeric_limits<double>::infinity();
       f.interval95[static_cast<std::size_t>(m.effectIndex(j))] = {std::max(m.range(j).lo, v - half),
@@ -295,7 +306,7 @@ std::vector<int> foldOfRows(int rows, int folds) {
 }
 
 CrossValidation crossValidate(const Robot& nominal, const io::Recording& rec, const std::vector<Effect>& start,
-                              int folds, const FitOptions& options, Workspace& ws, int max_iterations) {
+                              int folds, const FitOptions& options, Workspace& ws, int max_iterations, int threads) {
   CrossValidation cv;
   const int rows = rec.rows();
   const std::vector<int> fold = foldOfRows(rows, folds);
@@ -308,19 +319,43 @@ CrossValidation crossValidate(const Robot& nominal, const io::Recording& rec, co
     const Eigen::MatrixXd& M = q == Quantity::Twist ? rec.twist : q == Quantity::TipPosition ? rec.tip_position : rec.tip_tangent;
     cv.heldout.of(q) = Eigen::MatrixXd::Constant(rows, M.cols(), std::numeric_limits<double>::quiet_NaN());
   }
+  std::vector<FitResult> fits(static_cast<std::size_t>(nf));
+  auto fitFold = [&](int f, Workspace& w) {
+    std::vector<char> train(static_cast<std::size_t>(rows));
+    for (int k = 0; k < rows; ++k) train[static_cast<std::size_t>(k)] = fold[static_cast<std::size_t>(k)] != f;
+    fits[static_cast<std::size_t>(f)] = start.empty() ? evaluateModel(nominal, rec, start, train, o, w)
+                                                      : fitEffects(nominal, rec, start, train, o, w);
+  };
+  const int nt = std::max(1, std::min(threads, nf));
+  if (nt == 1) {
+    for (int f = 0; f < nf; ++f) fitFold(f, ws);
+  } else {
+    // Folds are independent fits: run them concurrently, one workspace per thread (exceptions re-thrown here).
+    std::atomic<int> next{0};
+    std::vector<std::exception_ptr> errors(static_cast<std::size_t>(nt));
+    auto worker = [&](int t, Workspace& w) {
+      try {
+        for (int f; (f = next++) < nf;) fitFold(f, w);
+      } catch (...) {
+        errors[static_cast<std::size_t>(t)] = std::current_exception();
+        next = nf;
+      }
+    };
+    std::vector<std::thread> pool;
+    std::vector<Workspace> spaces(static_cast<std::size_t>(nt - 1));
+    for (int t = 1; t < nt; ++t) pool.emplace_back(worker, t, std::ref(spaces[static_cast<std::size_t>(t - 1)]));
+    worker(0, ws);
+    for (auto& th : pool) th.join();
+    for (const auto& e : errors)
+      if (e) std::rethrow_exception(e);
+  }
   for (int f = 0; f < nf; ++f) {
-    std::vector<char> train(static_cast<std::size_t>(rows)), test(static_cast<std::size_t>(rows));
-    for (int k = 0; k < rows; ++k) {
-      train[static_cast<std::size_t>(k)] = fold[static_cast<std::size_t>(k)] != f;
-      test[static_cast<std::size_t>(k)] = !train[static_cast<std::size_t>(k)];
-    }
-    FitResult r = start.empty() ? evaluateModel(nominal, rec, start, train, o, ws)
-                                : fitEffects(nominal, rec, start, train, o, ws);
+    const FitResult& r = fits[static_cast<std::size_t>(f)];
     cv.evaluations += r.evaluations;
     cv.fold_effects.push_back(r.effects);
     for (Quantity q : presentQuantities(rec))
       for (int k = 0; k < rows; ++k)
-        if (test[static_cast<std::size_t>(k)]) cv.heldout.of(q).row(k) = r.residuals.of(q).row(k);
+        if (fold[static_cast<std::size_t>(k)] == f) cv.heldout.of(q).row(k) = r.residuals.of(q).row(k);
   }
   const std::vector<char> all(static_cast<std::size_t>(rows), 1);
   cv.rmse = rmse(rec, cv.heldout, all);

@@ -190,8 +190,8 @@ std::string reportToMarkdown(const DiagnosisReport& r, const io::Recording& full
         o << "[" << f4(r.final_intervals.at(e.label())[0]) << ", " << f4(r.final_intervals.at(e.label())[1]) << "]";
       o << " |\n";
     }
-    o << "\nIntervals are Gauss-Newton intervals assuming independent residuals; serially correlated model error "
-         "makes them optimistic.\n\n";
+    o << "\nIntervals: Gauss-Newton with a pre-whitened Newey-West (HAC) covariance over rows, robust to serially "
+         "correlated model error (never narrower than the independent-residual interval).\n\n";
   }
   for (const auto& w : r.warnings) o << "- warning: " << w << "\n";
   o << "\n" << r.evaluations << " replays of the sequence, " << f4(r.seconds) << " s.\n";

@@ -141,12 +141,15 @@ namespace {
 // cover the whole axis.
 // Outside the distance field, the distance to the map bounds is a lower bound (the map holds no obstacle beyond
 // its bounds) when unknown space is free.
+// An undecided sample also proves a collision when the box of its cell's nearest occupied cell reaches into the
+// capsule by more than `deep` (a twentieth of a cell, far beyond FCL's tolerance: FCL would report this capsule too).
 bool decide(const DistanceField& f, const Aabb* map_bounds, const Capsule& c, std::vector<Run>& runs) {
   runs.clear();
   const Eigen::Vector3d d = c.b - c.a;
   const double L = d.norm();
   const Eigen::Vector3d u = L > 0.0 ? Eigen::Vector3d(d / L) : Eigen::Vector3d::Zero();
   const double h = 0.5 * f.resolution();
+  const double deep = c.radius - 0.05 * f.resolution();
   double t = 0.0;
   double run0 = -1.0, run1 = -1.0;  // current undecided run (arc length along the axis)
   while (true) {
@@ -165,6 +168,11 @@ bool decide(const DistanceField& f, const Aabb* map_bounds, const Capsule& c, st
       }
       step = m;
     } else {
+      Eigen::Vector3d o;
+      if (inside && deep > 0.0 && f.nearestObstacle(p, o)) {
+        const Aabb box(o.array() - h, o.array() + h);  // h: half a cell
+        if (distance(box, p) < deep) return true;
+      }
       if (run0 < 0.0) run0 = std::max(0.0, t - 0.5 * h);
       run1 = t + 0.5 * h;
       step = h;

@@ -9,10 +9,11 @@
 #include <cstring>
 #include <fstream>
 #include <map>
-#include <unordered_map>
 #include <sstream>
+#include <unordered_map>
 
 #include "ctr/io/input_error.hpp"
+#include "ply_validation.hpp"
 
 namespace ctr::env {
 
@@ -54,79 +55,93 @@ struct VecHash {
   }
 };
 
-// OFF and PLY headers declare element counts that assimp allocates before reading the data: a count larger than
+// The whole file (read to the end rather than trusting tellg: a folder reports a huge size on some file systems).
+std::string readAll(const std::string& path, std::istream& in) {
+  std::string content;
+  char chunk[1 << 16];
+  while (in.read(chunk, sizeof(chunk)) || in.gcount() > 0) content.append(chunk, static_cast<std::size_t>(in.gcount()));
+  if (in.bad()) throw io::InputError(path, 0, "", "cannot read the mesh file");
+  return content;
+}
+
+// OFF headers declare vertex and face counts that assimp allocates before reading the data: a count larger than
 // the file's size in bytes cannot be genuine (every element takes at least one byte), so it is refused before
-// assimp allocates gigabytes for a few hundred bytes (found by fuzz_mesh in CI: "OFF\n44444444444 4 0").
-void checkDeclaredCounts(const std::string& path, std::istream& in) {
-  in.seekg(0, std::ios::end);
-  const auto bytes = static_cast<unsigned long long>(std::max<std::streamoff>(0, in.tellg()));
-  in.seekg(0);
-  auto tooMany = [&](const std::string& token, int line) {
-    const std::size_t digits = token.find_first_not_of("0123456789");
-    if (token.empty() || digits == 0) return;
-    const std::string d = token.substr(0, digits);
-    if (d.size() > 18 || std::stoull(d) > bytes)
-      throw io::InputError(path, line, "", "the header declares " + d + " elements but the file has only " +
-                                               std::to_string(bytes) + " bytes");
+// assimp allocates gigabytes for a few hundred bytes (found by fuzz_mesh in CI: "OFF\n44444444444 4 0"; then, in
+// a seeded run, "OFF\n44\n4444...": the counts may span lines). The counts are found exactly as assimp 5.2.5's OFF
+// reader finds them: optional ST / C / N / 4 / n prefixes, "OFF", an optional dimension, then the counts, with
+// blanks, line ends and '#' comment lines skipped in between; its strtoul10 reads a token's leading digits.
+void checkOff(const std::string& path, const std::string& b) {
+  const std::size_t n = b.size();
+  const std::size_t end = n + 1;  // assimp's buffer end: the file and a '\0'
+  auto at = [&](std::size_t i) { return i < n ? b[i] : '\0'; };
+  auto lineOf = [&](std::size_t i) { return 1 + static_cast<int>(std::count(b.begin(), b.begin() + i, '\n')); };
+  std::size_t i = 0;
+  auto blanks = [&] {
+    while (at(i) == ' ' || at(i) == '\t' || at(i) == '\r' || at(i) == '\n') ++i;
   };
+  auto nextToken = [&] {  // assimp's NextToken
+    blanks();
+    while (i < end && (at(i) == '#' || at(i) == '\n' || at(i) == '\r')) {
+      while (at(i) != '\r' && at(i) != '\n' && at(i) != '\0') ++i;
+      while (at(i) == '\r' || at(i) == '\n') ++i;
+      blanks();
+    }
+  };
+  auto digits = [&] {
+    const std::size_t a = i;
+    while (at(i) >= '0' && at(i) <= '9') ++i;
+    return b.substr(a, i - a);
+  };
+  auto count = [&] {
+    const std::size_t a = i;
+    std::string d = digits();
+    std::size_t zeros = 0;
+    while (zeros + 1 < d.size() && d[zeros] == '0') ++zeros;
+    d.erase(0, zeros);
+    if (d.size() > 18 || (!d.empty() && std::stoull(d) > n))
+      throw io::InputError(path, lineOf(a), "", "the header declares " + d + " elements but the file has only " +
+                                                    std::to_string(n) + " bytes");
+  };
+  nextToken();
+  if (i + 2 < end && at(i) == 'S' && at(i + 1) == 'T') i += 2;
+  if (i + 1 < end && at(i) == 'C') ++i;
+  if (i + 1 < end && at(i) == 'N') ++i;
+  if (i + 1 < end && at(i) == '4') ++i;
+  const bool dimension = i + 1 < end && at(i) == 'n';
+  if (dimension) ++i;
+  if (i + 3 < end && at(i) == 'O' && at(i + 1) == 'F' && at(i + 2) == 'F') {
+    i += 3;
+    nextToken();
+  } else {
+    nextToken();
+    if (i + 1 >= end || at(i) < '0' || at(i) > '9') return;  // assimp: "OFF: Header is invalid"
+  }
+  if (dimension) {
+    digits();
+    nextToken();
+  }
+  nextToken();
+  count();  // vertices
+  nextToken();
+  count();  // faces
+  // assimp copies each line into a 4096-byte buffer and writes its terminator one past the end of a longer line.
+  std::size_t run = 0;
+  for (std::size_t k = 0; k < n; ++k) {
+    const char c = b[k];
+    run = (c == '\r' || c == '\n' || c == '\0' || c == '\f') ? 0 : run + 1;
+    if (run > 4095) throw io::InputError(path, lineOf(k), "", "the line is longer than 4095 characters");
+  }
+}
+
+// Checks run before assimp sees the file: OFF counts (checkOff) and the whole PLY file (header and body, see
+// ply_validation.hpp): assimp's PLY reader loops forever on unknown header lines / property types or a missing
+// end_header, and aborts (ai_assert), reads out of bounds or allocates gigabytes on malformed bodies (found by
+// fuzz_mesh).
+void prevalidate(const std::string& path, std::istream& in) {
   std::string ext = path.substr(path.find_last_of('.') == std::string::npos ? path.size() : path.find_last_of('.'));
   std::transform(ext.begin(), ext.end(), ext.begin(), [](unsigned char ch) { return std::tolower(ch); });
-  std::string line;
-  if (ext == ".off") {
-    // Header keyword line, then (after comments / blank lines) the counts line.
-    int n = 0;
-    bool header = false;
-    while (n < 64 && std::getline(in, line)) {
-      ++n;
-      const std::size_t a = line.find_first_not_of(" \t\r");
-      if (a == std::string::npos || line[a] == '#') continue;
-      if (!header && line.find("OFF") != std::string::npos) {
-        header = true;
-        std::istringstream rest(line.substr(line.find("OFF") + 3));
-        std::string tok;
-        while (rest >> tok) tooMany(tok, n);  // counts on the header line itself
-        continue;
-      }
-      std::istringstream ss(line);
-      std::string tok;
-      for (int k = 0; k < 3 && ss >> tok; ++k) tooMany(tok, n);
-      break;
-    }
-  } else if (ext == ".ply") {
-    int n = 0;
-    bool end = false;
-    while (n < 1000 && std::getline(in, line)) {
-      ++n;
-      std::istringstream ss(line);
-      std::string kw, name, count;
-      ss >> kw;
-      if (kw == "end_header") {
-        end = true;
-        break;
-      }
-      // assimp's PLY reader can loop forever on a header line it does not know: allow only the PLY keywords.
-      if (n > 1 && !kw.empty() && kw != "format" && kw != "element" && kw != "property" && kw != "comment" &&
-          kw != "obj_info")
-        throw io::InputError(path, n, "", "malformed PLY header line '" + line + "'");
-      if (kw == "element" && ss >> name >> count) tooMany(count, n);
-      if (kw == "property") {
-        // assimp's PLY reader loops forever on a property with an unknown type (found by fuzz_mesh: "property 0 0").
-        static const char* const kTypes[] = {"char",  "uchar",  "short", "ushort", "int",    "uint",
-                                             "float", "double", "int8",  "uint8",  "int16",  "uint16",
-                                             "int32", "uint32", "float32", "float64"};
-        auto known = [&](const std::string& t) {
-          return std::any_of(std::begin(kTypes), std::end(kTypes), [&](const char* k) { return t == k; });
-        };
-        std::string type, a, b, c;
-        ss >> type >> a;
-        bool ok = known(type) && !a.empty();                                         // property TYPE NAME
-        if (type == "list") ok = static_cast<bool>(ss >> b >> c) && known(a) && known(b);  // property list T T NAME
-        if (!ok) throw io::InputError(path, n, "", "malformed PLY property line '" + line + "'");
-      }
-    }
-    // Without end_header assimp's PLY reader can loop forever (found by fuzz_mesh).
-    if (!end) throw io::InputError(path, n, "", "the PLY header has no end_header line");
-  }
+  if (ext == ".off") checkOff(path, readAll(path, in));
+  if (ext == ".ply") detail::validatePly(path, readAll(path, in));
 }
 
 }  // namespace
@@ -135,7 +150,7 @@ TriangleMesh loadMesh(const std::string& path, double scale, const Eigen::Isomet
   {
     std::ifstream probe(path, std::ios::binary);
     if (!probe) throw io::InputError(path, 0, "", "cannot open the mesh file (missing or unreadable)");
-    checkDeclaredCounts(path, probe);
+    prevalidate(path, probe);
   }
   Assimp::Importer importer;
   importer.SetPropertyInteger(AI_CONFIG_PP_SBP_REMOVE, aiPrimitiveType_POINT | aiPrimitiveType_LINE);

@@ -42,6 +42,8 @@ std::vector<BackbonePoint> resampleBackbone(const Solution& sol, double ds) {
 
 Eigen::Matrix2Xd tubeBendingMoments(const Robot& robot, const Configuration& q, const BackbonePoint& p) {
   const int n = robot.size();
+  if (p.theta.size() < n)
+    throw std::invalid_argument("tubeBendingMoments: the backbone point has no tube states (record_tube_states)");
   Eigen::Matrix2Xd m = Eigen::Matrix2Xd::Zero(2, n);
   for (int i = 0; i < n; ++i) {
     const Tube& t = robot.tube(i);

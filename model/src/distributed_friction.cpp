@@ -161,6 +161,7 @@ struct Pass {
   std::vector<BackbonePoint> backbone;
   std::vector<DistributedForceSample> samples;
   std::vector<double> integrated;
+  std::vector<double> contact_twist, contact_moment;  // per active contact (lumped friction)
 };
 
 // One integration from s = 0 to the tip for z = (u_z(0), n_z(0)).
@@ -173,7 +174,10 @@ void integrate(Model& M, const Eigen::VectorXd& z, bool record, Pass& out) {
     uz[i] = z[i];
     nz[i] = z[n + i];
   }
-  out.r.setZero(2 * n);
+  const int nc = static_cast<int>(P.contacts.size());
+  out.r.setZero(2 * n + nc);
+  out.contact_twist.assign(static_cast<std::size_t>(nc), 0.0);
+  out.contact_moment.assign(static_cast<std::size_t>(nc), 0.0);
   out.twist.setZero(std::max(0, n - 1));
   out.p.setZero();
   out.R.setIdentity();
@@ -243,6 +247,41 @@ void integrate(Model& M, const Eigen::VectorXd& z, bool record, Pass& out) {
       out.r[i] = uz[i];
       out.r[n + i] = nz[i];
     }
+    // Lumped friction at concentrated moments (§II.D), as in the kinematics solver: unknown scaled torque tau_c
+    // (T = kt_inner tau_c on the inner tube, -T on the outer); its law gives the residual row; the torque is a
+    // point torque, i.e. a jump of u_z (or a term of the distal condition of a tube ending here).
+    for (int c : bp.contacts) {
+      const detail::ActiveContact& ac = P.contacts[static_cast<std::size_t>(c)];
+      const int a = ac.site.outer, b = ac.site.inner, row = 2 * n + c;
+      const double tau = z[2 * n + c];
+      double mom;
+      if (ac.site.kind == MomentKind::TubeEnd) {
+        mom = detail::endMoment(P, sg, th.data(), ac.site.tube, nullptr);
+      } else {
+        const Segment& nx = P.segments[si + 1];
+        const int j = ac.site.tube;
+        mom = std::abs(P.kb[j] * P.kappa[j] * (nx.K - P.kb[j]) / nx.K);
+      }
+      out.contact_twist[static_cast<std::size_t>(c)] = th[b] - th[a];
+      out.contact_moment[static_cast<std::size_t>(c)] = mom;
+      switch (ac.condition.law) {
+        case ContactCondition::Law::Free: out.r[row] = tau; break;
+        case ContactCondition::Law::Stick: out.r[row] = th[b] - th[a] - ac.condition.value; break;
+        case ContactCondition::Law::Torque:
+          out.r[row] = tau - ac.condition.value * P.mu_boundary / P.kt[b] * mom;
+          break;
+      }
+    }
+    for (int c : bp.contacts) {
+      const detail::ActiveContact& ac = P.contacts[static_cast<std::size_t>(c)];
+      const int a = ac.site.outer, b = ac.site.inner;
+      const double tau = z[2 * n + c];
+      const double pa = -P.kt[b] / P.kt[a];
+      const bool a_ends = std::find(bp.ending.begin(), bp.ending.end(), a) != bp.ending.end();
+      const bool b_ends = std::find(bp.ending.begin(), bp.ending.end(), b) != bp.ending.end();
+      (a_ends ? out.r[a] : uz[a]) -= pa * tau;
+      (b_ends ? out.r[b] : uz[b]) -= tau;
+    }
     if (record && si + 1 == P.segments.size()) {
       StageOut last;
       stage(M, sg, th, uz, nz, last, true);
@@ -270,7 +309,12 @@ DistributedFrictionSolution solveDistributedFriction(const Robot& robot, const C
     return res;
   }
   Problem P;
-  P.setup(robot, q, nullptr, opt.kinematics.max_step, 1.0, opt.kinematics.max_bending_per_step);
+  if (!opt.contacts.empty() && opt.contacts.size() != contactSites(robot, q).size())
+    throw std::invalid_argument("solveDistributedFriction: contacts needs one condition per contact site (" +
+                                std::to_string(contactSites(robot, q).size()) + ")");
+  const std::vector<ContactCondition>* conditions = opt.contacts.empty() ? nullptr : &opt.contacts;
+  P.setup(robot, q, conditions, opt.kinematics.max_step, 1.0, opt.kinematics.max_bending_per_step);
+  const int nc = static_cast<int>(P.contacts.size());
   Model M;
   M.P = &P;
   M.mu = opt.mu;
@@ -289,13 +333,16 @@ DistributedFrictionSolution solveDistributedFriction(const Robot& robot, const C
   }
   M.dir = opt.direction;
 
-  // Initial guess: frictionless solution (cold or warm), n_z(0) = 0.
+  // Initial guess: the solution without distributed friction (with the same contact laws), n_z(0) = 0.
   Workspace ws;
   KinematicsOptions ko = opt.kinematics;
   ko.record_backbone = false;
-  const Solution base = solve(robot, q, ws, ko, warm);
-  Eigen::VectorXd z = Eigen::VectorXd::Zero(2 * n);
-  if (base.converged()) z.head(n) = base.base_twist_rate;
+  const Solution base = conditions ? solveWithContacts(robot, q, *conditions, ws, ko, warm) : solve(robot, q, ws, ko, warm);
+  Eigen::VectorXd z = Eigen::VectorXd::Zero(2 * n + nc);
+  if (base.converged()) {
+    z.head(n) = base.base_twist_rate;
+    if (base.contact_unknowns.size() == nc) z.tail(nc) = base.contact_unknowns;
+  }
   Pass pass;
   integrate(M, z, false, pass);
   double nr = pass.r.cwiseAbs().maxCoeff();
@@ -303,9 +350,9 @@ DistributedFrictionSolution solveDistributedFriction(const Robot& robot, const C
   const double tol = opt.kinematics.tolerance;
   for (; iters < opt.kinematics.max_iterations && nr >= tol; ++iters) {
     // Finite-difference Jacobian.
-    Eigen::MatrixXd J(2 * n, 2 * n);
+    Eigen::MatrixXd J(2 * n + nc, 2 * n + nc);
     Pass pp;
-    for (int c = 0; c < 2 * n; ++c) {
+    for (int c = 0; c < 2 * n + nc; ++c) {
       const double hstep = 1e-7 * (1.0 + std::abs(z[c]));
       Eigen::VectorXd zc = z;
       zc[c] += hstep;
@@ -337,7 +384,7 @@ DistributedFrictionSolution solveDistributedFriction(const Robot& robot, const C
   s.summary.status = ok ? SolveStatus::Converged : SolveStatus::NotConverged;
   s.summary.iterations = iters;
   s.summary.residual_norm = nr;
-  s.summary.stability = base.summary.stability;  // of the frictionless branch (friction is a small perturbation)
+  s.summary.stability = base.summary.stability;  // of the branch without distributed friction (a small perturbation)
   s.summary.stable = ok && base.summary.stable;
   if (!ok) {
     std::ostringstream os;
@@ -354,6 +401,17 @@ DistributedFrictionSolution solveDistributedFriction(const Robot& robot, const C
   s.tip_position = pass.p;
   s.tip_frame = pass.R;
   s.moments = base.moments;
+  s.contact_unknowns = z.tail(nc);
+  for (int c = 0; c < nc; ++c) {
+    const detail::ActiveContact& ac = P.contacts[static_cast<std::size_t>(c)];
+    ContactResult cr;
+    cr.site = ac.site;
+    cr.condition = ac.condition;
+    cr.relative_twist = pass.contact_twist[static_cast<std::size_t>(c)];
+    cr.moment = pass.contact_moment[static_cast<std::size_t>(c)];
+    cr.torque = z[2 * n + c] * P.kt[ac.site.inner];
+    s.contacts.push_back(cr);
+  }
   s.backbone = std::move(pass.backbone);
   res.samples = std::move(pass.samples);
   for (double v : pass.integrated) res.integrated_friction_torque = std::max(res.integrated_friction_torque, v);

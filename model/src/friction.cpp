@@ -126,10 +126,11 @@ SubstepOutcome solveSubstep(const Robot& robot, const HysteresisState& prev, con
   }
   const Solution warm = warmFrom(prev);
   KinematicsOptions kopt = opt.kinematics;
-  if (robot.friction().distributed > 0.0) {
+  const bool distributed = robot.friction().distributed > 0.0;
+  DistributedFrictionOptions dopt;
+  if (distributed) {
     // Distributed-contact friction (§II.B): sign per interface from the commanded relative rotation.
     const int n = robot.size();
-    DistributedFrictionOptions dopt;
     dopt.mu = robot.friction().distributed;
     dopt.kinematics = kopt;
     dopt.direction.assign(static_cast<std::size_t>(std::max(0, n - 1)), 1);
@@ -142,13 +143,21 @@ SubstepOutcome solveSubstep(const Robot& robot, const HysteresisState& prev, con
       dopt.direction[static_cast<std::size_t>(j)] = static_cast<int>(d);
       out.interface_direction[j] = d;
     }
-    DistributedFrictionSolution ds = solveDistributedFriction(robot, q, dopt, &warm);
-    out.solution = std::move(ds.solution);
-    out.ok = out.solution.converged();
-    out.iterations = 1;
-    if (!out.ok) out.message = out.solution.summary.message;
-    return out;
+    if (mu == 0.0) {
+      DistributedFrictionSolution ds = solveDistributedFriction(robot, q, dopt, &warm);
+      out.solution = std::move(ds.solution);
+      out.ok = out.solution.converged();
+      out.iterations = 1;
+      if (!out.ok) out.message = out.solution.summary.message;
+      return out;
+    }
   }
+  // Equilibrium under given contact laws, with the distributed friction when the robot has it.
+  auto solveLaws = [&](const std::vector<ContactCondition>& cond) {
+    if (!distributed) return solveWithContacts(robot, q, cond, ws, kopt, &warm);
+    dopt.contacts = cond;
+    return std::move(solveDistributedFriction(robot, q, dopt, &warm).solution);
+  };
   if (mu == 0.0) {
     // Frictionless: exactly the frictionless model (no contact unknowns), following the branch.
     out.solution = solve(robot, q, ws, kopt, &warm);
@@ -182,7 +191,7 @@ SubstepOutcome solveSubstep(const Robot& robot, const HysteresisState& prev, con
         known[c] = false;
       }
     }
-    out.solution = solveWithContacts(robot, q, conditionsFor(modes), ws, kopt, &warm);
+    out.solution = solveLaws(conditionsFor(modes));
     out.modes = modes;
     out.ok = out.solution.converged();
     out.iterations = 1;
@@ -195,7 +204,7 @@ SubstepOutcome solveSubstep(const Robot& robot, const HysteresisState& prev, con
   for (int it = 0; it < opt.max_active_set_iterations; ++it) {
     ++out.iterations;
     visited.insert(modes);
-    Solution sol = solveWithContacts(robot, q, conditionsFor(modes), ws, kopt, &warm);
+    Solution sol = solveLaws(conditionsFor(modes));
     if (!sol.converged()) {
       out.message = "equilibrium with contact modes did not converge: " + sol.summary.message;
       out.solution = std::move(sol);
@@ -222,7 +231,7 @@ SubstepOutcome solveSubstep(const Robot& robot, const HysteresisState& prev, con
     std::vector<ContactMode> md(k);
     std::size_t x = code;
     for (std::size_t c = 0; c < k; ++c, x /= 3) md[c] = static_cast<ContactMode>(x % 3);
-    Solution sol = solveWithContacts(robot, q, conditionsFor(md), ws, kopt, &warm);
+    Solution sol = solveLaws(conditionsFor(md));
     ++out.iterations;
     if (!sol.converged()) continue;
     std::vector<ContactMode> proposal;
@@ -252,8 +261,6 @@ SubstepOutcome solveSubstep(const Robot& robot, const HysteresisState& prev, con
 }  // namespace
 
 StepResult initialState(const Robot& robot, const Configuration& q, Workspace& ws, const FrictionOptions& opt) {
-  if (robot.friction().boundary > 0.0 && robot.friction().distributed > 0.0)
-    throw std::invalid_argument("boundary and distributed friction together are not supported yet; set one to 0");
   StepResult r;
   const std::vector<ContactSite> sites = contactSites(robot, q);
   std::vector<ContactCondition> free(sites.size(), ContactCondition{ContactCondition::Law::Free, 0.0});

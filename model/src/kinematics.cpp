@@ -125,28 +125,33 @@ void Problem::setup(const Robot& robot, const Configuration& q, const std::vecto
 
   // Breakpoints.
   std::vector<double> pts;
+  pts.reserve(static_cast<std::size_t>(2 * n + 1));
   pts.push_back(0.0);
   for (int i = 0; i < n; ++i) {
     if (end[i] > kSameS) pts.push_back(end[i]);
     if (hasDiscontinuity(robot, q, i)) pts.push_back(disc[i]);
   }
   std::sort(pts.begin(), pts.end());
-  std::vector<double> uniq;
+  std::size_t kept = 0;  // merge breakpoints closer than kSameS (in place)
   for (double p : pts)
-    if (uniq.empty() || p > uniq.back() + kSameS) uniq.push_back(p);
+    if (kept == 0 || p > pts[kept - 1] + kSameS) pts[kept++] = p;
+  pts.resize(kept);
+  const std::vector<double>& uniq = pts;
 
-  segments.clear();
-  breakpoints.clear();
-  for (std::size_t b = 0; b + 1 < uniq.size(); ++b) {
-    Segment sg;
+  // Segments and breakpoints are rebuilt in place: their vectors keep their storage from the previous solve.
+  const std::size_t count = uniq.size() > 1 ? uniq.size() - 1 : 0;
+  segments.resize(count);
+  breakpoints.resize(count);
+  for (std::size_t b = 0; b < count; ++b) {
+    Segment& sg = segments[b];
     sg.s0 = uniq[b];
     sg.s1 = uniq[b + 1];
     const double mid = 0.5 * (sg.s0 + sg.s1);
     sg.steps = std::max(1, static_cast<int>(std::ceil((sg.s1 - sg.s0) / max_step - 1e-9)));
     sg.h = (sg.s1 - sg.s0) / sg.steps;
     sg.present.assign(static_cast<std::size_t>(n), 0);
-    sg.a = Eigen::VectorXd::Zero(n);
-    sg.w = Eigen::VectorXd::Zero(n);
+    sg.a.setZero(n);
+    sg.w.setZero(n);
     sg.K = 0.0;
     sg.outermost = n - 1;
     for (int i = n - 1; i >= 0; --i) {
@@ -164,9 +169,11 @@ void Problem::setup(const Robot& robot, const Configuration& q, const std::vecto
         sg.a[i] = kb[i] / kt[i] * kappa[i] / sg.K;
       }
     }
-    segments.push_back(sg);
-    Breakpoint bp;
+    Breakpoint& bp = breakpoints[b];
     bp.s = sg.s1;
+    bp.ending.clear();
+    bp.discontinuities.clear();
+    bp.contacts.clear();
     for (int i = 0; i < n; ++i)
       if (std::abs(end[i] - sg.s1) <= kSameS) bp.ending.push_back(i);
     for (int i = 0; i < n; ++i)
@@ -174,7 +181,6 @@ void Problem::setup(const Robot& robot, const Configuration& q, const std::vecto
     for (std::size_t c = 0; c < contacts.size(); ++c)
       if (std::abs(contacts[c].site.s - sg.s1) <= kSameS) bp.contacts.push_back(static_cast<int>(c));
     bp.twist_point = std::abs(sg.s1 - s_twist) <= kSameS;
-    breakpoints.push_back(bp);
   }
 }
 
@@ -257,7 +263,9 @@ void orthonormalize(Eigen::Matrix3d& R) {
   R.col(2) = z;
 }
 
-// Bending moment magnitude of tube i just before arc length s on segment sg, with its gradient w.r.t. theta.
+}  // namespace
+
+// Bending moment magnitude of tube i just before the end of segment sg, with its gradient w.r.t. theta.
 double endMoment(const Problem& P, const Segment& sg, const double* th, int i, Eigen::VectorXd* grad) {
   const int n = P.n;
   double A = 0.0, B = 0.0;
@@ -287,8 +295,6 @@ double endMoment(const Problem& P, const Segment& sg, const double* th, int i, E
   return P.kb[i] * nv;
 }
 
-}  // namespace
-
 void Evaluator::evaluate(const Problem& P, const Eigen::VectorXd& z, bool jac, bool record, Outputs& out) {
   const int n = P.n, m = P.m;
   resize(n, m);
@@ -311,7 +317,6 @@ void Evaluator::evaluate(const Problem& P, const Eigen::VectorXd& z, bool jac, b
   out.moments.clear();
   out.contacts_relative_twist.assign(P.contacts.size(), 0.0);
   out.contacts_moment.assign(P.contacts.size(), 0.0);
-  if (record) out.backbone.clear();
 
   // Tubes that never leave the actuation unit: u_iz = 0 there.
   for (int i = 0; i < n; ++i) {
@@ -330,35 +335,34 @@ void Evaluator::evaluate(const Problem& P, const Eigen::VectorXd& z, bool jac, b
     }
   }
 
-  auto pushNode = [&](double s, const Segment& sg, bool segment_start = false) {
-    BackbonePoint bp;
+  // Backbone nodes are written in place into out.backbone (its elements and their theta / u_z vectors are reused
+  // from the previous evaluation: no allocation per node). u0 is the curvature at the node: the first RK4 stage's.
+  std::size_t nodes = 0;
+  auto pushNode = [&](double s, const Segment& sg, const Eigen::Vector2d& u0n, bool segment_start) {
+    if (nodes == out.backbone.size()) out.backbone.emplace_back();
+    BackbonePoint& bp = out.backbone[nodes++];
     bp.s = s;
     bp.segment_start = segment_start;
     bp.position = p;
     bp.frame = R;
     bp.theta = Y.head(n);
     bp.uz = Y.segment(n, n);
-    double A = 0, B = 0;
-    for (int j = 0; j < n; ++j)
-      if (sg.w[j] != 0.0) {
-        A += sg.w[j] * std::cos(Y[j]);
-        B += sg.w[j] * std::sin(Y[j]);
-      }
-    bp.u0 = Eigen::Vector2d(-B / sg.K, A / sg.K);
+    bp.u0 = u0n;
     bp.outermost = sg.outermost;
-    out.backbone.push_back(std::move(bp));
   };
 
   Eigen::VectorXd grad;
   for (std::size_t si = 0; si < P.segments.size(); ++si) {
     const Segment& sg = P.segments[si];
     const double h = sg.h;
-    if (record) pushNode(sg.s0, sg, true);  // after the previous breakpoint's events: both sides of a jump are kept
     for (int st = 0; st < sg.steps; ++st) {
       Eigen::Vector2d u01, u02, u03, u04;
       double* y = Y.data();
       double* yt = Ytmp.data();
       deriv(sg, y, K[0].data(), jac, u01);
+      // Node at the start of the step (the segment's first node is after the previous breakpoint's events: both
+      // sides of a jump are kept).
+      if (record) pushNode(sg.s0 + st * h, sg, u01, st == 0);
       for (int d = 0; d < dim; ++d) yt[d] = y[d] + 0.5 * h * K[0][d];
       deriv(sg, yt, K[1].data(), jac, u02);
       for (int d = 0; d < dim; ++d) yt[d] = y[d] + 0.5 * h * K[1][d];
@@ -372,13 +376,20 @@ void Evaluator::evaluate(const Problem& P, const Eigen::VectorXd& z, bool jac, b
       const Eigen::Vector2d w2 = h / 12.0 * (-u01 + 2.0 * u02 + 2.0 * u03 + 3.0 * u04);
       detail::se3Step(R, p, w1, 0.5 * h);
       detail::se3Step(R, p, w2, 0.5 * h);
-      if (record && st + 1 < sg.steps) pushNode(sg.s0 + (st + 1) * h, sg);
     }
     orthonormalize(R);
 
     // Events at the end of the segment.
     const Breakpoint& bp = P.breakpoints[si];
-    if (record) pushNode(bp.s, sg);
+    if (record) {
+      double A = 0, B = 0;
+      for (int j = 0; j < n; ++j)
+        if (sg.w[j] != 0.0) {
+          A += sg.w[j] * std::cos(Y[j]);
+          B += sg.w[j] * std::sin(Y[j]);
+        }
+      pushNode(bp.s, sg, Eigen::Vector2d(-B / sg.K, A / sg.K), false);
+    }
     if (bp.twist_point) {
       out.twist.resize(n - 1);
       for (int k = 1; k < n; ++k) out.twist[k - 1] = Y[k] - Y[0];
@@ -464,6 +475,7 @@ void Evaluator::evaluate(const Problem& P, const Eigen::VectorXd& z, bool jac, b
   }
   out.tip_position = p;
   out.tip_frame = R;
+  if (record) out.backbone.resize(nodes);
   if (record && !P.segments.empty()) {
     // Last node: values after the final events (frozen tubes).
     out.backbone.back().theta = Y.head(n);
@@ -489,10 +501,11 @@ double maxAbs(const Eigen::VectorXd& v) { return v.size() ? v.cwiseAbs().maxCoef
 
 bool allFinite(const Eigen::VectorXd& v) { return v.allFinite(); }
 
-// Newton from z; returns true on convergence. z, ws outputs updated to the last evaluated point.
+// Newton from z; returns true on convergence. z, ws outputs updated to the last evaluated point (with `record`, every
+// evaluation records the backbone, so that it is at hand for the returned point without another pass).
 bool newton(const Problem& P, Evaluator& E, Outputs& out, Eigen::VectorXd& z, const KinematicsOptions& opt,
-            int& iterations, double& res_norm, std::string& why) {
-  E.evaluate(P, z, true, false, out);
+            int& iterations, double& res_norm, std::string& why, bool record) {
+  E.evaluate(P, z, true, record, out);
   double nr = maxAbs(E.r);
   double merit = E.r.squaredNorm();  // Newton directions descend on the 2-norm (not on the max-norm)
   const double step_cap = 4.0 * M_PI / std::max(P.s_tip, 1e-3);  // limit on a base twist rate change (1/m)
@@ -526,7 +539,7 @@ bool newton(const Problem& P, Evaluator& E, Outputs& out, Eigen::VectorXd& z, co
     bool accepted = false;
     for (int ls = 0; ls < 12; ++ls) {
       zt = z + t * dz;
-      E.evaluate(P, zt, true, false, out);
+      E.evaluate(P, zt, true, record, out);
       const double mt = E.r.squaredNorm();
       if (allFinite(E.r) && mt < (1.0 - 1e-4 * t) * merit) {
         accepted = true;
@@ -555,7 +568,7 @@ bool newton(const Problem& P, Evaluator& E, Outputs& out, Eigen::VectorXd& z, co
   return false;
 }
 
-Solution package(const Robot& robot, const Configuration& q, const Problem& P, Evaluator& E, Outputs& out,
+Solution package(const Robot& robot, const Configuration& q, const Problem& P, const Outputs& out,
                  const Eigen::VectorXd& z, bool ok, int iterations, double res_norm, const std::string& why,
                  const KinematicsOptions& opt) {
   Solution sol;
@@ -564,10 +577,6 @@ Solution package(const Robot& robot, const Configuration& q, const Problem& P, E
   sol.summary.iterations = iterations;
   sol.summary.residual_norm = res_norm;
   sol.summary.message = ok ? "" : why;
-  if (ok && opt.record_backbone) {
-    // One more pass to record the backbone at the converged point (also refreshes the stability from J).
-    E.evaluate(P, z, true, true, out);
-  }
   sol.summary.stability = out.stability;
   sol.summary.stable = ok && out.stability > 0.0;
   const int n = P.n;
@@ -580,7 +589,24 @@ Solution package(const Robot& robot, const Configuration& q, const Problem& P, E
   sol.tip_position = out.tip_position;
   sol.tip_frame = out.tip_frame;
   sol.moments = out.moments;
-  if (opt.record_backbone) sol.backbone = out.backbone;
+  if (opt.record_backbone) {
+    // The last evaluation was at (P, z) with recording on (see solveImpl).
+    if (opt.record_tube_states) {
+      sol.backbone = out.backbone;
+    } else {
+      sol.backbone.resize(out.backbone.size());
+      for (std::size_t k = 0; k < out.backbone.size(); ++k) {
+        const BackbonePoint& a = out.backbone[k];
+        BackbonePoint& b = sol.backbone[k];
+        b.s = a.s;
+        b.position = a.position;
+        b.frame = a.frame;
+        b.u0 = a.u0;
+        b.outermost = a.outermost;
+        b.segment_start = a.segment_start;
+      }
+    }
+  }
   for (std::size_t c = 0; c < P.contacts.size(); ++c) {
     const detail::ActiveContact& ac = P.contacts[c];
     ContactResult cr;
@@ -632,7 +658,7 @@ bool continuation(const std::function<void(double)>& setAt, const Problem& P, Ev
     double rn = 0;
     std::string w;
     ++steps;
-    const bool ok = newton(P, E, out, zt, o, iterations, rn, w);
+    const bool ok = newton(P, E, out, zt, o, iterations, rn, w, false);
     if (ok) {
       z = zt;
       t = tn;
@@ -664,7 +690,10 @@ Solution solveImpl(const Robot& robot, const Configuration& q, const std::vector
   int iters = 0;
   double rn = 0.0;
   std::string why;
-  bool ok = newton(P, W.eval, W.out, z, opt, iters, rn, why);
+  // Every path below ends with an evaluation at the returned (P, z) with recording on: the backbone (and the
+  // stability) package() returns are that evaluation's.
+  const bool rec = opt.record_backbone;
+  bool ok = newton(P, W.eval, W.out, z, opt, iters, rn, why, rec);
   const bool cold = (warm == nullptr);
   int cont_steps = 0;
   if ((!ok || (cold && W.out.stability <= 0.0)) && opt.homotopy) {
@@ -672,7 +701,7 @@ Solution solveImpl(const Robot& robot, const Configuration& q, const std::vector
     const bool ok_first = ok;
     auto finish = [&](Eigen::VectorXd& zc) {
       P.setup(robot, q, conditions, opt.max_step, 1.0, mbps);
-      return newton(P, W.eval, W.out, zc, opt, iters, rn, why) && W.out.stability > 0.0;
+      return newton(P, W.eval, W.out, zc, opt, iters, rn, why, rec) && W.out.stability > 0.0;
     };
     // Fallback 1: continuation in the precurvatures from the interaction-free robot (unique, stable solution).
     Eigen::VectorXd zh = Eigen::VectorXd::Zero(P.m);
@@ -709,7 +738,7 @@ Solution solveImpl(const Robot& robot, const Configuration& q, const std::vector
       ok = ok_first;
       P.setup(robot, q, conditions, opt.max_step, 1.0, mbps);
       if (!ok) why += "; homotopy from zero precurvature: " + hwhy;
-      W.eval.evaluate(P, z, true, false, W.out);  // outputs of the returned point
+      W.eval.evaluate(P, z, true, rec, W.out);  // outputs of the returned point
       rn = maxAbs(W.eval.r);
     }
   }
@@ -720,16 +749,16 @@ Solution solveImpl(const Robot& robot, const Configuration& q, const std::vector
     double rn2 = 0;
     std::string w2;
     P.setup(robot, q, conditions, 0.25 * opt.max_step, 1.0, 0.25 * mbps);
-    if (newton(P, W.eval, W.out, zr, opt, it2, rn2, w2)) {
+    if (newton(P, W.eval, W.out, zr, opt, it2, rn2, w2, rec)) {
       z = zr;
       rn = rn2;
     } else {
       P.setup(robot, q, conditions, opt.max_step, 1.0, mbps);
-      W.eval.evaluate(P, z, true, false, W.out);
+      W.eval.evaluate(P, z, true, rec, W.out);
     }
     iters += it2;
   }
-  Solution sol = package(robot, q, P, W.eval, W.out, z, ok, iters, rn, why, opt);
+  Solution sol = package(robot, q, P, W.out, z, ok, iters, rn, why, opt);
   sol.summary.continuation_steps = cont_steps;
   return sol;
 }

@@ -57,6 +57,9 @@ struct Outputs {
   double stability = 0;
 };
 
+/// Bending moment magnitude of tube i at the distal end of segment sg for angles th; optional gradient w.r.t. th.
+double endMoment(const Problem& P, const Segment& sg, const double* th, int i, Eigen::VectorXd* grad);
+
 class Evaluator {
 public:
   /// Integrates from s = 0 to the tip for unknowns z; fills r (and J when jac).

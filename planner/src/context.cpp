@@ -1,6 +1,6 @@
 #include "ctr/planner/context.hpp"
 
-#include <sstream>
+#include <cstdio>
 #include <stdexcept>
 
 namespace ctr::plan {
@@ -51,10 +51,11 @@ ShapeCheck checkShape(const Context& ctx, const Solution& sol, ThreadScratch& t)
   }
   const env::CollisionResult r = ctx.checker().check(sol, t.query);
   if (r.collision) {
-    std::ostringstream os;
-    os << "collision (tube " << r.tube + 1 << ", s " << r.s0 << "-" << r.s1 << " m"
-       << (r.outside_map ? ", outside the map" : "") << ")";
-    c.reason = os.str();
+    // %g: the same text as an ostream's default formatting, without constructing a stream per check.
+    char buf[128];
+    std::snprintf(buf, sizeof buf, "collision (tube %d, s %g-%g m%s)", r.tube + 1, r.s0, r.s1,
+                  r.outside_map ? ", outside the map" : "");
+    c.reason = buf;
     return c;
   }
   c.ok = true;

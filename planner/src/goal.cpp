@@ -2,6 +2,8 @@
 
 #include <ompl/base/SpaceInformation.h>
 
+#include "ctr/planner/stopwatch.hpp"
+
 #include <Eigen/Cholesky>
 #include <chrono>
 #include <cmath>
@@ -122,16 +124,16 @@ unsigned int TipGoal::maxSampleCount() const {
   return static_cast<unsigned int>(pool_.size());
 }
 
-std::size_t TipGoal::fillPool(std::size_t count, double seconds, std::uint64_t seed) {
+std::size_t TipGoal::fillPool(std::size_t count, double seconds, std::uint64_t seed, bool cpu_clock) {
   std::mt19937_64 gen(seed);
-  const auto t0 = std::chrono::steady_clock::now();
+  const Stopwatch watch(cpu_clock);
   ob::State* st = si_->allocState();
   while (true) {
     {
       std::lock_guard<std::mutex> lock(mutex_);
       if (pool_.size() >= count) break;
     }
-    if (std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count() > seconds) break;
+    if (watch.seconds() > seconds) break;
     Configuration q = sampleConfiguration(ctx_->robot(), ctx_->translationSampler(), gen);
     const double err = inverseKinematics(*ctx_, spec_.position, q);
     if (!(err < 0.5 * spec_.tolerance)) continue;

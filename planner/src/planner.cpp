@@ -1,5 +1,7 @@
 #include "ctr/planner/planner.hpp"
 
+#include "ctr/planner/stopwatch.hpp"
+
 #include <ompl/base/ScopedState.h>
 #include <ompl/base/goals/GoalState.h>
 #include <ompl/base/objectives/MaximizeMinClearanceObjective.h>
@@ -71,39 +73,40 @@ void CtrPlanner::init(Robot robot, env::Environment e) {
     try {
       robot = robot.withFriction(*query.friction);
     } catch (const std::invalid_argument& e) {
-      throw io::InputError(query.file, 0, "friction", e.what());
+      throw io::InputError(query.file, query.lineOf("friction"), "friction", e.what());
     }
   }
   const int n = robot.size();
   if (query.start.size() != n)
-    throw io::InputError(query.file, 0, "start.alpha",
+    throw io::InputError(query.file, query.lineOf("start.alpha"), "start.alpha",
                          "has " + std::to_string(query.start.size()) + " values, robot '" + robot.name() + "' has " +
                              std::to_string(n) + " tubes");
   const Admissibility adm = checkAdmissible(robot, query.start);
-  if (!adm) throw io::InputError(query.file, 0, "start", "not admissible: " + adm.message);
+  if (!adm) throw io::InputError(query.file, query.lineOf("start"), "start", "not admissible: " + adm.message);
   if (query.goal_configuration) {
     if (query.goal_configuration->size() != n)
-      throw io::InputError(query.file, 0, "goal.configuration", "wrong number of tubes");
+      throw io::InputError(query.file, query.lineOf("goal.configuration"), "goal.configuration", "wrong number of tubes");
     const Admissibility ga = checkAdmissible(robot, *query.goal_configuration);
-    if (!ga) throw io::InputError(query.file, 0, "goal.configuration", "not admissible: " + ga.message);
+    if (!ga) throw io::InputError(query.file, query.lineOf("goal.configuration"), "goal.configuration", "not admissible: " + ga.message);
   }
   if (!query.base_start.empty()) {
     try {
       e.useStart(query.base_start);
     } catch (const std::invalid_argument& ex) {
-      throw io::InputError(query.file, 0, "base_start", ex.what());
+      throw io::InputError(query.file, query.lineOf("base_start"), "base_start", ex.what());
     }
   }
   if (!query.target_name.empty()) {
     try {
       query_.tip_goal->position = e.target(query.target_name).position;
     } catch (const std::invalid_argument& ex) {
-      throw io::InputError(query.file, 0, "goal.target", ex.what());
+      throw io::InputError(query.file, query.lineOf("goal.target"), "goal.target", ex.what());
     }
   }
-  if (query_.tip_goal && !e.bounds().empty() && !e.bounds().contains(query_.tip_goal->position))
-    throw io::InputError(query.file, 0, query.target_name.empty() ? "goal.position" : "goal.target",
-                         "the target lies outside the environment's map");
+  if (query_.tip_goal && !e.bounds().empty() && !e.bounds().contains(query_.tip_goal->position)) {
+    const std::string key = query.target_name.empty() ? "goal.position" : "goal.target";
+    throw io::InputError(query.file, query.lineOf(key), key, "the target lies outside the environment's map");
+  }
   env_ = std::make_shared<const env::Environment>(std::move(e));
 
   ContextOptions co;
@@ -188,7 +191,11 @@ ob::PlannerPtr CtrPlanner::makePlanner(const std::string& name0) const {
       return p;
     }
     if (name == "kpiece") return std::make_shared<oc::KPIECE1>(si);
-    if (name == "sst") return std::make_shared<oc::SST>(si);
+    if (name == "sst") {
+      auto p = std::make_shared<oc::SST>(si);
+      p->setGoalBias(0.2);  // as RRT: the goal pool holds valid IK configurations
+      return p;
+    }
     if (name == "est") return std::make_shared<oc::EST>(si);
     if (name == "pdst") return std::make_shared<oc::PDST>(si);
   } else {
@@ -213,24 +220,27 @@ ob::PlannerPtr CtrPlanner::makePlanner(const std::string& name0) const {
 PlanResult CtrPlanner::solve() { return solve(query_.planner, query_.time_limit); }
 
 PlanResult CtrPlanner::solve(const std::string& planner_name, double time_limit) {
-  const auto t0 = std::chrono::steady_clock::now();
-  auto elapsed = [&] { return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count(); };
+  const Stopwatch watch(query_.cpu_time_limit);
   std::size_t pool = 0;
-  if (goal_) pool = goal_->fillPool(gss_ ? 16 : 8, std::min(0.25 * time_limit, 5.0), query_.seed);
+  if (goal_) pool = goal_->fillPool(gss_ ? 16 : 8, std::min(0.25 * time_limit, 5.0), query_.seed, watch.cpu());
   const ob::PlannerPtr p = makePlanner(planner_name);
+  // Deadline on the query's clock (at least 0.05 s for the planner itself).
+  const double deadline = std::max(time_limit, watch.seconds() + 0.05);
+  const ob::PlannerTerminationCondition ptc([&watch, deadline] { return watch.seconds() >= deadline; });
   ob::PlannerStatus status;
   if (gss_) {
     gss_->clear();
     gss_->setPlanner(p);
     gss_->setup();
-    status = gss_->solve(std::max(0.05, time_limit - elapsed()));
+    status = gss_->solve(ptc);
   } else {
     css_->clear();
     css_->setPlanner(p);
     css_->setup();
-    status = css_->solve(std::max(0.05, time_limit - elapsed()));
+    status = css_->solve(ptc);
   }
-  const double planning_time = elapsed();
+  const double planning_time = watch.seconds();
+  const double planning_wall_time = watch.wallSeconds();
   const bool exact = status == ob::PlannerStatus::EXACT_SOLUTION;
   PlanResult r;
   if (exact) {
@@ -241,6 +251,7 @@ PlanResult CtrPlanner::solve(const std::string& planner_name, double time_limit)
     r.planning_time = planning_time;
     r.message = std::string("planner: ") + status.asString();
   }
+  r.planning_wall_time = planning_wall_time;
   r.goal_pool = pool;
   return r;
 }

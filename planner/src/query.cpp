@@ -93,9 +93,16 @@ Query parseQueryYaml(const std::string& text, const std::string& source, const s
   }
   if (!root.IsMap()) throw InputError(source, 0, "", "a query must be a YAML map");
   c.allowOnly(root, "", {"name", "robot", "environment", "base_start", "friction", "start", "goal", "mode", "planner",
-                         "time_limit", "seed", "objective", "replay", "resolution", "environment_resolution"});
+                         "time_limit", "time_limit_clock", "seed", "objective", "replay", "resolution", "environment_resolution"});
   Query q;
   q.file = source;
+  // Lines of the keys (two levels) for messages about problems detected later.
+  for (const auto& kv : root) {
+    const std::string k = kv.first.Scalar();
+    q.key_lines[k] = kv.first.Mark().line + 1;
+    if (kv.second.IsMap())
+      for (const auto& kv2 : kv.second) q.key_lines[k + "." + kv2.first.Scalar()] = kv2.first.Mark().line + 1;
+  }
   q.name = root["name"] ? c.text(root["name"], "name") : std::filesystem::path(source).stem().string();
   for (const char* k : {"robot", "environment", "start", "goal"})
     if (!root[k]) throw InputError(source, 0, k, "missing (a query needs robot, environment, start and goal)");
@@ -175,6 +182,11 @@ Query parseQueryYaml(const std::string& text, const std::string& source, const s
     q.time_limit = c.number(root["time_limit"], "time_limit");
     if (!(q.time_limit > 0)) c.fail(root["time_limit"], "time_limit", "must be > 0 seconds");
   }
+  if (root["time_limit_clock"]) {
+    const std::string clk = c.text(root["time_limit_clock"], "time_limit_clock");
+    if (clk != "wall" && clk != "cpu") c.fail(root["time_limit_clock"], "time_limit_clock", "must be wall or cpu, not '" + clk + "'");
+    q.cpu_time_limit = clk == "cpu";
+  }
   if (root["seed"]) {
     const double s = c.number(root["seed"], "seed");
     if (s < 0 || s != std::floor(s)) c.fail(root["seed"], "seed", "must be a non-negative integer");
@@ -224,6 +236,16 @@ Query loadQuery(const std::string& path) {
   const std::string text = io::readFile(path);
   if (text.find_first_not_of(" \t\r\n") == std::string::npos) throw io::InputError(path, 0, "", "empty query file");
   return parseQuery(text, path, std::filesystem::path(path).parent_path().string());
+}
+
+int Query::lineOf(const std::string& key) const {
+  for (std::string k = key;;) {
+    const auto it = key_lines.find(k);
+    if (it != key_lines.end()) return it->second;
+    const auto dot = k.rfind('.');
+    if (dot == std::string::npos) return 0;
+    k.erase(dot);
+  }
 }
 
 }  // namespace ctr::plan

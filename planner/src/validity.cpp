@@ -10,9 +10,14 @@ namespace ob = ompl::base;
 namespace ctr::plan {
 namespace {
 
-KinematicsOptions shapeOptions() {
-  KinematicsOptions o;
-  o.record_backbone = true;
+// Shapes for collision checking: the backbone geometry only (no per-tube theta / u_z at the nodes).
+const KinematicsOptions& shapeOptions() {
+  static const KinematicsOptions o = [] {
+    KinematicsOptions k;
+    k.record_backbone = true;
+    k.record_tube_states = false;
+    return k;
+  }();
   return o;
 }
 
@@ -39,7 +44,7 @@ bool bandAt(const Context& ctx, const Configuration& q, ThreadScratch& t, const 
   out.shapes.clear();
   const Robot& robot = ctx.robot();
   const double thr = ctx.options().friction.snap_threshold;
-  const Solution base =
+  Solution base =
       solve(ctx.frictionlessRobot(), q, t.ws, shapeOptions(), prev && !prev->shapes.empty() ? &prev->shapes[0] : nullptr);
   if (prev && !prev->shapes.empty() &&
       (!base.converged() || (prev->shapes[0].summary.stable && !base.summary.stable) || jumped(prev->shapes[0], base, thr))) {
@@ -51,7 +56,7 @@ bool bandAt(const Context& ctx, const Configuration& q, ThreadScratch& t, const 
     why = "frictionless shape: " + c0.reason;
     return false;
   }
-  out.shapes.push_back(base);
+  out.shapes.push_back(std::move(base));
   const std::vector<ContactSite> sites = contactSites(robot, q);
   out.contacts = sites.size();
   if (robot.friction().boundary <= 0.0 || sites.empty()) return true;
@@ -61,8 +66,8 @@ bool bandAt(const Context& ctx, const Configuration& q, ThreadScratch& t, const 
     std::vector<ContactCondition> cond(k);
     for (std::size_t c = 0; c < k; ++c)
       cond[c] = {ContactCondition::Law::Torque, (code >> c) & 1u ? 1.0 : -1.0};
-    const Solution* warm = aligned ? &prev->shapes[code + 1] : &base;
-    const Solution s = solveWithContacts(robot, q, cond, t.ws, shapeOptions(), warm);
+    const Solution* warm = aligned ? &prev->shapes[code + 1] : &out.shapes[0];
+    Solution s = solveWithContacts(robot, q, cond, t.ws, shapeOptions(), warm);
     if (!s.converged()) {
       why = "friction band vertex not converged: " + s.summary.message;
       return false;
@@ -76,7 +81,7 @@ bool bandAt(const Context& ctx, const Configuration& q, ThreadScratch& t, const 
       why = "friction band shape: " + c.reason;
       return false;
     }
-    out.shapes.push_back(s);
+    out.shapes.push_back(std::move(s));
   }
   return true;
 }
@@ -97,7 +102,7 @@ ConfigurationCheck checkRobust(const Context& ctx, const Configuration& q, Threa
   ConfigurationCheck r;
   Band b;
   r.ok = bandAt(ctx, q, t, nullptr, b, r.reason);
-  if (!b.shapes.empty()) r.shape = b.shapes[0];
+  if (!b.shapes.empty()) r.shape = std::move(b.shapes[0]);
   return r;
 }
 
@@ -127,11 +132,11 @@ double checkMotionForward(const Context& ctx, const Configuration& q0, const Con
     why = c.reason;
     return fail(0);
   }
-  Solution cur = c.shape;
+  Solution cur = std::move(c.shape);
   for (int k = 1; k <= steps; ++k) {
     const double s = static_cast<double>(k) / steps;
     const Configuration qk(q0.alpha + s * d.alpha, q0.beta + s * d.beta);
-    const Solution next = solve(ctx.frictionlessRobot(), qk, t.ws, shapeOptions(), &cur);
+    Solution next = solve(ctx.frictionlessRobot(), qk, t.ws, shapeOptions(), &cur);
     if (!next.converged() || (cur.summary.stable && !next.summary.stable) || jumped(cur, next, thr)) {
       why = "the equilibrium branch snaps";
       return fail(k - 1);
@@ -141,7 +146,7 @@ double checkMotionForward(const Context& ctx, const Configuration& q0, const Con
       why = sc.reason;
       return fail(k - 1);
     }
-    cur = next;
+    cur = std::move(next);
   }
   return 1.0;
 }

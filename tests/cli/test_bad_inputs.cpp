@@ -209,8 +209,8 @@ const std::vector<Case> kCases = {
    "simulate --robot {ex}/robots/tube_pair_B.yaml --actuation {d}/act.csv --out {d}/none/rec.csv", 2, {"{d}/none/rec.csv", "cannot write"}},
   {"SimulateOutIsInput", "simulate", "--out equal to --actuation (output = input)", "", [](Dir& d) { d.write("act.csv", actuation(kRows)); },
    "simulate --robot {ex}/robots/tube_pair_B.yaml --actuation {d}/act.csv --out {d}/act.csv", 2, {"act.csv", "input"}, "act.csv"},
-  {"SimulateBothFrictions", "simulate", "boundary and distributed friction together (unsupported)", "", [](Dir& d) { d.write("act.csv", actuation(kRows)); },
-   "simulate --robot {ex}/robots/tube_pair_B.yaml --actuation {d}/act.csv --out {d}/rec.csv --boundary-friction 0.1 --distributed-friction 0.1", 2, {"not supported"}},
+  {"SimulateFrictionNaN", "simulate", "--distributed-friction nan", "", [](Dir& d) { d.write("act.csv", actuation(kRows)); },
+   "simulate --robot {ex}/robots/tube_pair_B.yaml --actuation {d}/act.csv --out {d}/rec.csv --boundary-friction 0.1 --distributed-friction nan", 2, {"--distributed-friction", "nan", "finite"}},
   // ---- diagnose (recordings) ----
   {"DiagnoseRecordingMissing", "diagnose", "recording file does not exist", "diag", none,
    "diagnose --robot {ex}/recordings/friction_masked_B.robot.yaml --recording {d}/rec.csv --json {d}/d.json", 2, {"{d}/rec.csv", "not found"}},
@@ -295,10 +295,16 @@ const std::vector<Case> kCases = {
      const std::string t = edit(heartQuery(), "time_limit: 20", "time_limit: 0");
      d.write("q.yaml", t); d.expect["line"] = std::to_string(lineOf(t, "time_limit: 0")); },
    "plan {d}/q.yaml --json {d}/r.json", 2, {"q.yaml:{line}", "time_limit", "> 0"}},
+  {"PlanUnknownTimeClock", "plan", "time_limit_clock neither wall nor cpu", "plan", [](Dir& d) {
+     const std::string t = edit(heartQuery(), "time_limit: 20", "time_limit: 20\ntime_limit_clock: sundial");
+     d.write("q.yaml", t); d.expect["line"] = std::to_string(lineOf(t, "sundial")); },
+   "plan {d}/q.yaml --json {d}/r.json", 2, {"q.yaml:{line}", "time_limit_clock", "wall or cpu"}},
   {"PlanTimeOptionZero", "plan", "--time 0", "plan", [](Dir& d) { d.write("q.yaml", heartQuery()); },
    "plan {d}/q.yaml --time 0 --json {d}/r.json", 2, {"--time", "must be > 0"}},
+  {"PlanTimeOptionInfinite", "plan", "--time inf", "plan", [](Dir& d) { d.write("q.yaml", heartQuery()); },
+   "plan {d}/q.yaml --time inf --json {d}/r.json", 2, {"--time", "inf", "finite"}},
   {"PlanTimeOptionNegative", "plan", "--time -1", "plan", [](Dir& d) { d.write("q.yaml", heartQuery()); },
-   "plan {d}/q.yaml --time -1 --json {d}/r.json", 2, {"--time", "must not be negative"}},
+   "plan {d}/q.yaml --time -1 --json {d}/r.json", 2, {"--time", "-1", "must be > 0"}},
   {"PlanUnknownPlannerInQuery", "plan", "unknown planner in the query", "plan", [](Dir& d) {
      const std::string t = edit(heartQuery(), "planner: rrt", "planner: teleport");
      d.write("q.yaml", t); d.expect["line"] = std::to_string(lineOf(t, "teleport")); },
@@ -308,20 +314,25 @@ const std::vector<Case> kCases = {
   {"PlanUnknownMode", "plan", "unknown --mode", "plan", [](Dir& d) { d.write("q.yaml", heartQuery()); },
    "plan {d}/q.yaml --mode psychic --json {d}/r.json", 2, {"psychic"}},
   {"PlanStartInCollision", "plan", "a start configuration in collision", "plan", [](Dir& d) {
-     d.write("q.yaml", edit(heartQuery(), "beta: [-0.10, -0.16, -0.21]", "beta: [-0.01, -0.07, -0.12]")); },
-   "plan {d}/q.yaml --json {d}/r.json --path {d}/p.csv", 2, {"q.yaml", "start", "collision"}},
+     const std::string t = edit(heartQuery(), "beta: [-0.10, -0.16, -0.21]", "beta: [-0.01, -0.07, -0.12]");
+     d.write("q.yaml", t); d.expect["line"] = std::to_string(lineOf(t, "start:")); },
+   "plan {d}/q.yaml --json {d}/r.json --path {d}/p.csv", 2, {"q.yaml:{line}", "start", "collision"}},
   {"PlanStartInadmissible", "plan", "wrong units: start translations in mm", "plan", [](Dir& d) {
-     d.write("q.yaml", edit(heartQuery(), "beta: [-0.10, -0.16, -0.21]", "beta: [-100, -160, -210]")); },
-   "plan {d}/q.yaml --json {d}/r.json", 2, {"q.yaml", "start", "admissible"}},
+     const std::string t = edit(heartQuery(), "beta: [-0.10, -0.16, -0.21]", "beta: [-100, -160, -210]");
+     d.write("q.yaml", t); d.expect["line"] = std::to_string(lineOf(t, "start:")); },
+   "plan {d}/q.yaml --json {d}/r.json", 2, {"q.yaml:{line}", "start", "admissible"}},
   {"PlanStartWrongJoints", "plan", "start with 2 values for a 3-tube robot", "plan", [](Dir& d) {
-     d.write("q.yaml", edit(edit(heartQuery(), "alpha: [0.0, 0.0, 0.0]", "alpha: [0.0, 0.0]"), "beta: [-0.10, -0.16, -0.21]", "beta: [-0.10, -0.16]")); },
-   "plan {d}/q.yaml --json {d}/r.json", 2, {"q.yaml", "start.alpha"}},
+     const std::string t = edit(edit(heartQuery(), "alpha: [0.0, 0.0, 0.0]", "alpha: [0.0, 0.0]"), "beta: [-0.10, -0.16, -0.21]", "beta: [-0.10, -0.16]");
+     d.write("q.yaml", t); d.expect["line"] = std::to_string(lineOf(t, "alpha: [0.0, 0.0]")); },
+   "plan {d}/q.yaml --json {d}/r.json", 2, {"q.yaml:{line}", "start.alpha"}},
   {"PlanGoalOutsideMap", "plan", "a goal position outside the map", "plan", [](Dir& d) {
-     d.write("q.yaml", edit(heartQuery(), "target: tricuspid", "position: [3.0, 3.0, 3.0]")); },
-   "plan {d}/q.yaml --json {d}/r.json", 2, {"q.yaml", "goal.position", "outside the environment's map"}},
+     const std::string t = edit(heartQuery(), "target: tricuspid", "position: [3.0, 3.0, 3.0]");
+     d.write("q.yaml", t); d.expect["line"] = std::to_string(lineOf(t, "position: [3.0")); },
+   "plan {d}/q.yaml --json {d}/r.json", 2, {"q.yaml:{line}", "goal.position", "outside the environment's map"}},
   {"PlanUnknownTarget", "plan", "goal target not in the environment", "plan", [](Dir& d) {
-     d.write("q.yaml", edit(heartQuery(), "target: tricuspid", "target: mitral")); },
-   "plan {d}/q.yaml --json {d}/r.json", 2, {"q.yaml", "goal", "mitral"}},
+     const std::string t = edit(heartQuery(), "target: tricuspid", "target: mitral");
+     d.write("q.yaml", t); d.expect["line"] = std::to_string(lineOf(t, "mitral")); },
+   "plan {d}/q.yaml --json {d}/r.json", 2, {"q.yaml:{line}", "goal.target", "mitral"}},
   {"PlanRobotMissing", "plan", "query names a robot file that does not exist", "plan", [](Dir& d) {
      const std::string t = edit(heartQuery(), "robots/proc_intracardiac.yaml", "robots/nope.yaml");
      d.write("q.yaml", t); d.expect["line"] = std::to_string(lineOf(t, "nope.yaml")); },

@@ -3,7 +3,9 @@
 #include <nifti2_io.h>
 #include <octomap/OcTree.h>
 
+#include <algorithm>
 #include <cstring>
+#include <limits>
 
 #include "ctr/environments/mesh_source.hpp"
 #include "ctr/environments/nifti_source.hpp"
@@ -349,6 +351,182 @@ TEST(MeshSource, MalformedFilesFoundByFuzzingAreInputErrorsOrMeshes) {
   } catch (const io::InputError& e) {
     EXPECT_NE(std::string(e.what()).find("bad.off"), std::string::npos);
   }
+}
+
+// PLY files are validated whole before assimp reads them (ply_validation.cpp): assimp 5.2.5 aborted (an ai_assert
+// in its triangulation after a face without indices), dereferenced null (a face texcoord list without vertex
+// indices) or read past its buffers on malformed bodies (found by fuzz_mesh). Every message names the file and the
+// line (ASCII) or the byte offset (binary), the element / property and what is wrong.
+const char* const kPlyAsciiHeader =
+    "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\nproperty float z\n"
+    "element face 1\nproperty list uchar int vertex_indices\nend_header\n";  // 9 lines
+const char* const kPlyVertices = "0 0 0\n1 0 0\n0 1 0\n";                     // lines 10-12
+
+std::string plyBinary(bool big_endian, const std::string& count_type, std::uint64_t count,
+                      const std::vector<std::int32_t>& indices, float x0 = 0.0f) {
+  std::string s = std::string("ply\nformat ") + (big_endian ? "binary_big_endian" : "binary_little_endian") +
+                  " 1.0\nelement vertex 3\nproperty float x\nproperty float y\nproperty float z\nelement face 1\n"
+                  "property list " + count_type + " int vertex_indices\nend_header\n";
+  auto put = [&](const void* p, std::size_t n) {
+    std::string b(static_cast<const char*>(p), n);
+    if (big_endian) std::reverse(b.begin(), b.end());
+    s += b;
+  };
+  const float v[3][3] = {{x0, 0, 0}, {1, 0, 0}, {0, 1, 0}};
+  for (const auto& r : v)
+    for (float c : r) put(&c, 4);
+  if (count_type == "uchar") {
+    const auto c = static_cast<std::uint8_t>(count);
+    put(&c, 1);
+  } else {
+    const auto c = static_cast<std::uint32_t>(count);
+    put(&c, 4);
+  }
+  for (std::int32_t i : indices) put(&i, 4);
+  return s;
+}
+
+// OFF counts are found where assimp's OFF reader finds them: after "OFF", across blanks, line ends and '#' comment
+// lines (found by fuzz_mesh: "OFF\n44\n4444..." made assimp allocate 42 GB for the faces).
+TEST(MeshSource, OffCountsAreCheckedWhereAssimpReadsThem) {
+  TempDir dir;
+  dir.write("split.off", "OFF\n3\n44444444444444444444444 0\n0 0 0\n1 0 0\n0 1 0\n3 0 1 2\n");
+  expectInputError([&] { loadMesh(dir.file("split.off")); },
+                   {"split.off:3", "the header declares 44444444444444444444444 elements but the file has only"});
+  dir.write("faces.off", "OFF\n# counts follow\n\n3\n# faces\n99999 0\n0 0 0\n1 0 0\n0 1 0\n3 0 1 2\n");
+  expectInputError([&] { loadMesh(dir.file("faces.off")); }, {"faces.off:6", "declares 99999 elements"});
+  dir.write("ok.off", "OFF\n# counts follow\n\n3\n# faces\n1 0\n0 0 0\n1 0 0\n0 1 0\n3 0 1 2\n");
+  EXPECT_EQ(loadMesh(dir.file("ok.off")).triangles.size(), 1u);
+  // assimp copies OFF lines into a 4096-byte buffer and writes one byte past it for a longer line.
+  dir.write("long.off", "OFF\n3 1 0\n0 0 0" + std::string(5000, ' ') + "\n1 0 0\n0 1 0\n3 0 1 2\n");
+  expectInputError([&] { loadMesh(dir.file("long.off")); }, {"long.off:3", "longer than 4095 characters"});
+}
+
+TEST(MeshSource, WellFormedPlyVariantsLoad) {
+  TempDir dir;
+  // CRLF line ends, comments, obj_info, trailing whitespace.
+  dir.write("crlf.ply",
+            "ply\r\nformat ascii 1.0\r\ncomment made by hand\r\nobj_info test\r\nelement vertex 3\r\n"
+            "property float x\r\ncomment inside\r\nproperty float y\r\nproperty float z\r\nelement face 1\r\n"
+            "property list uchar int vertex_indices\r\nend_header\r\n0 0 0 \r\n1.5e0 -0 +0\r\n0 .5 0\t\r\n3 0 1 2\r\n");
+  EXPECT_EQ(loadMesh(dir.file("crlf.ply")).triangles.size(), 1u);
+  dir.write("le.ply", plyBinary(false, "uchar", 3, {0, 1, 2}));
+  EXPECT_EQ(loadMesh(dir.file("le.ply")).triangles.size(), 1u);
+  dir.write("be.ply", plyBinary(true, "uint", 3, {0, 1, 2}));
+  const TriangleMesh be = loadMesh(dir.file("be.ply"), 1.0);
+  ASSERT_EQ(be.triangles.size(), 1u);
+  EXPECT_TRUE(be.extent().max.isApprox(Eigen::Vector3d(1, 1, 0)));
+  // A quad (triangulated by assimp) and trailing bytes after a binary body are fine.
+  dir.write("quad.ply", std::string(kPlyAsciiHeader).replace(std::string(kPlyAsciiHeader).find("vertex 3"), 8,
+                                                             "vertex 4") +
+                            kPlyVertices + "1 1 0\n4 0 1 3 2\n\n");
+  EXPECT_EQ(loadMesh(dir.file("quad.ply")).triangles.size(), 2u);
+  dir.write("tail.ply", plyBinary(false, "uchar", 3, {0, 1, 2}) + "\n");
+  EXPECT_EQ(loadMesh(dir.file("tail.ply")).triangles.size(), 1u);
+}
+
+TEST(MeshSource, MalformedPlyAsciiBodiesNameTheLine) {
+  TempDir dir;
+  const std::string h = kPlyAsciiHeader, v = kPlyVertices;
+  auto bad = [&](const std::string& name, const std::string& text, const std::vector<std::string>& fragments) {
+    dir.write(name, text);
+    expectInputError([&] { loadMesh(dir.file(name)); }, fragments);
+  };
+  bad("range.ply", h + v + "3 0 1 7\n",
+      {"range.ply:13", "element 'face', property 'vertex_indices'", "vertex index 7 is out of range [0, 3)"});
+  bad("negative.ply", h + v + "3 0 -1 2\n", {"negative.ply:13", "vertex index -1 is out of range [0, 3)"});
+  bad("sign.ply", h + v + "+3 0 1 2\n", {"sign.ply:13", "'+3' is not a valid integer for type uchar"});
+  bad("few.ply", h + "0 0 0\n1 0\n0 1 0\n3 0 1 2\n",
+      {"few.ply:11", "element 'vertex', property 'z'", "missing value (the line has only 2 values)"});
+  bad("extra.ply", h + "0 0 0 5\n1 0 0\n0 1 0\n3 0 1 2\n",
+      {"extra.ply:10", "element 'vertex'", "1 extra value(s)", "'5'"});
+  bad("word.ply", h + "0 0 0\n1 abc 0\n0 1 0\n3 0 1 2\n",
+      {"word.ply:11", "element 'vertex', property 'y'", "'abc' is not a valid number for type float"});
+  bad("dot.ply", h + "0 0 0\n1. 0 0\n0 1 0\n3 0 1 2\n", {"dot.ply:11", "property 'x'", "'1.'"});
+  bad("inf.ply", h + "0 0 0\n1e39 0 0\n0 1 0\n3 0 1 2\n", {"inf.ply:11", "'1e39' is out of range"});
+  bad("nul.ply", h + "0 0 0\n1 0" + std::string(1, '\0') + "0\n0 1 0\n3 0 1 2\n",
+      {"nul.ply:11", "property 'y'", "'0\\x000' is not a valid number"});
+  bad("items.ply", h + v + "3 0 1\n",
+      {"items.ply:13", "property 'vertex_indices'", "the list declares 3 items but the line has only 2 more values"});
+  bad("uchar.ply", h + v + "300 0 1 2\n", {"uchar.ply:13", "'300' is out of range [0, 255] for type uchar"});
+  std::string huge = h;
+  huge.replace(huge.find("list uchar int"), 14, "list uint int");
+  bad("huge.ply", huge + v + "4000000000 0 1 2\n",
+      {"huge.ply:13", "property 'vertex_indices'", "the list length '4000000000' exceeds the limit of 1024"});
+  std::string neg = h;
+  neg.replace(neg.find("list uchar int"), 14, "list int int");
+  bad("negcount.ply", neg + v + "-3 0 1 2\n", {"negcount.ply:13", "the list length '-3' is negative"});
+  bad("empty.ply", h + v + "0\n", {"empty.ply:13", "a face needs at least one vertex index"});
+  bad("missing.ply", h + v, {"missing.ply:12", "element 'face' declares 1 instances but the body has only 0"});
+  bad("blank.ply", h + "0 0 0\n\n1 0 0\n0 1 0\n3 0 1 2\n", {"blank.ply:11", "property 'x'", "missing value"});
+  // assimp would glue the rest of an earlier, longer line to a last line without '\n' ("3 0 1 223456").
+  bad("nonl.ply", h + "0 0 0\n1 0 0\n0 1 0.123456\n3 0 1 2",
+      {"nonl.ply:13", "the last line does not end with a line break"});
+  bad("after.ply", h + v + "3 0 1 2\n1 2 3\n", {"after.ply:14", "unexpected data after the last element"});
+  // A folder named like a mesh (its reported size can be huge): a plain input error.
+  std::filesystem::create_directories(dir.path() / "folder.ply");
+  expectInputError([&] { loadMesh(dir.file("folder.ply")); }, {"folder.ply", "cannot read the mesh file"});
+  // Header forms that assimp would misread (the body would no longer be what the header declares).
+  std::string tc = h;
+  tc.replace(tc.find("vertex_indices"), 14, "texcoord");
+  tc.replace(tc.find("list uchar int"), 14, "list uchar float");
+  bad("texcoord.ply", tc + v + "6 0 0 1 0 0 1\n", {"texcoord.ply:7", "texcoord list but no vertex_indices"});
+  bad("comment.ply", std::string("ply\nformat ascii 1.0\ncomment 5 lines\n") + (h.c_str() + 21) + v + "3 0 1 2\n",
+      {"comment.ply:3", "comment before the first element"});
+  bad("twice.ply", "ply\nformat ascii 1.0\nelement vertex 1\nproperty float x\nelement vertex 1\nproperty float x\n"
+                   "end_header\n0\n0\n",
+      {"twice.ply:5", "element 'vertex' is declared twice"});
+  bad("unknown.ply", "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nelement camera 1\nproperty float f\n"
+                     "end_header\n0\n1\n2\n1.5\n",
+      {"unknown.ply:5", "element 'camera' is not supported"});
+  std::string spaces = h;
+  spaces.replace(spaces.find("list uchar"), 10, "list  uchar");
+  bad("spaces.ply", spaces + v + "3 0 1 2\n", {"spaces.ply:8", "malformed PLY property line", "single spaces"});
+  bad("strips.ply", "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nelement tristrips 1\n"
+                    "property list int int vertex_indices\nend_header\n0\n1\n2\n3 0 1 2\n",
+      {"strips.ply:5", "element 'tristrips' is not supported"});
+}
+
+TEST(MeshSource, MalformedPlyBinaryBodiesNameTheByteOffset) {
+  TempDir dir;
+  auto bad = [&](const std::string& name, const std::string& bytes, const std::vector<std::string>& fragments) {
+    dir.write(name, bytes);
+    expectInputError([&] { loadMesh(dir.file(name)); }, fragments);
+  };
+  auto bodyOf = [](const std::string& s) { return s.find("end_header\n") + 11; };
+  const std::string ok = plyBinary(false, "uchar", 3, {0, 1, 2});
+  const std::size_t body = bodyOf(ok);  // 3 vertices (36 bytes), list length (1), indices (12)
+  ASSERT_EQ(ok.size(), body + 49);
+  bad("trunc.ply", ok.substr(0, ok.size() - 2),
+      {"trunc.ply: byte offset " + std::to_string(body + 37), "the binary body is truncated",
+       "element 'face' instance 0, property 'vertex_indices' needs 12 bytes", "has only 10 more"});
+  bad("truncv.ply", ok.substr(0, body + 20),
+      {"truncv.ply: byte offset " + std::to_string(body + 20), "element 'vertex' instance 1, property 'z'"});
+  const std::string huge = plyBinary(false, "uint", 0xFFFFFFFFu, {0, 1, 2});
+  bad("huge.ply", huge,
+      {"huge.ply: byte offset " + std::to_string(bodyOf(huge) + 36),
+       "element 'face' instance 0, property 'vertex_indices'", "the list length 4294967295 exceeds the limit of 1024"});
+  const std::string range = plyBinary(true, "uchar", 3, {0, 1, 70000});
+  bad("range.ply", range,
+      {"range.ply: byte offset " + std::to_string(bodyOf(range) + 36),
+       "element 'face' instance 0, property 'vertex_indices'", "vertex index 70000 is out of range [0, 3)"});
+  bad("nan.ply", plyBinary(false, "uchar", 3, {0, 1, 2}, std::numeric_limits<float>::quiet_NaN()),
+      {"nan.ply: byte offset " + std::to_string(body), "element 'vertex' instance 0, property 'x'", "not a finite"});
+  bad("empty.ply", plyBinary(false, "uchar", 0, {}), {"empty.ply: byte offset", "at least one vertex index"});
+  // assimp 5.2.5 skips a '\n' right after "end_header\n" (found by fuzz_mesh: a body starting with 0x0a was read one
+  // byte late, then a face without indices aborted in assimp's triangulation): refused. After "end_header\r\n" the
+  // same body is read correctly and loads.
+  float x0 = 0.0f;
+  const std::uint32_t bits = 0x3f80000au;  // 1.0000012f: little-endian, its first byte is 0x0a
+  std::memcpy(&x0, &bits, 4);
+  const std::string nl = plyBinary(false, "uchar", 3, {0, 1, 2}, x0);
+  bad("nl.ply", nl, {"nl.ply: byte offset " + std::to_string(bodyOf(nl)), "starts with a 0x0a byte"});
+  std::string crlf = nl;
+  crlf.insert(crlf.find("end_header\n") + 10, "\r");
+  dir.write("crlf.ply", crlf);
+  const TriangleMesh m = loadMesh(dir.file("crlf.ply"), 1.0);
+  ASSERT_EQ(m.triangles.size(), 1u);
+  EXPECT_FLOAT_EQ(static_cast<float>(m.extent().max.x()), x0);
 }
 
 }  // namespace

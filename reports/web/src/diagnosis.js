@@ -44,7 +44,7 @@ if (eff.length) {
   });
   app.appendChild(h('section', { class: 'card', id: 'parameters' }, h('h2', {}, 'Fitted parameters (all rows)'),
     table(['effect', 'parameter', 'value', '95 % interval'], rows, { class: 'params' }),
-    h('p', { class: 'note' }, 'Gauss-Newton intervals assuming independent residuals; serially correlated model error makes them optimistic.')));
+    h('p', { class: 'note' }, 'Gauss-Newton intervals with a pre-whitened Newey-West (HAC) covariance over rows: robust to serially correlated model error.')));
 }
 
 // Held-out error before / after.

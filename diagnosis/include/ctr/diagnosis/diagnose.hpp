@@ -25,7 +25,7 @@ struct DiagnoseOptions {
   double bic_threshold = 10.0;         ///< Accept only if BIC drops by more than this ("very strong" evidence).
   double heldout_p = 0.05;             ///< Held-out improvement must be significant at this level.
   double min_heldout_gain = 0.02;      ///< ... and reduce the held-out normalised error by at least this fraction.
-  int threads = 2;                     ///< Candidates fitted in parallel (one Workspace per thread).
+  int threads = 2;                     ///< Candidates (and each one's cross-validation folds) fitted in parallel.
   std::vector<EffectKind> candidates;  ///< Kinds to try; empty = all (sensor_latency only with time).
   int max_iterations = 15;             ///< Ceres iterations of a full fit.
   int screen_iterations = 8;           ///< Ceres iterations when screening a candidate (new parameter only).

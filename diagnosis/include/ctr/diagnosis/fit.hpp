@@ -40,7 +40,9 @@ struct FitOptions {
 /// @brief A fitted model evaluated on every row.
 struct FitResult {
   std::vector<Effect> effects;                        ///< Fitted values.
-  std::vector<std::array<double, 2>> interval95;      ///< Per effect (empty when not computed).
+  std::vector<std::array<double, 2>> interval95;      ///< Per effect (empty when not computed): Gauss-Newton with
+                                                      ///< the pre-whitened HAC covariance over rows (serial correlation).
+  double interval_serial_correlation = 0.0;           ///< AR(1) coefficient of the row scores behind the intervals.
   Registration registration;                          ///< Sensor registration (FrameMode::Unknown).
   Prediction prediction;                              ///< All rows, in the sensor frame.
   Residuals residuals;                                ///< All rows.
@@ -74,7 +76,9 @@ struct CrossValidation {
 std::vector<int> foldOfRows(int rows, int folds);
 
 /// @brief Cross-validates a model. With no effects (baseline) only the registration is refitted per fold.
+/// With threads > 1 the folds are fitted concurrently (one workspace each; the result does not depend on it).
 CrossValidation crossValidate(const Robot& nominal, const io::Recording& rec, const std::vector<Effect>& start,
-                              int folds, const FitOptions& options, Workspace& ws, int max_iterations = 6);
+                              int folds, const FitOptions& options, Workspace& ws, int max_iterations = 6,
+                              int threads = 1);
 
 }  // namespace ctr::diagnosis

@@ -42,4 +42,19 @@ double chunkedLogRatioTest(const Eigen::VectorXd& before, const Eigen::VectorXd&
 double chunkedBootstrapTest(const Eigen::VectorXd& before, const Eigen::VectorXd& after, int chunks,
                             int resamples = 2000, unsigned seed = 12345);
 
+/// @brief Result of hacCovariance.
+struct HacCovariance {
+  Eigen::MatrixXd covariance;  ///< Of the parameters (k x k).
+  int lags = 0;                ///< Bartlett bandwidth used (rows).
+  double rho = 0.0;            ///< Serial correlation of the row scores found (AR(1) coefficient, lag-1 autocorrelation).
+};
+
+/// @brief Heteroskedasticity- and autocorrelation-consistent (Newey-West, Bartlett kernel) covariance of a least-squares
+/// estimate: H^+ Omega H^+ T/(T-k) with H = J^T J and Omega = sum over |l| <= L of (1 - |l|/(L+1)) sum_t g_t g_{t-l}^T,
+/// where g_t = J_t^T r_t is the score of row t (rows in time order, `per_row` consecutive residuals each). With
+/// `lags` < 0: Andrews-Monahan VAR(1) pre-whitening of the scores and Andrews' automatic AR(1) bandwidth
+/// L = 1.1447 (4 rho^2 / (1 - rho)^4 T)^(1/3) on the whitened scores, clamped to [1, T/2]. Valid for independent
+/// residuals as well (then close to s^2 H^-1).
+HacCovariance hacCovariance(const Eigen::MatrixXd& J, const Eigen::VectorXd& r, int per_row, int lags = -1);
+
 }  // namespace ctr::diagnosis::stats

@@ -21,6 +21,9 @@ struct DistributedFrictionOptions {
   int max_root_iterations = 60;    ///< Iterations of the implicit equation in u_z' per stage.
   double root_tolerance = 1e-12;   ///< On u_z' (1/m^2), relative to its size.
   KinematicsOptions kinematics;    ///< Step size, Newton tolerance, iterations.
+  /// Lumped friction at the concentrated moments (§II.D) acting together with the distributed friction: one law per
+  /// site of contactSites(robot, q), or empty for none. Torque laws use robot.friction().boundary as mu'.
+  std::vector<ContactCondition> contacts;
 };
 
 /// @brief Distributed contact force at one arc length and interface.
@@ -41,8 +44,9 @@ struct DistributedFrictionSolution {
   bool used_default_radius = false;             ///< Diameters were missing: default_contact_radius was used.
 };
 
-/// @brief Equilibrium of the torsionally compliant model with distributed Coulomb friction. Throws
-/// std::invalid_argument if `direction` does not have n-1 entries.
+/// @brief Equilibrium of the torsionally compliant model with distributed Coulomb friction (and, optionally, the
+/// lumped friction torques of `options.contacts`; then Solution::contacts reports them as solveWithContacts does).
+/// Throws std::invalid_argument if `direction` does not have n-1 entries or `contacts` has the wrong size.
 DistributedFrictionSolution solveDistributedFriction(const Robot& robot, const Configuration& q,
                                                      const DistributedFrictionOptions& options,
                                                      const Solution* warm = nullptr);

@@ -69,8 +69,8 @@ struct StepResult {
 
 /// @brief Memory of a robot at rest at q without friction torques (all contacts stuck at zero torque).
 /// Uses the robot's coefficients from robot.friction(): boundary mu' (stick-slip or paper mode) or distributed mu
-/// (distributed_friction.hpp; sign from the commanded relative rotation). Both non-zero at once is not supported
-/// yet and throws std::invalid_argument.
+/// (distributed_friction.hpp; sign from the commanded relative rotation), or both at once (the lumped torques then act
+/// on the distributed-friction equilibrium; stick-slip and paper modes as without distributed friction).
 StepResult initialState(const Robot& robot, const Configuration& q, Workspace& ws, const FrictionOptions& options = {});
 
 /// @brief Quasi-static move from the state `from` to the command q, sub-stepped so that the result does not depend

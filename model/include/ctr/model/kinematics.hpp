@@ -48,6 +48,9 @@ struct KinematicsOptions {
   int max_iterations = 40;         ///< Newton iterations per solve.
   double tolerance = 1e-10;        ///< Converged when every scaled residual (1/m or rad) is below this.
   bool record_backbone = true;     ///< Store the backbone (theta, u_z, position, frame) at integration nodes.
+  /// With record_backbone: also store each tube's theta and u_z at the nodes. False keeps the geometry only (s,
+  /// position, frame, u0, outermost tube), which is all collision checking needs, and saves two allocations per node.
+  bool record_tube_states = true;
   bool homotopy = true;            ///< On failure of a cold start, continue from zero precurvature.
   int homotopy_steps = 8;          ///< Steps of that continuation.
   double max_rotation_step = 0.035;     ///< Largest rotation change per continuation step (rad, 2 deg).
@@ -86,8 +89,10 @@ struct BackbonePoint {
   double s = 0.0;
   Eigen::Vector3d position = Eigen::Vector3d::Zero();
   Eigen::Matrix3d frame = Eigen::Matrix3d::Identity();  ///< Bishop frame F0(s); column 2 is the tangent.
-  Eigen::VectorXd theta;  ///< Twist angle of each tube relative to F0 (rad); frozen past the tube's end.
-  Eigen::VectorXd uz;     ///< Torsional curvature of each tube (1/m).
+  /// Twist angle of each tube relative to F0 (rad); frozen past the tube's end. Empty if recorded with
+  /// KinematicsOptions::record_tube_states = false.
+  Eigen::VectorXd theta;
+  Eigen::VectorXd uz;     ///< Torsional curvature of each tube (1/m); empty like theta.
   Eigen::Vector2d u0 = Eigen::Vector2d::Zero();  ///< Bending curvature of the backbone (x, y) (1/m).
   int outermost = 0;      ///< Outermost tube present at s (0-based).
   bool segment_start = false;  ///< Recorded after the events of a segment boundary (s+ side), else s- side.

@@ -34,8 +34,9 @@ public:
   double distanceGoal(const ompl::base::State* st) const override;
   void sampleGoal(ompl::base::State* st) const override;
   unsigned int maxSampleCount() const override;
-  /// @brief Fills the pool with up to `count` valid goal configurations within `seconds`. Returns the pool size.
-  std::size_t fillPool(std::size_t count, double seconds, std::uint64_t seed);
+  /// @brief Fills the pool with up to `count` valid goal configurations within `seconds` (of process CPU time when
+  /// `cpu_clock`, else wall-clock). Returns the pool size.
+  std::size_t fillPool(std::size_t count, double seconds, std::uint64_t seed, bool cpu_clock = false);
   const TipGoalSpec& spec() const { return spec_; }
   /// @brief Tip error and direction error (rad) of a shape (base-frame solution).
   std::pair<double, double> errors(const Solution& sol) const;

@@ -23,7 +23,8 @@ struct PlanResult {
   bool planner_solved = false;    ///< The planner reported an (exact) solution.
   Mode mode = Mode::Exact;
   std::string planner;
-  double planning_time = 0.0;     ///< Seconds in the planner (including goal sampling).
+  double planning_time = 0.0;     ///< Seconds in the planner (including goal sampling), on the query's clock.
+  double planning_wall_time = 0.0;  ///< The same in wall-clock seconds.
   double replay_time = 0.0;
   double path_length = 0.0;       ///< Joint-space length of the path (state-space metric).
   std::size_t goal_pool = 0;      ///< Goal configurations found by IK (sampleable goal).

@@ -4,6 +4,7 @@
 /// limit, seed, objective.
 #pragma once
 
+#include <map>
 #include <optional>
 #include <string>
 
@@ -30,12 +31,20 @@ struct Query {
   Mode mode = Mode::Exact;
   std::string planner = "default";
   double time_limit = 10.0;         ///< Seconds (> 0).
+  /// Clock of time_limit and planning_time: wall-clock (default), or CPU time of the process (reproducible on a
+  /// loaded machine; the planners are single-threaded, so on an idle machine the two agree).
+  bool cpu_time_limit = false;
   std::uint64_t seed = 1;
   std::string objective = "path_length";  ///< path_length | clearance
   double replay_rotation_step = 0.0087;     ///< Replay resolution (rad, 0.5 deg).
   double replay_translation_step = 5e-4;    ///< Replay resolution (m).
   double resolution_rotation = 0.0087, resolution_translation = 5e-4;  ///< Motion checking (default: the replay's).
   double env_resolution = 0.0;      ///< Overrides the environment's octree resolution when > 0 (m).
+  std::map<std::string, int> key_lines;  ///< 1-based line of each key ("start", "start.alpha", ...) in the file.
+
+  /// @brief Line of `key` in the query file (of its closest parent key if absent; 0 if unknown), for messages
+  /// about problems found after parsing (start in collision, target outside the map, ...).
+  int lineOf(const std::string& key) const;
 };
 
 /// @brief Parses a query file; throws ctr::io::InputError naming file, line and key on any problem.

@@ -20,7 +20,7 @@ namespace ctr::plan {
 struct ConfigurationCheck {
   bool ok = false;
   std::string reason;
-  Solution shape;  ///< The (frictionless) shape checked.
+  Solution shape;  ///< The (frictionless) shape checked; its backbone holds the geometry only (no theta / u_z).
 };
 
 /// @brief Frictionless check of q (cold solve, or warm from `warm`).

@@ -1,6 +1,8 @@
 // The diagnosis driver: baseline, mismatch, candidate fits in parallel, forward selection, explanation.
 #include "ctr/diagnosis/diagnose.hpp"
 
+#include "parallel.hpp"
+
 #include <algorithm>
 #include <atomic>
 #include <chrono>
@@ -218,7 +220,6 @@ DiagnosisReport diagnose(const Robot& nominal, const io::Recording& full, const 
     progress("round " + std::to_string(round) + ": fitting " + std::to_string(todo.size()) + " candidates on top of " +
              modelName(cur.fit.effects));
     std::vector<Candidate> cands(todo.size());
-    std::atomic<std::size_t> next{0};
     std::atomic<int> evals{0};
     auto evaluateCandidate = [&](Candidate& c, Workspace& tws) {
       {
@@ -284,30 +285,20 @@ DiagnosisReport diagnose(const Robot& nominal, const io::Recording& full, const 
                  (c.cv_done ? fmt(", held-out gain %.1f %%, p = %.2g", 100 * c.gain, c.heldout_p) : std::string()));
       }
     };
-    auto worker = [&]() {
-      Workspace tws;
-      for (;;) {
-        const std::size_t i = next++;
-        if (i >= todo.size()) break;
-        Candidate& c = cands[i];
-        c.slot = todo[i];
-        try {
-          evaluateCandidate(c, tws);
-        } catch (const std::exception& ex) {
-          // E.g. a model combination the kinematics layer does not support: the candidate cannot be tried.
-          c.pass = false;
-          c.failed = true;
-          c.delta_bic = std::numeric_limits<double>::quiet_NaN();
-          c.reason = std::string("it could not be evaluated (") + ex.what() + ")";
-          progress("  " + c.slot.label() + ": not evaluated: " + ex.what());
-        }
+    detail::parallelFor(static_cast<int>(todo.size()), o.threads, ws, [&](int i, Workspace& tws) {
+      Candidate& c = cands[static_cast<std::size_t>(i)];
+      c.slot = todo[static_cast<std::size_t>(i)];
+      try {
+        evaluateCandidate(c, tws);
+      } catch (const std::exception& ex) {
+        // E.g. a model the kinematics layer cannot evaluate: the candidate cannot be tried.
+        c.pass = false;
+        c.failed = true;
+        c.delta_bic = std::numeric_limits<double>::quiet_NaN();
+        c.reason = std::string("it could not be evaluated (") + ex.what() + ")";
+        progress("  " + c.slot.label() + ": not evaluated: " + ex.what());
       }
-    };
-    const int nt = std::max(1, std::min<int>(o.threads, static_cast<int>(todo.size())));
-    std::vector<std::thread> pool;
-    for (int t = 1; t < nt; ++t) pool.emplace_back(worker);
-    worker();
-    for (auto& t : pool) t.join();
+    });
     rep.evaluations += evals;
     // Best passing candidate by BIC.
     int best = -1;

@@ -6,11 +6,10 @@
 #include "ctr/diagnosis/statistics.hpp"
 
 #include <algorithm>
-#include <atomic>
 #include <cmath>
-#include <exception>
 #include <limits>
-#include <thread>
+
+#include "parallel.hpp"
 
 namespace ctr::diagnosis {
 
@@ -326,29 +325,7 @@ CrossValidation crossValidate(const Robot& nominal, const io::Recording& rec, co
     fits[static_cast<std::size_t>(f)] = start.empty() ? evaluateModel(nominal, rec, start, train, o, w)
                                                       : fitEffects(nominal, rec, start, train, o, w);
   };
-  const int nt = std::max(1, std::min(threads, nf));
-  if (nt == 1) {
-    for (int f = 0; f < nf; ++f) fitFold(f, ws);
-  } else {
-    // Folds are independent fits: run them concurrently, one workspace per thread (exceptions re-thrown here).
-    std::atomic<int> next{0};
-    std::vector<std::exception_ptr> errors(static_cast<std::size_t>(nt));
-    auto worker = [&](int t, Workspace& w) {
-      try {
-        for (int f; (f = next++) < nf;) fitFold(f, w);
-      } catch (...) {
-        errors[static_cast<std::size_t>(t)] = std::current_exception();
-        next = nf;
-      }
-    };
-    std::vector<std::thread> pool;
-    std::vector<Workspace> spaces(static_cast<std::size_t>(nt - 1));
-    for (int t = 1; t < nt; ++t) pool.emplace_back(worker, t, std::ref(spaces[static_cast<std::size_t>(t - 1)]));
-    worker(0, ws);
-    for (auto& th : pool) th.join();
-    for (const auto& e : errors)
-      if (e) std::rethrow_exception(e);
-  }
+  detail::parallelFor(nf, threads, ws, fitFold);  // folds are independent fits
   for (int f = 0; f < nf; ++f) {
     const FitResult& r = fits[static_cast<std::size_t>(f)];
     cv.evaluations += r.evaluations;

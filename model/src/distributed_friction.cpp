@@ -254,14 +254,7 @@ void integrate(Model& M, const Eigen::VectorXd& z, bool record, Pass& out) {
       const detail::ActiveContact& ac = P.contacts[static_cast<std::size_t>(c)];
       const int a = ac.site.outer, b = ac.site.inner, row = 2 * n + c;
       const double tau = z[2 * n + c];
-      double mom;
-      if (ac.site.kind == MomentKind::TubeEnd) {
-        mom = detail::endMoment(P, sg, th.data(), ac.site.tube, nullptr);
-      } else {
-        const Segment& nx = P.segments[si + 1];
-        const int j = ac.site.tube;
-        mom = std::abs(P.kb[j] * P.kappa[j] * (nx.K - P.kb[j]) / nx.K);
-      }
+      const double mom = detail::siteMoment(P, si, th.data(), ac.site, nullptr);
       out.contact_twist[static_cast<std::size_t>(c)] = th[b] - th[a];
       out.contact_moment[static_cast<std::size_t>(c)] = mom;
       switch (ac.condition.law) {

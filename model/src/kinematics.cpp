@@ -295,6 +295,16 @@ double endMoment(const Problem& P, const Segment& sg, const double* th, int i, E
   return P.kb[i] * nv;
 }
 
+double discontinuityMoment(const Problem& P, const Segment& next, int j) {
+  return std::abs(P.kb[j] * P.kappa[j] * (next.K - P.kb[j]) / next.K);
+}
+
+double siteMoment(const Problem& P, std::size_t si, const double* th, const ContactSite& site, Eigen::VectorXd* grad) {
+  if (site.kind == MomentKind::TubeEnd) return endMoment(P, P.segments[si], th, site.tube, grad);
+  if (grad) grad->setZero(P.n);
+  return discontinuityMoment(P, P.segments[si + 1], site.tube);
+}
+
 void Evaluator::evaluate(const Problem& P, const Eigen::VectorXd& z, bool jac, bool record, Outputs& out) {
   const int n = P.n, m = P.m;
   resize(n, m);
@@ -400,8 +410,7 @@ void Evaluator::evaluate(const Problem& P, const Eigen::VectorXd& z, bool jac, b
     if (si + 1 < P.segments.size()) {
       const Segment& nx = P.segments[si + 1];
       for (int j : bp.discontinuities)
-        out.moments.push_back({MomentKind::CurvatureDiscontinuity, j, bp.s,
-                               std::abs(P.kb[j] * P.kappa[j] * (nx.K - P.kb[j]) / nx.K)});
+        out.moments.push_back({MomentKind::CurvatureDiscontinuity, j, bp.s, discontinuityMoment(P, nx, j)});
     }
 
     // Point torques (per unit torsional stiffness) from contact unknowns, applied to tubes at this s.
@@ -412,15 +421,7 @@ void Evaluator::evaluate(const Problem& P, const Eigen::VectorXd& z, bool jac, b
       const int row = n + c, col = n + c;
       const int a = ac.site.outer, b = ac.site.inner;
       out.contacts_relative_twist[static_cast<std::size_t>(c)] = Y[b] - Y[a];
-      double mom;
-      if (ac.site.kind == MomentKind::TubeEnd) {
-        mom = endMoment(P, sg, Y.data(), ac.site.tube, jac ? &grad : nullptr);
-      } else {
-        const Segment& nx = P.segments[si + 1];
-        const int j = ac.site.tube;
-        mom = std::abs(P.kb[j] * P.kappa[j] * (nx.K - P.kb[j]) / nx.K);
-        if (jac) grad.setZero(n);
-      }
+      const double mom = siteMoment(P, si, Y.data(), ac.site, jac ? &grad : nullptr);
       out.contacts_moment[static_cast<std::size_t>(c)] = mom;
       if (ac.condition.law == ContactCondition::Law::Free) {
         r[row] = z[col];

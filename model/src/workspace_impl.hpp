@@ -59,6 +59,11 @@ struct Outputs {
 
 /// Bending moment magnitude of tube i at the distal end of segment sg for angles th; optional gradient w.r.t. th.
 double endMoment(const Problem& P, const Segment& sg, const double* th, int i, Eigen::VectorXd* grad);
+/// |jump of m_j| = k_j kappa_j (K - k_j) / K at tube j's curvature discontinuity, K of the segment that follows it.
+double discontinuityMoment(const Problem& P, const Segment& next, int j);
+/// |m| of the concentrated moment at a contact site on the distal boundary of segment si (angles th there), with its
+/// gradient w.r.t. th when asked (zero at a discontinuity, whose moment does not depend on the angles).
+double siteMoment(const Problem& P, std::size_t si, const double* th, const ContactSite& site, Eigen::VectorXd* grad);
 
 class Evaluator {
 public:

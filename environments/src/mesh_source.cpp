@@ -136,29 +136,37 @@ void checkOff(const std::string& path, const std::string& b) {
 // Checks run before assimp sees the file: OFF counts (checkOff) and the whole PLY file (header and body, see
 // ply_validation.hpp): assimp's PLY reader loops forever on unknown header lines / property types or a missing
 // end_header, and aborts (ai_assert), reads out of bounds or allocates gigabytes on malformed bodies (found by
-// fuzz_mesh).
-void prevalidate(const std::string& path, std::istream& in) {
+// fuzz_mesh). Returns the bytes assimp must read instead of the file (a binary PLY whose body starts with '\n'
+// after "end_header\n" gets "end_header\r\n"), or an empty string when assimp can read the file itself.
+std::string prevalidate(const std::string& path, std::istream& in) {
   std::string ext = path.substr(path.find_last_of('.') == std::string::npos ? path.size() : path.find_last_of('.'));
   std::transform(ext.begin(), ext.end(), ext.begin(), [](unsigned char ch) { return std::tolower(ch); });
   if (ext == ".off") checkOff(path, readAll(path, in));
-  if (ext == ".ply") detail::validatePly(path, readAll(path, in));
+  if (ext == ".ply") {
+    std::string bytes = readAll(path, in);
+    const std::size_t at = detail::validatePly(path, bytes);
+    if (at != std::string::npos) return bytes.insert(at, 1, '\r');
+  }
+  return {};
 }
 
 }  // namespace
 
 TriangleMesh loadMesh(const std::string& path, double scale, const Eigen::Isometry3d& transform) {
+  std::string patched;
   {
     std::ifstream probe(path, std::ios::binary);
     if (!probe) throw io::InputError(path, 0, "", "cannot open the mesh file (missing or unreadable)");
-    prevalidate(path, probe);
+    patched = prevalidate(path, probe);
   }
   Assimp::Importer importer;
   importer.SetPropertyInteger(AI_CONFIG_PP_SBP_REMOVE, aiPrimitiveType_POINT | aiPrimitiveType_LINE);
-  const aiScene* scene =
-      // ValidateDataStructure runs first and rejects a malformed scene (e.g. faces without indices) that would
-      // otherwise trip an ai_assert -> abort() in Debian's assimp post-processing (found by fuzz_mesh).
-      importer.ReadFile(path, aiProcess_ValidateDataStructure | aiProcess_Triangulate |
-                                  aiProcess_PreTransformVertices | aiProcess_SortByPType);
+  // ValidateDataStructure runs first and rejects a malformed scene (e.g. faces without indices) that would
+  // otherwise trip an ai_assert -> abort() in Debian's assimp post-processing (found by fuzz_mesh).
+  const unsigned flags =
+      aiProcess_ValidateDataStructure | aiProcess_Triangulate | aiProcess_PreTransformVertices | aiProcess_SortByPType;
+  const aiScene* scene = patched.empty() ? importer.ReadFile(path, flags)
+                                         : importer.ReadFileFromMemory(patched.data(), patched.size(), flags, "ply");
   if (scene == nullptr)
     throw io::InputError(path, 0, "", std::string("cannot read the mesh: ") + importer.GetErrorString());
   TriangleMesh mesh;

@@ -238,12 +238,14 @@ class Validator {
  public:
   Validator(const std::string& path, const std::string& bytes) : path_(path), b_(bytes) {}
 
-  void run() {
+  // The offset at which assimp needs a '\r' inserted (see binaryBody), or npos.
+  std::size_t run() {
     parseHeader();
     if (format_ == Format::Ascii)
       asciiBody();
     else
       binaryBody();
+    return crlf_patch_at_;
   }
 
  private:
@@ -582,13 +584,10 @@ class Validator {
   void binaryBody() {
     // assimp 5.2.5 skips one '\n' after the end_header line's line end: after "end_header\r\n" that is the '\n' of
     // the "\r\n", after "end_header\n" it is the first byte of the body, and every value would be read one byte
-    // late (found by fuzz_mesh: faces without indices, then an abort in assimp's triangulation).
+    // late (found by fuzz_mesh: faces without indices, then an abort in assimp's triangulation). Such a body is
+    // valid: loadMesh gives assimp a copy whose end_header line ends with "\r\n" (inserted before its '\n').
     const bool has_data = std::any_of(elements_.begin(), elements_.end(), [](const Element& e) { return e.count > 0; });
-    if (has_data && !header_crlf_ && pos_ < b_.size() && b_[pos_] == '\n')
-      failAt(pos_,
-             "the binary body starts with a 0x0a byte ('\\n'), which assimp 5.2.5 skips as part of the "
-             "end_header line end and would then read every value one byte late (ending the end_header line "
-             "with \"\\r\\n\" instead of \"\\n\" avoids it)");
+    if (has_data && !header_crlf_ && pos_ < b_.size() && b_[pos_] == '\n') crlf_patch_at_ = pos_ - 1;
     std::vector<std::vector<double>> values;
     for (const Element& e : elements_) {
       values.assign(e.props.size(), {});
@@ -643,14 +642,15 @@ class Validator {
   int line_ = 0;
   Format format_ = Format::Ascii;
   bool header_crlf_ = false;  // the end_header line ends with "\r\n"
+  std::size_t crlf_patch_at_ = std::string::npos;
   std::vector<Element> elements_;
   unsigned long long vertex_count_ = 0;
 };
 
 }  // namespace
 
-void validatePly(const std::string& path, const std::string& bytes) {
-  Validator(path, bytes).run();
+std::size_t validatePly(const std::string& path, const std::string& bytes) {
+  return Validator(path, bytes).run();
 }
 
 }  // namespace ctr::env::detail

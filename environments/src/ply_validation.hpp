@@ -27,9 +27,11 @@ constexpr std::size_t kPlyMaxListLength = 1024;
 ///    many items), every value valid for its type (integers in range, finite decimal numbers), no missing or extra
 ///    lines (trailing whitespace allowed), every element line ending with '\n' (the last one included);
 ///  - binary body: the declared properties and lists fit in the file, list lengths are non-negative and at most
-///    kPlyMaxListLength, floating-point values are finite; after "end_header\n" the body does not start with a '\n'
-///    byte (assimp would skip it);
+///    kPlyMaxListLength, floating-point values are finite;
 ///  - face `vertex_indices` / `vertex_index` lists have 1 to kPlyMaxListLength entries, each in [0, vertex count).
-void validatePly(const std::string& path, const std::string& bytes);
+/// @return npos, or, for a binary body that starts with a '\n' byte right after "end_header\n" (assimp 5.2.5 would
+/// skip that byte as part of the line end and read every value one byte late), the offset of that line's '\n':
+/// the caller must give assimp a copy with '\r' inserted there.
+std::size_t validatePly(const std::string& path, const std::string& bytes);
 
 }  // namespace ctr::env::detail

@@ -266,10 +266,21 @@ void orthonormalize(Eigen::Matrix3d& R) {
 }  // namespace
 
 // Bending moment magnitude of tube i just before the end of segment sg, with its gradient w.r.t. theta.
-double endMoment(const Problem& P, const Segment& sg, const double* th, int i, Eigen::VectorXd* grad) {
+// Tubes that end at the same s are taken in their nesting order (the limit of inner tubes protruding by an
+// infinitesimal length): the moment of tube i is that of the segment without the outer tubes ending with it.
+// Without this rule the moment, hence the friction bound, jumps when coincident ends separate.
+double endMoment(const Problem& P, const Segment& sg, const double* th, int i, Eigen::VectorXd* grad,
+                 const std::vector<int>* ending) {
   const int n = P.n;
-  double A = 0.0, B = 0.0;
+  auto excluded = [&](int j) {
+    return ending && j < i && std::find(ending->begin(), ending->end(), j) != ending->end();
+  };
+  double A = 0.0, B = 0.0, K = sg.K;
   for (int j = 0; j < n; ++j) {
+    if (excluded(j)) {
+      if (sg.present[static_cast<std::size_t>(j)]) K -= P.kb[j];
+      continue;
+    }
     if (sg.w[j] != 0.0) {
       A += sg.w[j] * std::cos(th[j]);
       B += sg.w[j] * std::sin(th[j]);
@@ -278,15 +289,15 @@ double endMoment(const Problem& P, const Segment& sg, const double* th, int i, E
   const double chi_kappa = sg.w[i] != 0.0 ? P.kappa[i] : 0.0;
   const double si = std::sin(th[i]), ci = std::cos(th[i]);
   // v = u0 - chi kappa_i d(theta_i), d = (-sin, cos).
-  const Eigen::Vector2d v(-B / sg.K + chi_kappa * si, A / sg.K - chi_kappa * ci);
+  const Eigen::Vector2d v(-B / K + chi_kappa * si, A / K - chi_kappa * ci);
   const double nv = v.norm();
   if (grad) {
     grad->setZero(n);
     if (nv > 0.0) {
       for (int j = 0; j < n; ++j) {
-        if (sg.w[j] == 0.0) continue;
+        if (sg.w[j] == 0.0 || excluded(j)) continue;
         const Eigen::Vector2d dd(-std::cos(th[j]), -std::sin(th[j]));  // d'(theta_j)
-        Eigen::Vector2d dv = sg.w[j] / sg.K * dd;
+        Eigen::Vector2d dv = sg.w[j] / K * dd;
         if (j == i) dv -= chi_kappa * dd;
         (*grad)[j] = P.kb[i] * v.dot(dv) / nv;
       }
@@ -300,7 +311,8 @@ double discontinuityMoment(const Problem& P, const Segment& next, int j) {
 }
 
 double siteMoment(const Problem& P, std::size_t si, const double* th, const ContactSite& site, Eigen::VectorXd* grad) {
-  if (site.kind == MomentKind::TubeEnd) return endMoment(P, P.segments[si], th, site.tube, grad);
+  if (site.kind == MomentKind::TubeEnd)
+    return endMoment(P, P.segments[si], th, site.tube, grad, &P.breakpoints[si].ending);
   if (grad) grad->setZero(P.n);
   return discontinuityMoment(P, P.segments[si + 1], site.tube);
 }
@@ -405,7 +417,8 @@ void Evaluator::evaluate(const Problem& P, const Eigen::VectorXd& z, bool jac, b
       for (int k = 1; k < n; ++k) out.twist[k - 1] = Y[k] - Y[0];
     }
     // Concentrated moments: tube ends (moment of the tube just before its end) ...
-    for (int i : bp.ending) out.moments.push_back({MomentKind::TubeEnd, i, bp.s, endMoment(P, sg, Y.data(), i, nullptr)});
+    for (int i : bp.ending)
+      out.moments.push_back({MomentKind::TubeEnd, i, bp.s, endMoment(P, sg, Y.data(), i, nullptr, &bp.ending)});
     // ... and curvature discontinuities: |jump of m_j| = k_j kappa_j (K - k_j) / K.
     if (si + 1 < P.segments.size()) {
       const Segment& nx = P.segments[si + 1];

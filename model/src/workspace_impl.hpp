@@ -58,7 +58,9 @@ struct Outputs {
 };
 
 /// Bending moment magnitude of tube i at the distal end of segment sg for angles th; optional gradient w.r.t. th.
-double endMoment(const Problem& P, const Segment& sg, const double* th, int i, Eigen::VectorXd* grad);
+/// `ending`: the tubes ending at the same breakpoint; outer ones among them are left out (nesting-order limit).
+double endMoment(const Problem& P, const Segment& sg, const double* th, int i, Eigen::VectorXd* grad,
+                 const std::vector<int>* ending = nullptr);
 /// |jump of m_j| = k_j kappa_j (K - k_j) / K at tube j's curvature discontinuity, K of the segment that follows it.
 double discontinuityMoment(const Problem& P, const Segment& next, int j);
 /// |m| of the concentrated moment at a contact site on the distal boundary of segment si (angles th there), with its

@@ -7,7 +7,9 @@
 #include <Eigen/Cholesky>
 #include <chrono>
 #include <cmath>
+#include <iomanip>
 #include <limits>
+#include <sstream>
 
 namespace ob = ompl::base;
 
@@ -101,9 +103,7 @@ std::pair<double, double> TipGoal::errors(const Solution& sol) const {
   return {(tip - spec_.position).norm(), ang};
 }
 
-double TipGoal::distanceGoal(const ob::State* st) const {
-  Eigen::Vector3d tip, tangent;
-  if (!tipOf(*ctx_, *space_, st, tip, &tangent)) return std::numeric_limits<double>::infinity();
+double TipGoal::goalDistance(const Eigen::Vector3d& tip, const Eigen::Vector3d& tangent) const {
   double d = (tip - spec_.position).norm();
   if (spec_.direction) {
     const double ang = std::acos(std::clamp(tangent.dot(spec_.direction->normalized()), -1.0, 1.0));
@@ -112,7 +112,43 @@ double TipGoal::distanceGoal(const ob::State* st) const {
   return d;
 }
 
+double TipGoal::bandDistance(const Configuration& q, Eigen::Vector3d* center) const {
+  FrictionBandOptions o;
+  o.interior_samples = 0;
+  o.kinematics.record_backbone = false;
+  const FrictionBand band = frictionBand(ctx_->robot(), q, scratch().ws, o);
+  if (!band.converged) return std::numeric_limits<double>::infinity();
+  double d = 0.0;
+  Eigen::Vector3d lo = Eigen::Vector3d::Constant(std::numeric_limits<double>::infinity()), hi = -lo;
+  for (const Solution& s : band.shapes) {
+    const Eigen::Vector3d tip = ctx_->basePose() * s.tip_position;
+    d = std::max(d, goalDistance(tip, ctx_->basePose().linear() * s.tipTangent()));
+    lo = lo.cwiseMin(tip);
+    hi = hi.cwiseMax(tip);
+  }
+  if (center) *center = 0.5 * (lo + hi);
+  return d;
+}
+
+double TipGoal::distanceGoal(const ob::State* st) const {
+  Eigen::Vector3d tip, tangent;
+  if (!tipOf(*ctx_, *space_, st, tip, &tangent)) return std::numeric_limits<double>::infinity();
+  const double d = goalDistance(tip, tangent);
+  // Robust mode: the goal must be reached whatever the history, i.e. by every shape of the friction band. The
+  // frictionless shape is one of them, so its distance is a lower bound: the band is only computed near the goal.
+  if (ctx_->options().mode != Mode::Robust || d > spec_.tolerance) return d;
+  return std::max(d, bandDistance(space_->configuration(st)));
+}
+
 void TipGoal::sampleGoal(ob::State* st) const {
+  // While the pool is below its target size, every other call first tries one more IK candidate (outside the lock):
+  // the pool keeps growing during planning, so a planner is not stuck with goals it cannot reach.
+  bool grow = false;
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    grow = pool_.size() < target_ && rng_.uniform01() < 0.5;
+  }
+  if (grow) tryCandidate();
   std::lock_guard<std::mutex> lock(mutex_);
   if (pool_.empty()) return;
   const Configuration& q = pool_[static_cast<std::size_t>(rng_.uniformInt(0, static_cast<int>(pool_.size()) - 1))];
@@ -124,27 +160,80 @@ unsigned int TipGoal::maxSampleCount() const {
   return static_cast<unsigned int>(pool_.size());
 }
 
-std::size_t TipGoal::fillPool(std::size_t count, double seconds, std::uint64_t seed, bool cpu_clock) {
-  std::mt19937_64 gen(seed);
-  const Stopwatch watch(cpu_clock);
-  ob::State* st = si_->allocState();
-  while (true) {
-    {
-      std::lock_guard<std::mutex> lock(mutex_);
-      if (pool_.size() >= count) break;
-    }
-    if (watch.seconds() > seconds) break;
-    Configuration q = sampleConfiguration(ctx_->robot(), ctx_->translationSampler(), gen);
-    const double err = inverseKinematics(*ctx_, spec_.position, q);
-    if (!(err < 0.5 * spec_.tolerance)) continue;
-    space_->setConfiguration(st, q);
-    if (!si_->isValid(st) || distanceGoal(st) > spec_.tolerance) continue;
+bool TipGoal::tryCandidate() const {
+  Configuration q;
+  {
     std::lock_guard<std::mutex> lock(mutex_);
-    pool_.push_back(space_->configuration(st));
+    q = sampleConfiguration(ctx_->robot(), ctx_->translationSampler(), gen_);
   }
+  double err = inverseKinematics(*ctx_, spec_.position, q);
+  if (!(err < 0.5 * spec_.tolerance)) return false;
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    ++ik_reached_;
+  }
+  const bool robust = ctx_->options().mode == Mode::Robust;
+  double band = 0.0;
+  if (robust) {
+    // Centre the friction band's tips on the target: aim the frictionless tip at the target minus the offset of the
+    // band's centre from it (a few fixed-point iterations).
+    Eigen::Vector3d aim = spec_.position, centre;
+    band = bandDistance(q, &centre);
+    for (int it = 0; it < 3 && band > spec_.tolerance; ++it) {
+      aim += spec_.position - centre;
+      err = inverseKinematics(*ctx_, aim, q);
+      if (!(err < 0.5 * spec_.tolerance)) break;
+      band = bandDistance(q, &centre);
+    }
+    std::lock_guard<std::mutex> lock(mutex_);
+    best_band_ = std::min(best_band_, band);
+    band_reached_ += band <= spec_.tolerance;
+  }
+  ob::State* st = si_->allocState();
+  space_->setConfiguration(st, q);
+  const bool ok = (robust ? band <= spec_.tolerance : distanceGoal(st) <= spec_.tolerance) && si_->isValid(st);
+  if (ok) q = space_->configuration(st);
   si_->freeState(st);
+  if (!ok) return false;
   std::lock_guard<std::mutex> lock(mutex_);
-  return pool_.size();
+  if (pool_.size() >= target_) return false;
+  pool_.push_back(std::move(q));
+  return true;
+}
+
+std::size_t TipGoal::fillPool(std::size_t count, double seconds, std::uint64_t seed, bool cpu_clock,
+                              std::size_t target) {
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    gen_.seed(seed);
+    target_ = std::max(count, target);
+  }
+  const Stopwatch watch(cpu_clock);
+  while (maxSampleCount() < count && watch.seconds() <= seconds) tryCandidate();
+  return maxSampleCount();
+}
+
+std::string TipGoal::emptyPoolReason() const {
+  std::lock_guard<std::mutex> lock(mutex_);
+  if (!pool_.empty()) return "";
+  auto mm = [](double v) {
+    std::ostringstream o;
+    o << std::fixed << std::setprecision(2) << v * 1e3 << " mm";
+    return o.str();
+  };
+  if (ik_reached_ == 0) return "no configuration found by inverse kinematics puts the tip on the target";
+  const std::string n = std::to_string(ik_reached_) + " inverse-kinematics solution" + (ik_reached_ > 1 ? "s" : "");
+  if (ctx_->options().mode == Mode::Robust && band_reached_ == 0)
+    return "robust mode: " + n +
+           " put the frictionless tip on the target, but no friction band reaches it as a "
+           "whole (closest: every band tip within " +
+           mm(best_band_) + ", tolerance " + mm(spec_.tolerance) + ")";
+  if (ctx_->options().mode == Mode::Robust)
+    return "robust mode: " + std::to_string(band_reached_) + " of " + n +
+           " reach the target with their whole "
+           "friction band, but none is valid (a band shape collides, is unstable or does not converge)";
+  return n + " reach the target, but none is valid in " + toString(ctx_->options().mode) +
+         " mode (collision, unstable or not converged)";
 }
 
 }  // namespace ctr::plan

@@ -201,7 +201,11 @@ ob::PlannerPtr CtrPlanner::makePlanner(const std::string& name0) const {
   } else {
     const ob::SpaceInformationPtr& si = gss_->getSpaceInformation();
     if (name == "rrtconnect") return std::make_shared<og::RRTConnect>(si);
-    if (name == "rrt") return std::make_shared<og::RRT>(si);
+    if (name == "rrt") {
+      auto p = std::make_shared<og::RRT>(si);
+      p->setGoalBias(0.2);  // as in exact mode: the goal pool holds valid IK configurations
+      return p;
+    }
     if (name == "rrtstar") return std::make_shared<og::RRTstar>(si);
     if (name == "bitstar") return std::make_shared<og::BITstar>(si);
     if (name == "prm") return std::make_shared<og::PRM>(si);
@@ -221,8 +225,12 @@ PlanResult CtrPlanner::solve() { return solve(query_.planner, query_.time_limit)
 
 PlanResult CtrPlanner::solve(const std::string& planner_name, double time_limit) {
   const Stopwatch watch(query_.cpu_time_limit);
-  std::size_t pool = 0;
-  if (goal_) pool = goal_->fillPool(gss_ ? 16 : 8, std::min(0.25 * time_limit, 5.0), query_.seed, watch.cpu());
+  if (goal_) {
+    // Robust goals cost a friction band each: start planning with a few and let the pool grow while planning.
+    const std::size_t target = gss_ ? 16 : 8;
+    const std::size_t first = query_.mode == Mode::Robust ? 4 : target;
+    goal_->fillPool(first, std::min(0.25 * time_limit, 5.0), query_.seed, watch.cpu(), target);
+  }
   const ob::PlannerPtr p = makePlanner(planner_name);
   // Deadline on the query's clock (at least 0.05 s for the planner itself).
   const double deadline = std::max(time_limit, watch.seconds() + 0.05);
@@ -250,9 +258,10 @@ PlanResult CtrPlanner::solve(const std::string& planner_name, double time_limit)
     r.planner = p->getName();
     r.planning_time = planning_time;
     r.message = std::string("planner: ") + status.asString();
+    if (goal_ && goal_->maxSampleCount() == 0) r.message += " (" + goal_->emptyPoolReason() + ")";
   }
   r.planning_wall_time = planning_wall_time;
-  r.goal_pool = pool;
+  r.goal_pool = goal_ ? goal_->maxSampleCount() : 0;
   return r;
 }
 

@@ -2,6 +2,7 @@
 
 #include <ompl/base/SpaceInformation.h>
 
+#include <algorithm>
 #include <cmath>
 #include <sstream>
 
@@ -33,11 +34,25 @@ bool jumped(const Solution& a, const Solution& b, double threshold) {
          (a.twist - b.twist).cwiseAbs().maxCoeff() > threshold;
 }
 
-// The friction band followed along a path: [0] frictionless, then one shape per torque-box vertex.
+// The friction band followed along a path: [0] frictionless, then one shape per torque-box vertex (bit c of the
+// vertex code = sign of the torque at sites[c]).
 struct Band {
   std::vector<Solution> shapes;
-  std::size_t contacts = 0;
+  std::vector<ContactSite> sites;
 };
+
+// The previous band's vertex with the same torque signs at the same sites (sites are matched by identity: their
+// order along the backbone changes when ends cross or separate). -1 if the previous band has other sites.
+long alignedVertex(const Band& prev, const std::vector<ContactSite>& sites, std::size_t code) {
+  if (prev.sites.size() != sites.size() || prev.shapes.size() != (std::size_t(1) << sites.size()) + 1) return -1;
+  std::size_t prev_code = 0;
+  for (std::size_t c = 0; c < sites.size(); ++c) {
+    const auto it = std::find(prev.sites.begin(), prev.sites.end(), sites[c]);
+    if (it == prev.sites.end()) return -1;
+    if ((code >> c) & 1u) prev_code |= std::size_t(1) << static_cast<std::size_t>(it - prev.sites.begin());
+  }
+  return static_cast<long>(prev_code) + 1;
+}
 
 bool bandAt(const Context& ctx, const Configuration& q, ThreadScratch& t, const Band* prev, Band& out,
             std::string& why) {
@@ -57,22 +72,25 @@ bool bandAt(const Context& ctx, const Configuration& q, ThreadScratch& t, const 
     return false;
   }
   out.shapes.push_back(std::move(base));
-  const std::vector<ContactSite> sites = contactSites(robot, q);
-  out.contacts = sites.size();
+  out.sites = contactSites(robot, q);
+  const std::vector<ContactSite>& sites = out.sites;
   if (robot.friction().boundary <= 0.0 || sites.empty()) return true;
   const std::size_t k = sites.size();
-  const bool aligned = prev && prev->contacts == k && prev->shapes.size() == (std::size_t(1) << k) + 1;
+  std::vector<ContactCondition> cond(k);
   for (std::size_t code = 0; code < (std::size_t(1) << k); ++code) {
-    std::vector<ContactCondition> cond(k);
     for (std::size_t c = 0; c < k; ++c)
       cond[c] = {ContactCondition::Law::Torque, (code >> c) & 1u ? 1.0 : -1.0};
-    const Solution* warm = aligned ? &prev->shapes[code + 1] : &out.shapes[0];
+    // Followed from the same vertex of the previous step; when a site appears or disappears the band changes
+    // discontinuously (a new contact enters with its full bound): no branch to follow, warm start from the
+    // frictionless shape.
+    const long pv = prev ? alignedVertex(*prev, sites, code) : -1;
+    const Solution* warm = pv > 0 ? &prev->shapes[static_cast<std::size_t>(pv)] : &out.shapes[0];
     Solution s = solveWithContacts(robot, q, cond, t.ws, shapeOptions(), warm);
     if (!s.converged()) {
       why = "friction band vertex not converged: " + s.summary.message;
       return false;
     }
-    if (aligned && ((prev->shapes[code + 1].summary.stable && !s.summary.stable) || jumped(prev->shapes[code + 1], s, thr))) {
+    if (pv > 0 && ((warm->summary.stable && !s.summary.stable) || jumped(*warm, s, thr))) {
       why = "a friction band branch snaps";
       return false;
     }

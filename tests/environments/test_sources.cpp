@@ -514,19 +514,30 @@ TEST(MeshSource, MalformedPlyBinaryBodiesNameTheByteOffset) {
       {"nan.ply: byte offset " + std::to_string(body), "element 'vertex' instance 0, property 'x'", "not a finite"});
   bad("empty.ply", plyBinary(false, "uchar", 0, {}), {"empty.ply: byte offset", "at least one vertex index"});
   // assimp 5.2.5 skips a '\n' right after "end_header\n" (found by fuzz_mesh: a body starting with 0x0a was read one
-  // byte late, then a face without indices aborted in assimp's triangulation): refused. After "end_header\r\n" the
-  // same body is read correctly and loads.
+  // byte late, then a face without indices aborted in assimp's triangulation). loadMesh hands assimp a copy whose
+  // end_header line ends with "\r\n": the file loads with every value read where it is (the first coordinate's
+  // low byte is 0x0a; one byte late it would be read as 1.0f and the face would be garbage). The same body after
+  // "end_header\r\n" in the file itself loads identically.
   float x0 = 0.0f;
   const std::uint32_t bits = 0x3f80000au;  // 1.0000012f: little-endian, its first byte is 0x0a
   std::memcpy(&x0, &bits, 4);
+  ASSERT_NE(x0, 1.0f);
   const std::string nl = plyBinary(false, "uchar", 3, {0, 1, 2}, x0);
-  bad("nl.ply", nl, {"nl.ply: byte offset " + std::to_string(bodyOf(nl)), "starts with a 0x0a byte"});
+  ASSERT_EQ(nl[bodyOf(nl)], '\n');
   std::string crlf = nl;
   crlf.insert(crlf.find("end_header\n") + 10, "\r");
+  dir.write("nl.ply", nl);
   dir.write("crlf.ply", crlf);
-  const TriangleMesh m = loadMesh(dir.file("crlf.ply"), 1.0);
-  ASSERT_EQ(m.triangles.size(), 1u);
-  EXPECT_FLOAT_EQ(static_cast<float>(m.extent().max.x()), x0);
+  for (const char* f : {"nl.ply", "crlf.ply"}) {
+    const TriangleMesh m = loadMesh(dir.file(f), 1.0);
+    ASSERT_EQ(m.triangles.size(), 1u) << f;
+    ASSERT_EQ(m.vertices.size(), 3u) << f;
+    EXPECT_FLOAT_EQ(static_cast<float>(m.extent().max.x()), x0) << f;
+    EXPECT_EQ(static_cast<float>(m.vertices[0].x()), x0) << f;
+  }
+  // The file on disk is not touched.
+  std::ifstream in(dir.file("nl.ply"), std::ios::binary);
+  EXPECT_EQ(std::string(std::istreambuf_iterator<char>(in), {}), nl);
 }
 
 }  // namespace

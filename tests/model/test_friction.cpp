@@ -229,3 +229,51 @@ TEST(Friction, StepRejectsUninitialisedState) {
   HysteresisState s;
   EXPECT_THROW(step(r, s, cfgB(0), ws), std::invalid_argument);
 }
+
+TEST(Friction, BoundsAreContinuousWhenCoincidentEndsSeparate) {
+  // Three tubes whose ends coincide (all retracted to 2 mm out, as the Med-MPD start poses) vs the inner ones
+  // protruding by 1e-7 m. The friction bound mu'|m| at a tube end takes coincident ends in their nesting order, so
+  // every friction-band vertex must agree to the perturbation size. (Before: the middle tube's end moment was taken
+  // in the segment that still held the outer tube; the vertex twists jumped by up to 6 mrad here, and from 2.8 to
+  // 0.5 rad on a 0.04 mm move of the Med-MPD lung robot.)
+  const Robot r("three",
+                {makeTube("outer", 0.07, 0.05, 25.0, 0.02, 0.3), makeTube("middle", 0.16, 0.06, 15.0, 0.01, 0.3),
+                 makeTube("needle", 0.32, 0.0, 0.0, 0.004, 0.3)},
+                {0.1, 0.0});
+  const double out = 0.002;
+  auto cfg = [&](double eps) {
+    return Configuration(Eigen::Vector3d(0.0, 0.4, -0.3),
+                         Eigen::Vector3d(out - 0.12, out + eps - 0.22, out + 2 * eps - 0.32));
+  };
+  Workspace ws;
+  const Configuration a = cfg(0.0), b = cfg(1e-7);
+  const std::vector<ContactSite> sa = contactSites(r, a), sb = contactSites(r, b);
+  ASSERT_EQ(sa.size(), 2u);
+  ASSERT_EQ(sb.size(), 2u);
+  for (std::size_t code = 0; code < 4; ++code) {
+    // The same torque signs at the same sites (the sites' order along the backbone may differ).
+    std::vector<ContactCondition> ca(2), cb(2);
+    for (std::size_t c = 0; c < 2; ++c) {
+      const double sign = (code >> c) & 1u ? 1.0 : -1.0;
+      ca[c] = {ContactCondition::Law::Torque, sign};
+      const std::size_t j = sb[0] == sa[c] ? 0 : 1;
+      cb[j] = {ContactCondition::Law::Torque, sign};
+    }
+    const Solution x = solveWithContacts(r, a, ca, ws), y = solveWithContacts(r, b, cb, ws);
+    ASSERT_TRUE(x.converged() && y.converged());
+    for (int k = 0; k < 2; ++k) EXPECT_NEAR(x.twist[k], y.twist[k], 1e-4) << "vertex " << code;
+    for (const ContactResult& cx : x.contacts)
+      for (const ContactResult& cy : y.contacts)
+        if (cx.site == cy.site) {
+          EXPECT_NEAR(cx.moment, cy.moment, 1e-6) << "vertex " << code;
+          EXPECT_NEAR(cx.torque, cy.torque, 1e-7) << "vertex " << code;
+        }
+    EXPECT_LT((x.tip_position - y.tip_position).norm(), 1e-6);
+  }
+  // The needle (straight, innermost) carries no bending moment at the common tip.
+  const Solution f = solve(r, a, ws);
+  for (const ConcentratedMoment& m : f.moments)
+    if (m.kind == MomentKind::TubeEnd && m.tube == 2) {
+      EXPECT_LT(m.magnitude, 1e-12);
+    }
+}

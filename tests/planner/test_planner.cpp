@@ -6,6 +6,7 @@
 #include <fstream>
 
 #include "ctr/io/input_error.hpp"
+#include "ctr/io/robot_yaml.hpp"
 #include "ctr/planner/planner.hpp"
 
 using namespace ctr;
@@ -45,6 +46,34 @@ Tube curved(const std::string& name, double L, double kappa) {
   t.outer_diameter = name == "outer" ? 2e-3 : 1.5e-3;
   t.inner_diameter = name == "outer" ? 1.7e-3 : 1.0e-3;
   return t;
+}
+
+// A planning context in a map with one voxel far away (motion checks without collisions).
+Context emptyMapContext(const Robot& r, Mode mode) {
+  auto tree = std::make_shared<octomap::OcTree>(0.005);
+  tree->updateNode(octomap::point3d(1.0f, 1.0f, 1.0f), true);
+  tree->updateInnerOccupancy();
+  auto env = std::make_shared<const env::Environment>("empty", tree);
+  ContextOptions co;
+  co.mode = mode;
+  env::CollisionOptions col;
+  col.distance_field = false;
+  return Context(r, env, co, col);
+}
+
+// The query with another mode / planner and a CPU-time limit (so that tests do not depend on the machine's load).
+Query onCpuClock(Query q, Mode mode, const std::string& planner, double seconds) {
+  q.mode = mode;
+  q.planner = planner;
+  q.time_limit = seconds;
+  q.cpu_time_limit = true;
+  return q;
+}
+
+// OMPL's seed is process-wide and already used by earlier tests here: a second randomised attempt is allowed.
+PlanResult solveWithRetry(CtrPlanner& p) {
+  PlanResult r = p.solve();
+  return r.solved ? r : p.solve();
 }
 
 }  // namespace
@@ -139,15 +168,7 @@ TEST(MotionValidation, ForwardWalkRejectsASnapAndAcceptsASmoothMotion) {
   // A snapping pair ((1+nu) k^2 L^2 = 2 (pi/2)^2) in an empty map.
   const double L = 0.1, kappa = std::sqrt(2.0 * (M_PI / 2) * (M_PI / 2) / (1.3 * L * L));
   const Robot r("snap", {curved("outer", L, kappa), curved("inner", L, kappa)});
-  auto tree = std::make_shared<octomap::OcTree>(0.005);
-  tree->updateNode(octomap::point3d(1.0f, 1.0f, 1.0f), true);
-  tree->updateInnerOccupancy();
-  auto env = std::make_shared<const env::Environment>("empty", tree);
-  ContextOptions co;
-  co.mode = Mode::Frictionless;
-  env::CollisionOptions col;
-  col.distance_field = false;
-  const Context ctx(r, env, co, col);
+  const Context ctx = emptyMapContext(r, Mode::Frictionless);
   ThreadScratch& t = scratch();
   const Configuration smooth0(Eigen::Vector2d(0, 0.0), Eigen::Vector2d(0, 0));
   const Configuration smooth1(Eigen::Vector2d(0, 1.5), Eigen::Vector2d(0, 0));
@@ -188,13 +209,9 @@ TEST(Planning, ExactModeSolvesAndReplaysTheIntracardiacQuery) {
 TEST(Planning, ExactModeSstSolvesAndReplaysTheIntracardiacQuery) {
   // The asymptotically near-optimal option of exact mode (control SST with the friction propagator); CPU-time limit
   // so that the test does not depend on the machine's load. From the command line seeds 1-3 solve in 20 CPU s.
-  Query q = loadQuery(src("examples/queries/proc_intracardiac.yaml"));
-  q.planner = "sst";
-  q.time_limit = 25;
-  q.cpu_time_limit = true;
+  const Query q = onCpuClock(loadQuery(src("examples/queries/proc_intracardiac.yaml")), Mode::Exact, "sst", 25);
   CtrPlanner p(q);
-  PlanResult r = p.solve();
-  if (!r.solved) r = p.solve();  // OMPL's process-wide seed: allow a second randomised attempt (as above)
+  const PlanResult r = solveWithRetry(p);
   ASSERT_TRUE(r.solved) << r.message;
   EXPECT_EQ(r.planner, "SST");
   EXPECT_TRUE(r.replay.collision_free);
@@ -251,4 +268,62 @@ TEST(Planning, RobustValidityCoversTheWholeFrictionBand) {
   std::string why;
   EXPECT_LT(checkMotionForward(ctx, q.start, q2, t, &why), 1.0);
   EXPECT_FALSE(why.empty());
+}
+
+TEST(Planning, RobustBandFollowsContactSitesByIdentity) {
+  // The lung robot retracted to 2 mm out (the Med-MPD start poses): its tube ends coincide. Advancing the middle
+  // tube more than the outer one separates the ends and reverses the order of the two contact sites along the
+  // backbone. The band's vertices must be followed by site identity (and the bounds must not jump at coincident
+  // ends), so this smooth motion is robustly valid. (Before: "a friction band branch snaps" at the first step.)
+  const Robot r = io::loadRobot(src("examples/robots/medmpd_lung.yaml")).withFriction({0.1, 0.0});
+  const Context ctx = emptyMapContext(r, Mode::Robust);
+  const Configuration q0(Eigen::Vector3d(0.0, 0.0, 0.0), Eigen::Vector3d(-0.118, -0.218, -0.318));
+  const Configuration q1(Eigen::Vector3d(-0.0165, 0.0094, 0.2255), Eigen::Vector3d(-0.117, -0.2086, -0.308));
+  const std::vector<ContactSite> s0 = contactSites(r, q0), s1 = contactSites(r, q1);
+  ASSERT_EQ(s0.size(), 2u);
+  ASSERT_EQ(s1.size(), 2u);
+  ASSERT_EQ(s0[0], s1[1]);  // the order along the backbone is reversed
+  std::string why;
+  EXPECT_EQ(checkMotionForward(ctx, q0, q1, scratch(), &why), 1.0) << why;
+}
+
+TEST(Planning, RobustModeSolvesALungQueryWithTheGoalHeldByTheWholeBand) {
+  if (!fs::exists(std::string(CTR_SHARED_DIR) + "/data/med-mpd/Lungs/Patient2"))
+    GTEST_SKIP() << "../shared/data/med-mpd not found";
+  const Query q =
+      onCpuClock(loadQuery(src("examples/queries/medmpd_lung_patient2.yaml")), Mode::Robust, "rrtconnect", 20);
+  CtrPlanner p(q);
+  const PlanResult r = solveWithRetry(p);
+  ASSERT_TRUE(r.solved) << r.message;
+  EXPECT_TRUE(r.replay.collision_free);
+  EXPECT_EQ(r.replay.snaps, 0);
+  EXPECT_LE(r.replay.tip_error, q.tip_goal->tolerance);
+  // Robust goal: every shape of the friction band at the final configuration reaches the target, so the goal is
+  // met whatever the history (not only the replayed one).
+  const Context& ctx = *p.context();
+  FrictionBandOptions bo;
+  bo.interior_samples = 1;  // vertices and interior samples
+  const FrictionBand band = frictionBand(ctx.robot(), r.path.back(), scratch().ws, bo);
+  ASSERT_TRUE(band.converged) << band.message;
+  EXPECT_GT(band.shapes.size(), 2u);
+  for (const Solution& s : band.shapes)
+    EXPECT_LE((ctx.basePose() * s.tip_position - p.query().tip_goal->position).norm(), q.tip_goal->tolerance + 1e-4);
+  // ... and the whole band is collision-free there.
+  EXPECT_TRUE(checkRobust(ctx, r.path.back(), scratch()).ok);
+}
+
+TEST(Planning, RobustModeSaysWhenTheBandCannotReachTheGoal) {
+  // A 0.1 mm tolerance is below the tip spread of the friction band at every goal configuration: robust mode must
+  // say so instead of a bare "invalid goal".
+  Query q = loadQuery(src("examples/queries/proc_intracardiac.yaml"));
+  q.mode = Mode::Robust;
+  q.planner = "rrtconnect";
+  q.tip_goal->tolerance = 1e-4;
+  q.time_limit = 2;
+  q.cpu_time_limit = true;
+  CtrPlanner p(q);
+  const PlanResult r = p.solve();
+  EXPECT_FALSE(r.solved);
+  EXPECT_EQ(r.goal_pool, 0u);
+  EXPECT_NE(r.message.find("friction band"), std::string::npos) << r.message;
 }

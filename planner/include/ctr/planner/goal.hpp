@@ -1,14 +1,18 @@
 /// @file goal.hpp
 /// @brief Goal region on the tip position (world frame) with a tolerance and an optional tip-direction cone.
 /// Sampleable (for RRTConnect, PRM, BIT*...) through a pool of goal configurations found by damped least-squares
-/// inverse kinematics on the frictionless model, each accepted only if valid in the planning mode.
+/// inverse kinematics on the frictionless model, each accepted only if valid in the planning mode (robust mode: and
+/// only if every shape of its friction band reaches the target).
 #pragma once
 
 #include <ompl/base/goals/GoalSampleableRegion.h>
 #include <ompl/util/RandomNumbers.h>
 
+#include <limits>
 #include <mutex>
 #include <optional>
+#include <random>
+#include <string>
 
 #include "ctr/planner/state_space.hpp"
 
@@ -30,22 +34,39 @@ double inverseKinematics(const Context& ctx, const Eigen::Vector3d& target, Conf
 class TipGoal : public ompl::base::GoalSampleableRegion {
 public:
   TipGoal(const ompl::base::SpaceInformationPtr& si, std::shared_ptr<const Context> ctx, TipGoalSpec spec);
-  /// @brief Distance of the tip to the target (m), plus 0.05 m per rad outside the direction cone.
+  /// @brief Distance of the tip to the target (m), plus 0.05 m per rad outside the direction cone. In robust mode,
+  /// within the tolerance, the largest such distance over the friction band (the goal holds for every history).
   double distanceGoal(const ompl::base::State* st) const override;
   void sampleGoal(ompl::base::State* st) const override;
   unsigned int maxSampleCount() const override;
   /// @brief Fills the pool with up to `count` valid goal configurations within `seconds` (of process CPU time when
-  /// `cpu_clock`, else wall-clock). Returns the pool size.
-  std::size_t fillPool(std::size_t count, double seconds, std::uint64_t seed, bool cpu_clock = false);
+  /// `cpu_clock`, else wall-clock). Returns the pool size. With `target` > `count` the pool keeps growing up to
+  /// `target` during planning (sampleGoal tries one more candidate every other call).
+  /// In robust mode a goal configuration must reach the target with every shape of its friction band; IK aims the
+  /// frictionless tip so that the band's tips are centred on the target.
+  std::size_t fillPool(std::size_t count, double seconds, std::uint64_t seed, bool cpu_clock = false,
+                       std::size_t target = 0);
+  /// @brief Why the pool is empty ("" if it is not): no IK solution, (robust mode) no band within the tolerance, or
+  /// no valid configuration among those that reach the target.
+  std::string emptyPoolReason() const;
   const TipGoalSpec& spec() const { return spec_; }
   /// @brief Tip error and direction error (rad) of a shape (base-frame solution).
   std::pair<double, double> errors(const Solution& sol) const;
 
 private:
+  double goalDistance(const Eigen::Vector3d& tip, const Eigen::Vector3d& tangent) const;
+  /// Largest goal distance over the friction band's vertex shapes at q; optionally the centre of their tips.
+  double bandDistance(const Configuration& q, Eigen::Vector3d* center = nullptr) const;
+  /// One IK candidate from a random configuration; adds it to the pool if it is a valid goal.
+  bool tryCandidate() const;
   std::shared_ptr<const Context> ctx_;
   const CtrStateSpace* space_;
   TipGoalSpec spec_;
-  std::vector<Configuration> pool_;
+  mutable std::vector<Configuration> pool_;
+  mutable std::size_t target_ = 0;
+  mutable std::mt19937_64 gen_;
+  mutable double best_band_ = std::numeric_limits<double>::infinity();
+  mutable std::size_t ik_reached_ = 0, band_reached_ = 0;  // candidates with the tip / the whole band on target
   mutable std::mutex mutex_;
   mutable ompl::RNG rng_;
 };

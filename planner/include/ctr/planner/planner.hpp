@@ -27,7 +27,7 @@ struct PlanResult {
   double planning_wall_time = 0.0;  ///< The same in wall-clock seconds.
   double replay_time = 0.0;
   double path_length = 0.0;       ///< Joint-space length of the path (state-space metric).
-  std::size_t goal_pool = 0;      ///< Goal configurations found by IK (sampleable goal).
+  std::size_t goal_pool = 0;      ///< Goal configurations found by IK (sampleable goal), at the end of planning.
   std::vector<Configuration> path;  ///< Waypoints, unwrapped, from the start.
   ReplayReport replay;
   std::string message;            ///< Why not solved.

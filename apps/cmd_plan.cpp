@@ -122,13 +122,14 @@ void registerPlan(CLI::App& app, Action& action) {
   });
 
   struct BenchOpts {
-    std::string query, planners, out;
+    std::string query, planners, out, mode;
     int runs = 10;
     double time = 5;
   };
   auto b = std::make_shared<BenchOpts>();
   CLI::App* bs = app.add_subcommand("bench", "Benchmark planners on a query with ompl::tools::Benchmark (+ replay)");
   bs->add_option("query", b->query, "Query YAML")->required();
+  bs->add_option("--mode", b->mode, "Override the mode: exact, robust, frictionless");
   bs->add_option("--planners", b->planners, "Comma-separated planner names (default: the query's)");
   bs->add_option("--runs", b->runs, "Runs per planner")->check(finitePositive());
   bs->add_option("--time", b->time, "Time limit per run (s)")->check(finitePositive());
@@ -141,6 +142,7 @@ void registerPlan(CLI::App& app, Action& action) {
           throw UsageError("--out: '" + b->out + "' exists and is not a folder");
       }
       plan::Query q = plan::loadQuery(b->query);
+      if (!b->mode.empty()) q.mode = plan::parseMode(b->mode);
       plan::CtrPlanner p(q);
       checkStart(p);
       std::vector<std::string> names;
@@ -153,6 +155,9 @@ void registerPlan(CLI::App& app, Action& action) {
       }
       std::vector<ompl::base::PlannerPtr> planners;
       for (const auto& n : names) planners.push_back(p.makePlanner(n));  // throws for unknown names (exit 2)
+      // Goal configurations for sampleable tip goals (RRTConnect, PRM, BIT* need them), found once before the runs.
+      const std::size_t pool = p.prepareGoal(b->time);
+      if (q.tip_goal && pool == 0) std::cerr << "warning: no goal configuration found by IK; planners can only reach the goal region by chance\n";
       std::filesystem::create_directories(b->out);
       nlohmann::json summary = nlohmann::json::array();
       std::map<std::string, nlohmann::json> per;

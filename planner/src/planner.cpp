@@ -223,14 +223,17 @@ ob::PlannerPtr CtrPlanner::makePlanner(const std::string& name0) const {
 
 PlanResult CtrPlanner::solve() { return solve(query_.planner, query_.time_limit); }
 
+std::size_t CtrPlanner::prepareGoal(double time_limit) {
+  if (!goal_) return 0;
+  // Robust goals cost a friction band each: start planning with a few and let the pool grow while planning.
+  const std::size_t target = gss_ ? 16 : 8;
+  const std::size_t first = query_.mode == Mode::Robust ? 4 : target;
+  return goal_->fillPool(first, std::min(0.25 * time_limit, 5.0), query_.seed, query_.cpu_time_limit, target);
+}
+
 PlanResult CtrPlanner::solve(const std::string& planner_name, double time_limit) {
   const Stopwatch watch(query_.cpu_time_limit);
-  if (goal_) {
-    // Robust goals cost a friction band each: start planning with a few and let the pool grow while planning.
-    const std::size_t target = gss_ ? 16 : 8;
-    const std::size_t first = query_.mode == Mode::Robust ? 4 : target;
-    goal_->fillPool(first, std::min(0.25 * time_limit, 5.0), query_.seed, watch.cpu(), target);
-  }
+  prepareGoal(time_limit);
   const ob::PlannerPtr p = makePlanner(planner_name);
   // Deadline on the query's clock (at least 0.05 s for the planner itself).
   const double deadline = std::max(time_limit, watch.seconds() + 0.05);

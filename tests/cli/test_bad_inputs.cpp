@@ -344,6 +344,8 @@ const std::vector<Case> kCases = {
    "plan {d}/q.yaml --json {d}/none/r.json --time 0.5", 2, {"{d}/none", "does not exist"}},
   {"BenchUnknownPlanner", "bench", "unknown planner in --planners", "plan", [](Dir& d) { d.write("q.yaml", heartQuery()); },
    "bench {d}/q.yaml --planners rrt,teleport --runs 1 --time 1 --out {d}/bench", 2, {"teleport"}},
+  {"BenchUnknownMode", "bench", "unknown --mode", "plan", [](Dir& d) { d.write("q.yaml", heartQuery()); },
+   "bench {d}/q.yaml --mode psychic --runs 1 --time 1 --out {d}/bench", 2, {"psychic"}},
   {"BenchRunsZero", "bench", "--runs 0", "plan", [](Dir& d) { d.write("q.yaml", heartQuery()); },
    "bench {d}/q.yaml --runs 0 --out {d}/bench", 2, {"--runs", "must be > 0"}},
   {"BenchTimeZero", "bench", "--time 0", "plan", [](Dir& d) { d.write("q.yaml", heartQuery()); },

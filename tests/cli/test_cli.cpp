@@ -212,6 +212,25 @@ TEST(Cli, BenchWritesOmplLogAndReplaySummary) {
   EXPECT_NE(bad.err.find("astar"), std::string::npos) << bad.err;
 }
 
+TEST(Cli, BenchFillsTheGoalPoolForSampleableGoalPlanners) {
+  // RRTConnect grows a tree from sampled goals: `ctr bench` must fill the tip goal's pool before the runs (it did
+  // not, and RRTConnect found "insufficient states in sampleable goal region"). Robust mode via --mode.
+  const fs::path out = tmp("bench_robust");
+  fs::remove_all(out);
+  const Proc r = run("bench " + std::string(CTR_SOURCE_DIR) +
+                     "/examples/queries/proc_intracardiac.yaml --mode robust --planners rrtconnect --runs 1 --time 20 "
+                     "--out " + out.string());
+  ASSERT_EQ(r.code, 0) << r.err;
+  ASSERT_TRUE(fs::exists(out / "proc_intracardiac_robust.log"));
+  std::ifstream in(out / "summary.json");
+  const auto j = nlohmann::json::parse(in);
+  ASSERT_EQ(j.size(), 1u);
+  EXPECT_EQ(j[0]["planner"], "RRTConnect");
+  EXPECT_EQ(j[0]["mode"], "robust");
+  EXPECT_EQ(j[0]["planner_success_rate"], 1.0);
+  EXPECT_EQ(j[0]["replay_failures"], 0);
+}
+
 TEST(Cli, DemoPlansTheEmbeddedDefaultAndWritesThePath) {
   const fs::path f = tmp("demo_path.csv");
   fs::remove(f);

@@ -5,6 +5,7 @@
 #include "ctr/planner/stopwatch.hpp"
 
 #include <Eigen/Cholesky>
+#include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <iomanip>
@@ -205,8 +206,9 @@ std::size_t TipGoal::fillPool(std::size_t count, double seconds, std::uint64_t s
                               std::size_t target) {
   {
     std::lock_guard<std::mutex> lock(mutex_);
-    gen_.seed(seed);
-    target_ = std::max(count, target);
+    if (!seeded_) gen_.seed(seed);  // later calls continue the sequence (new candidates)
+    seeded_ = true;
+    target_ = std::max({count, target, target_});
   }
   const Stopwatch watch(cpu_clock);
   while (maxSampleCount() < count && watch.seconds() <= seconds) tryCandidate();

@@ -228,7 +228,12 @@ std::size_t CtrPlanner::prepareGoal(double time_limit) {
   // Robust goals cost a friction band each: start planning with a few and let the pool grow while planning.
   const std::size_t target = gss_ ? 16 : 8;
   const std::size_t first = query_.mode == Mode::Robust ? 4 : target;
-  return goal_->fillPool(first, std::min(0.25 * time_limit, 5.0), query_.seed, query_.cpu_time_limit, target);
+  const Stopwatch watch(query_.cpu_time_limit);
+  std::size_t n = goal_->fillPool(first, std::min(0.25 * time_limit, 5.0), query_.seed, query_.cpu_time_limit, target);
+  // No goal yet (rare goals, or a slow machine): keep looking up to half of the time limit rather than give up with
+  // most of it unused.
+  if (n == 0) n = goal_->fillPool(1, 0.5 * time_limit - watch.seconds(), query_.seed, query_.cpu_time_limit, target);
+  return n;
 }
 
 PlanResult CtrPlanner::solve(const std::string& planner_name, double time_limit) {

@@ -41,7 +41,8 @@ public:
   unsigned int maxSampleCount() const override;
   /// @brief Fills the pool with up to `count` valid goal configurations within `seconds` (of process CPU time when
   /// `cpu_clock`, else wall-clock). Returns the pool size. With `target` > `count` the pool keeps growing up to
-  /// `target` during planning (sampleGoal tries one more candidate every other call).
+  /// `target` during planning (sampleGoal tries one more candidate every other call). The candidates follow one
+  /// random sequence seeded by the first call; later calls continue it.
   /// In robust mode a goal configuration must reach the target with every shape of its friction band; IK aims the
   /// frictionless tip so that the band's tips are centred on the target.
   std::size_t fillPool(std::size_t count, double seconds, std::uint64_t seed, bool cpu_clock = false,
@@ -65,6 +66,7 @@ private:
   mutable std::vector<Configuration> pool_;
   mutable std::size_t target_ = 0;
   mutable std::mt19937_64 gen_;
+  bool seeded_ = false;
   mutable double best_band_ = std::numeric_limits<double>::infinity();
   mutable std::size_t ik_reached_ = 0, band_reached_ = 0;  // candidates with the tip / the whole band on target
   mutable std::mutex mutex_;

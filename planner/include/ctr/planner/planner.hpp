@@ -46,7 +46,8 @@ public:
   PlanResult solve(const std::string& planner, double time_limit);
   /// @brief Fills the tip goal's pool of goal configurations (solve() does it; call it before running planners
   /// directly, e.g. with ompl::tools::Benchmark). Uses at most a quarter of `time_limit` (5 s at most) on the
-  /// query's clock; returns the pool size (0 for a goal configuration).
+  /// query's clock, or up to half of it while no goal at all has been found; returns the pool size (0 for a goal
+  /// configuration).
   std::size_t prepareGoal(double time_limit);
 
   const Query& query() const { return query_; }

@@ -34,55 +34,38 @@ bool parseType(std::string_view s, Type& t) {
   return false;
 }
 
-std::size_t sizeOf(Type t) {
-  switch (t) {
-    case Type::Char:
-    case Type::UChar:
-      return 1;
-    case Type::Short:
-    case Type::UShort:
-      return 2;
-    case Type::Int:
-    case Type::UInt:
-    case Type::Float:
-      return 4;
-    case Type::Double:
-      return 8;
-  }
-  return 0;
+// Facts about each type, one row per Type in enum order: canonical name, size in bytes, integer range.
+struct TypeTraits {
+  const char* name;
+  std::size_t size;
+  bool integer;
+  long long lo, hi;  // 0, 0 for the real types
+};
+constexpr TypeTraits kTraits[] = {{"char", 1, true, INT8_MIN, INT8_MAX},
+                                  {"uchar", 1, true, 0, UINT8_MAX},
+                                  {"short", 2, true, INT16_MIN, INT16_MAX},
+                                  {"ushort", 2, true, 0, UINT16_MAX},
+                                  {"int", 4, true, INT32_MIN, INT32_MAX},
+                                  {"uint", 4, true, 0, UINT32_MAX},
+                                  {"float", 4, false, 0, 0},
+                                  {"double", 8, false, 0, 0}};
+static_assert(sizeof(kTraits) / sizeof(kTraits[0]) == static_cast<std::size_t>(Type::Double) + 1,
+              "one row per Type");
+const TypeTraits& traits(Type t) {
+  return kTraits[static_cast<std::size_t>(t)];
 }
 
+std::size_t sizeOf(Type t) {
+  return traits(t).size;
+}
 bool isInteger(Type t) {
-  return t != Type::Float && t != Type::Double;
+  return traits(t).integer;
 }
 bool isSigned(Type t) {
-  return t == Type::Char || t == Type::Short || t == Type::Int;
+  return traits(t).lo < 0;
 }
-
-void integerRange(Type t, long long& lo, long long& hi) {
-  switch (t) {
-    case Type::Char:
-      lo = INT8_MIN, hi = INT8_MAX;
-      return;
-    case Type::UChar:
-      lo = 0, hi = UINT8_MAX;
-      return;
-    case Type::Short:
-      lo = INT16_MIN, hi = INT16_MAX;
-      return;
-    case Type::UShort:
-      lo = 0, hi = UINT16_MAX;
-      return;
-    case Type::Int:
-      lo = INT32_MIN, hi = INT32_MAX;
-      return;
-    case Type::UInt:
-      lo = 0, hi = UINT32_MAX;
-      return;
-    default:
-      lo = hi = 0;
-      return;
-  }
+const char* typeName(Type t) {
+  return traits(t).name;
 }
 
 struct Property {
@@ -165,8 +148,7 @@ bool parseInteger(std::string_view s, Type t, long long& v, std::string& why) {
     return false;
   }
   while (d.size() > 1 && d[0] == '0') d.remove_prefix(1);
-  long long lo = 0, hi = 0;
-  integerRange(t, lo, hi);
+  const long long lo = traits(t).lo, hi = traits(t).hi;
   if (d.size() > 12) {
     why = "is out of range";
     return false;
@@ -510,28 +492,6 @@ class Validator {
       if (!t.empty()) fail(line_, "unexpected data after the last element: " + quote(line));
       if (line.find('\r') != std::string_view::npos) fail(line_, "stray '\\r' after the last element");
     }
-  }
-
-  static const char* typeName(Type t) {
-    switch (t) {
-      case Type::Char:
-        return "char";
-      case Type::UChar:
-        return "uchar";
-      case Type::Short:
-        return "short";
-      case Type::UShort:
-        return "ushort";
-      case Type::Int:
-        return "int";
-      case Type::UInt:
-        return "uint";
-      case Type::Float:
-        return "float";
-      case Type::Double:
-        return "double";
-    }
-    return "?";
   }
 
   // Reads one value of type t at pos_ (the caller checked that it fits).

@@ -13,7 +13,7 @@ namespace ctr::cli {
 void registerDiagnose(CLI::App& app, Action& action) {
   struct Opts {
     std::string robot, recording, frame = "base", json, report, plot, candidates, html;
-    int folds = 4, threads = 2, max_effects = 3;
+    int folds = 4, threads = 2, max_effects = 4;
     double bic_threshold = 10.0;
     bool quiet = false;
   };
@@ -32,7 +32,7 @@ void registerDiagnose(CLI::App& app, Action& action) {
   sub->add_option("--candidates", o->candidates, "Comma-separated effect names to try (default: all)");
   sub->add_option("--folds", o->folds, "Contiguous held-out blocks")->check(CLI::Range(2, 20));
   sub->add_option("--threads", o->threads, "Candidates fitted in parallel")->check(CLI::Range(1, 64));
-  sub->add_option("--max-effects", o->max_effects, "Largest combination of effects")->check(CLI::Range(0, 3));
+  sub->add_option("--max-effects", o->max_effects, "Largest combination of effects")->check(CLI::Range(0, 6));
   sub->add_option("--bic-threshold", o->bic_threshold, "BIC decrease needed to accept an effect");
   sub->add_flag("--quiet", o->quiet, "No progress on stderr");
   sub->callback([o, &action]() {

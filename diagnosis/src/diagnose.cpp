@@ -71,6 +71,11 @@ std::string physics(EffectKind k) {
     case EffectKind::SensorLatency:
       return "the measurement lagging the joint reading: a direction-dependent error whose size grows with the "
              "actuator speed rather than with the bending moment";
+    case EffectKind::TranslationBacklash:
+      return "play in a linear stage: after each reversal of the translation the tube does not move until the play "
+             "is taken up";
+    case EffectKind::TranslationOffset:
+      return "a zero error of a linear stage: the tube is translated by a constant amount more or less than commanded";
   }
   return "";
 }
@@ -114,6 +119,24 @@ std::vector<Effect> candidateSlots(const Robot& nominal, const io::Recording& re
   for (int i = 1; i <= n; ++i)
     if (rotates(i - 1)) add(EffectKind::ActuatorBacklash, i);
   for (int i = (o.frame == FrameMode::Base ? 1 : 2); i <= n; ++i) add(EffectKind::ActuatorOffset, i);
+  auto translates = [&](int i) {  // does tube i (0-based) translate in the recording?
+    double lo = 1e300, hi = -1e300;
+    for (const auto& q : rec.commands) {
+      lo = std::min(lo, q.beta[i]);
+      hi = std::max(hi, q.beta[i]);
+    }
+    return hi - lo > 1e-6;
+  };
+  bool any_translation = false;
+  for (int i = 1; i <= n; ++i) {
+    if (!translates(i - 1)) continue;
+    any_translation = true;
+    add(EffectKind::TranslationBacklash, i);
+  }
+  // A zero error of one stage changes how far that tube extends relative to the others (a common shift of all
+  // tubes moves the tip along z: absorbed by the registration in an unknown frame, observable in the base frame).
+  if (any_translation)
+    for (int i = 1; i <= n; ++i) add(EffectKind::TranslationOffset, i);
   if (rec.hasTime() && rec.rows() > 2 && rec.time[rec.rows() - 1] > rec.time[0]) add(EffectKind::SensorLatency, 0);
   return s;
 }
@@ -137,6 +160,33 @@ io::Recording decimateRecording(const io::Recording& in, int k) {
   if (in.hasTime()) out.time = take(in.time);
   return out;
 }
+
+namespace {
+
+/// The significant locate tests of a residual, in plain words (for `unexplained.where`).
+std::string describeRemainder(const MismatchReport& m, double ratio) {
+  std::vector<std::string> parts;
+  std::set<std::string> seen;
+  for (const MismatchFinding& f : m.findings) {
+    std::string p;
+    if (f.signature == "drift") p = "grows with time (drift)";
+    else if (f.signature == "scales_with_speed") p = "grows with the actuator speed";
+    else if (f.signature == "scales_with_moment") p = "grows with the concentrated bending moment";
+    else if (f.signature == "direction_dependent") p = "depends on the direction of approach of " + f.variable;
+    else if (f.signature == "constant") p = "is spread over all configurations (no direction, moment, speed or time dependence)";
+    else if (f.signature == "exceeds_noise" && f.variable != "all") p = "is largest at " + f.where.substr(0, f.where.find(':'));
+    if (p.empty() || !seen.insert(p).second) continue;
+    parts.push_back(p);
+    if (parts.size() >= 3) break;
+  }
+  std::string s = fmt("the held-out residuals are %.2f x the noise variance", ratio);
+  if (parts.empty()) return s + " without a located structure";
+  s += " and the remainder ";
+  for (std::size_t k = 0; k < parts.size(); ++k) s += (k ? (k + 1 == parts.size() ? " and " : ", ") : "") + parts[k];
+  return s;
+}
+
+}  // namespace
 
 DiagnosisReport diagnose(const Robot& nominal, const io::Recording& full, const DiagnoseOptions& o) {
   const auto t0 = std::chrono::steady_clock::now();
@@ -174,9 +224,29 @@ DiagnosisReport diagnose(const Robot& nominal, const io::Recording& full, const 
   fo.predict = o.predict;
   fo.max_iterations = o.max_iterations;
   Workspace ws;
-  // 1. Baseline: replay, noise estimate (twice: the registration weights depend on it), residuals.
+  // 1. Baseline: replay, failed rows, noise estimate (twice: the registration weights depend on it), residuals.
   progress("baseline: replaying " + std::to_string(rows) + " rows through the nominal model");
   FitResult base = evaluateModel(nominal, rec, {}, all, fo, ws);
+  // Rows the nominal model cannot evaluate are left out of every residual, fit, noise estimate and score.
+  std::vector<char> evaluable(static_cast<std::size_t>(rows), 0);
+  int nfailed = 0;
+  for (int k = 0; k < rows; ++k) {
+    evaluable[static_cast<std::size_t>(k)] = base.prediction.ok[static_cast<std::size_t>(k)];
+    if (evaluable[static_cast<std::size_t>(k)]) continue;
+    ++nfailed;
+    rep.failed_rows.push_back({k * stride + 1, base.prediction.reason[static_cast<std::size_t>(k)], "nominal"});
+  }
+  if (nfailed == rows)
+    throw std::runtime_error("the nominal model could not evaluate any row of the recording (row 1: " +
+                             base.prediction.reason[0] + ")");
+  if (nfailed > 0) {
+    rep.warnings.push_back(std::to_string(nfailed) + " of " + std::to_string(rows) +
+                           " rows could not be evaluated by the nominal model and are excluded from every residual, "
+                           "fit, noise estimate and score (failed_rows)");
+    progress(rep.warnings.back());
+  }
+  fo.rows = evaluable;
+  if (nfailed > 0 && o.frame == FrameMode::Unknown) base = evaluateModel(nominal, rec, {}, all, fo, ws);
   fo.noise = estimateNoise(rec, base.residuals);
   if (o.frame == FrameMode::Unknown) {
     base = evaluateModel(nominal, rec, {}, all, fo, ws);
@@ -184,24 +254,31 @@ DiagnosisReport diagnose(const Robot& nominal, const io::Recording& full, const 
     base = evaluateModel(nominal, rec, {}, all, fo, ws);
   }
   rep.noise = fo.noise;
-  if (base.prediction.failures > 0)
-    rep.warnings.push_back(std::to_string(base.prediction.failures) + " rows did not converge in the nominal model");
   rep.mismatch = locateMismatch(rec, base.prediction, base.residuals, fo.noise, o.mismatch);
   for (const auto& f : rep.mismatch.findings) progress("mismatch: " + f.signature + " " + f.variable + ": " + f.where);
+  // BIC difference of model b over model a, on the rows both evaluated (a model that fails on a row is never
+  // compared on fewer rows than its rival).
+  auto deltaBic = [&](const Residuals& a, int ka, const Residuals& b, int kb) {
+    const std::vector<char> m = commonRows(a, b, evaluable);
+    return bic(rec, b, m, kb) - bic(rec, a, m, ka);
+  };
+  auto nparams = [](const std::vector<Effect>& e) { return static_cast<int>(e.size()); };
   Candidate cur;
   cur.fit = base;
   cur.cv = crossValidate(nominal, rec, {}, o.folds, fo, ws, 6, o.threads);
-  cur.bic = bic(rec, base.residuals, all, 0);
+  cur.bic = bic(rec, base.residuals, evaluable, 0);
   rep.folds = std::min(o.folds, rows);
   rep.evaluations += base.evaluations + cur.cv.evaluations + 2;
   rep.baseline.model = "nominal";
   rep.baseline.heldout_rmse = cur.cv.rmse;
   rep.baseline.last_block_rmse = rmse(rec, cur.cv.heldout, lastBlock);
-  rep.baseline.fit_rmse = rmse(rec, base.residuals, all);
+  rep.baseline.fit_rmse = rmse(rec, base.residuals, evaluable);
   rep.baseline.heldout_score = cur.cv.score;
   rep.baseline.bic = cur.bic;
+  const CrossValidation baseline_cv = cur.cv;
   const std::vector<Effect> slots = candidateSlots(nominal, rec, o);
   std::map<std::string, Finding> last;  // latest finding per slot label
+  std::map<std::string, std::vector<Rival>> rivals_of;  // accepted label -> look-alikes it cannot be told from
   std::vector<std::string> order;
   const int chunks = std::max(3, std::min(24, rows / 3));
   // 2. Forward selection.
@@ -222,68 +299,66 @@ DiagnosisReport diagnose(const Robot& nominal, const io::Recording& full, const 
     std::vector<Candidate> cands(todo.size());
     std::atomic<int> evals{0};
     auto evaluateCandidate = [&](Candidate& c, Workspace& tws) {
-      {
-        std::vector<Effect> start = cur.fit.effects;
-        start.push_back(c.slot);
-        const int nprev = static_cast<int>(cur.fit.effects.size());
-        if (c.slot.kind == EffectKind::DistributedFriction) {
-          // Expensive (a root solve per integration step): probe one large coefficient before fitting.
-          std::vector<Effect> probe = start;
-          probe.back().value = 0.3;
-          FitResult pr = evaluateModel(nominal, rec, probe, all, fo, tws);
-          evals += pr.evaluations;
-          const double pb = bic(rec, pr.residuals, all, static_cast<int>(start.size())) - cur.bic;
-          if (pb > -0.5 * o.bic_threshold) {
-            c.fit = std::move(pr);
-            c.bic = cur.bic + pb;
-            c.delta_bic = pb;
-            c.reason = fmt("even mu = 0.3 changes BIC by only %+.1f: the distributed contact forces are too small to "
-                           "produce the observed twist (as the paper found, sec. II.C)", pb);
-            progress("  " + c.slot.label() + fmt(": probe mu = 0.3, dBIC = %+.1f; not fitted", pb));
-            return;
-          }
+      std::vector<Effect> start = cur.fit.effects;
+      start.push_back(c.slot);
+      const int nprev = static_cast<int>(cur.fit.effects.size());
+      if (c.slot.kind == EffectKind::DistributedFriction) {
+        // Expensive (a root solve per integration step): probe one large coefficient before fitting.
+        std::vector<Effect> probe = start;
+        probe.back().value = 0.3;
+        FitResult pr = evaluateModel(nominal, rec, probe, all, fo, tws);
+        evals += pr.evaluations;
+        const double pb = deltaBic(cur.fit.residuals, nprev, pr.residuals, nparams(start));
+        if (pb > -0.5 * o.bic_threshold) {
+          c.fit = std::move(pr);
+          c.bic = cur.bic + pb;
+          c.delta_bic = pb;
+          c.reason = fmt("even mu = 0.3 changes BIC by only %+.1f: the distributed contact forces are too small to "
+                         "produce the observed twist (as the paper found, sec. II.C)", pb);
+          progress("  " + c.slot.label() + fmt(": probe mu = 0.3, dBIC = %+.1f; not fitted", pb));
+          return;
         }
-        // Screening: only the new effect is fitted (grid + a few iterations), the accepted ones held.
-        FitOptions so = fo;
-        so.first_free = nprev;
-        so.max_iterations = o.screen_iterations;
-        so.function_tolerance = 1e-3;
-        so.intervals = false;
-        c.fit = fitEffects(nominal, rec, start, all, so, tws, nprev);
-        evals += c.fit.evaluations;
-        c.bic = bic(rec, c.fit.residuals, all, static_cast<int>(start.size()));
-        c.delta_bic = c.bic - cur.bic;
-        if (c.delta_bic < -o.bic_threshold) {
-          // Joint refinement of all parameters with intervals, from the screening optimum.
-          FitOptions jo = fo;
-          FitResult joint = fitEffects(nominal, rec, c.fit.effects, all, jo, tws, static_cast<int>(start.size()));
-          evals += joint.evaluations;
-          const double jb = bic(rec, joint.residuals, all, static_cast<int>(start.size()));
-          if (jb <= c.bic + 1e-9) {
-            c.fit = std::move(joint);
-            c.bic = jb;
-            c.delta_bic = c.bic - cur.bic;
-          }
-        }
-        if (c.delta_bic < -o.bic_threshold) {
-          c.cv = crossValidate(nominal, rec, c.fit.effects, o.folds, fo, tws, o.cv_iterations, o.threads);
-          c.cv_done = true;
-          evals += c.cv.evaluations;
-          c.heldout_p = stats::chunkedBootstrapTest(cur.cv.row_score, c.cv.row_score, chunks);
-          c.gain = cur.cv.score > 0 ? 1.0 - c.cv.score / cur.cv.score : 0.0;
-          c.pass = c.heldout_p < o.heldout_p && c.gain > o.min_heldout_gain;
-          if (!c.pass)
-            c.reason = fmt("it lowers BIC by %.1f but does not improve the held-out error enough (%.1f %% lower, p = %.2g)",
-                           -c.delta_bic, 100 * c.gain, c.heldout_p);
-        } else {
-          c.reason = fmt("it does not lower BIC by more than %.0f (change %+.1f): the fit does not improve beyond "
-                         "what one more parameter buys by chance",
-                         o.bic_threshold, c.delta_bic);
-        }
-        progress("  " + c.slot.label() + ": " + parameterName(c.slot.kind) +
-                 fmt(" = %.4g, dBIC = %+.1f", c.fit.effects.back().value, c.delta_bic) +
-                 (c.cv_done ? fmt(", held-out gain %.1f %%, p = %.2g", 100 * c.gain, c.heldout_p) : std::string()));
       }
+      // Screening: only the new effect is fitted (grid + a few iterations), the accepted ones held.
+      FitOptions so = fo;
+      so.first_free = nprev;
+      so.max_iterations = o.screen_iterations;
+      so.function_tolerance = 1e-3;
+      so.intervals = false;
+      c.fit = fitEffects(nominal, rec, start, all, so, tws, nprev);
+      evals += c.fit.evaluations;
+      c.delta_bic = deltaBic(cur.fit.residuals, nprev, c.fit.residuals, nparams(start));
+      c.bic = cur.bic + c.delta_bic;
+      if (c.delta_bic < -o.bic_threshold) {
+        // Joint refinement of all parameters with intervals, from the screening optimum.
+        FitResult joint = fitEffects(nominal, rec, c.fit.effects, all, fo, tws, static_cast<int>(start.size()));
+        evals += joint.evaluations;
+        const double jd = deltaBic(c.fit.residuals, nparams(start), joint.residuals, nparams(start));
+        if (jd <= 1e-9) {
+          c.fit = std::move(joint);
+          c.delta_bic = deltaBic(cur.fit.residuals, nprev, c.fit.residuals, nparams(start));
+          c.bic = cur.bic + c.delta_bic;
+        }
+      }
+      if (c.delta_bic < -o.bic_threshold) {
+        c.cv = crossValidate(nominal, rec, c.fit.effects, o.folds, fo, tws, o.cv_iterations, o.threads);
+        c.cv_done = true;
+        evals += c.cv.evaluations;
+        c.heldout_p = stats::chunkedBootstrapTest(cur.cv.row_score, c.cv.row_score, chunks);
+        const auto means = commonMeans(cur.cv.row_score, c.cv.row_score);  // same rows for both
+        c.gain = means[0] > 0 ? 1.0 - means[1] / means[0] : 0.0;
+        c.pass = c.heldout_p < o.heldout_p && c.gain > o.min_heldout_gain;
+        if (!c.pass)
+          c.reason = fmt("it lowers BIC by %.1f but does not improve the held-out error enough (%.1f %% lower, p = %.2g)",
+                         -c.delta_bic, 100 * c.gain, c.heldout_p);
+      } else {
+        c.reason = fmt("it does not lower BIC by more than %.0f (change %+.1f): the fit does not improve beyond "
+                       "what one more parameter buys by chance",
+                       o.bic_threshold, c.delta_bic);
+      }
+      progress("  " + c.slot.label() + ": " + parameterName(c.slot.kind) +
+               fmt(" = %.4g, dBIC = %+.1f", c.fit.effects.back().value, c.delta_bic) +
+               (c.cv_done ? fmt(", held-out gain %.1f %%, p = %.2g", 100 * c.gain, c.heldout_p) : std::string()));
     };
     detail::parallelFor(static_cast<int>(todo.size()), o.threads, ws, [&](int i, Workspace& tws) {
       Candidate& c = cands[static_cast<std::size_t>(i)];
@@ -304,6 +379,86 @@ DiagnosisReport diagnose(const Robot& nominal, const io::Recording& full, const 
     int best = -1;
     for (std::size_t i = 0; i < cands.size(); ++i)
       if (cands[i].pass && (best < 0 || cands[i].bic < cands[static_cast<std::size_t>(best)].bic)) best = static_cast<int>(i);
+    // Look-alikes: before accepting the best of the group, test it against every rival of the group that fits
+    // nearly as well (BIC within the threshold) with encompassing fits: both together, then does each add on top
+    // of the other? Only the one that adds is named; when neither adds, the recording cannot tell them apart.
+    std::map<int, std::string> rival_note;  // candidate index -> why it lost to (or ties with) the winner
+    std::vector<Rival> ties;
+    if (best >= 0 && isLookAlike(cands[static_cast<std::size_t>(best)].slot.kind)) {
+      std::vector<int> rv;
+      for (std::size_t i = 0; i < cands.size(); ++i) {
+        const Candidate& c = cands[i];
+        if (static_cast<int>(i) == best || c.failed || !c.cv_done || !isLookAlike(c.slot.kind)) continue;
+        if (c.bic - cands[static_cast<std::size_t>(best)].bic < o.bic_threshold) rv.push_back(static_cast<int>(i));
+      }
+      struct Encompassing {
+        double add_winner = 0, add_rival = 0;  // BIC drop of adding each on top of the other
+        bool ok = false;
+      };
+      std::vector<Encompassing> enc(rv.size());
+      evals = 0;
+      const Candidate& W = cands[static_cast<std::size_t>(best)];
+      detail::parallelFor(static_cast<int>(rv.size()), o.threads, ws, [&](int j, Workspace& tws) {
+        const Candidate& R = cands[static_cast<std::size_t>(rv[static_cast<std::size_t>(j)])];
+        std::vector<Effect> both = W.fit.effects;
+        both.push_back(R.fit.effects.back());
+        FitOptions jo = fo;
+        jo.intervals = false;
+        try {
+          const FitResult J = fitEffects(nominal, rec, both, all, jo, tws, nparams(both));
+          evals += J.evaluations;
+          const int k = nparams(both);
+          enc[static_cast<std::size_t>(j)] = {deltaBic(J.residuals, k, R.fit.residuals, k - 1),
+                                              deltaBic(J.residuals, k, W.fit.residuals, k - 1), true};
+        } catch (const std::exception&) {
+          enc[static_cast<std::size_t>(j)].ok = false;
+        }
+      });
+      rep.evaluations += evals;
+      int switch_to = -1;
+      for (std::size_t j = 0; j < rv.size(); ++j) {
+        const int i = rv[j];
+        const Candidate& R = cands[static_cast<std::size_t>(i)];
+        const Encompassing& e = enc[j];
+        if (!e.ok) continue;
+        const bool w_adds = e.add_winner > o.bic_threshold, r_adds = e.add_rival > o.bic_threshold;
+        const std::string wl = W.slot.label(), rl = R.slot.label();
+        if (w_adds && !r_adds) {
+          rival_note[i] = "its look-alike " + wl + " explains what it explains and more (on top of it, " + wl +
+                          fmt(" lowers BIC by %.1f; on top of ", e.add_winner) + wl +
+                          fmt(", it lowers BIC by only %.1f)", e.add_rival);
+        } else if (r_adds && !w_adds && R.pass) {
+          if (switch_to < 0 || R.bic < cands[static_cast<std::size_t>(switch_to)].bic) switch_to = i;
+          rival_note[best] = "its look-alike " + rl + " explains what it explains and more (on top of it, " + rl +
+                             fmt(" lowers BIC by %.1f; the reverse only %.1f)", e.add_rival, e.add_winner);
+        } else if (w_adds && r_adds) {
+          rival_note[i] = "both it and " + wl + fmt(" add on top of each other (BIC %.1f and %.1f): both are tested "
+                                                    "in the next round", -e.add_rival, -e.add_winner);
+        } else {
+          Rival r;
+          r.effect = R.fit.effects.back();
+          r.delta_bic = R.delta_bic;
+          r.heldout_rmse = R.cv.rmse;
+          r.heldout_p = stats::chunkedBootstrapTest(R.cv.row_score, W.cv.row_score, chunks);
+          r.why = fmt("alone they fit equally well (BIC %.1f apart); together, neither adds on top of the other (BIC "
+                      "%.1f and %.1f)",
+                      R.bic - W.bic, -e.add_winner, -e.add_rival);
+          if (r.heldout_p < o.heldout_p) {
+            rival_note[i] = "it fits as well in-sample but " + wl + fmt(" predicts held-out rows better (p = %.2g)",
+                                                                         r.heldout_p);
+          } else {
+            rival_note[i] = "this recording cannot tell it from " + wl + " (" + r.why + ")";
+            ties.push_back(r);
+          }
+        }
+      }
+      if (switch_to >= 0) {
+        progress("look-alikes: " + cands[static_cast<std::size_t>(switch_to)].slot.label() + " explains what " +
+                 W.slot.label() + " explains and more; accepted instead");
+        best = switch_to;
+        ties.clear();  // the rivals were compared with the former winner only
+      }
+    }
     for (std::size_t i = 0; i < cands.size(); ++i) {
       Candidate& c = cands[i];
       Finding f;
@@ -323,11 +478,21 @@ DiagnosisReport diagnose(const Robot& nominal, const io::Recording& full, const 
         f.heldout_p = c.heldout_p;
       }
       f.delta_bic = c.delta_bic;
+      const auto note = rival_note.find(static_cast<int>(i));
       if (f.accepted) {
         f.explanation = "accepted: " + physics(c.slot.kind) + ". " +
                         fmt("Fitted on top of the previous model it lowers BIC by %.1f and the held-out error by %.1f %% "
                             "(one-sided p = %.2g over contiguous held-out blocks).",
                             -c.delta_bic, 100 * c.gain, c.heldout_p);
+        if (!ties.empty()) {
+          f.ambiguous_with = ties;
+          f.explanation += " This recording cannot tell it from";
+          for (std::size_t t = 0; t < ties.size(); ++t)
+            f.explanation += (t ? ", " : " ") + ties[t].effect.label();
+          f.explanation += " (" + ties.front().why + ").";
+        }
+      } else if (note != rival_note.end()) {
+        f.explanation = "rejected: " + physics(c.slot.kind) + "; " + note->second + ".";
       } else if (c.pass && best >= 0) {
         const Candidate& w = cands[static_cast<std::size_t>(best)];
         f.explanation = "rejected: " + physics(c.slot.kind) + " explains less than the accepted " + w.slot.label() +
@@ -345,23 +510,29 @@ DiagnosisReport diagnose(const Robot& nominal, const io::Recording& full, const 
       break;
     }
     cur = std::move(cands[static_cast<std::size_t>(best)]);
-    progress("round " + std::to_string(round) + ": accepted " + cur.slot.label());
+    rivals_of[cur.slot.label()] = ties;
+    progress("round " + std::to_string(round) + ": accepted " + cur.slot.label() +
+             (ties.empty() ? std::string() : " (tied with " + std::to_string(ties.size()) + " look-alike(s))"));
   }
   // 2b. Backward elimination: greedy forward steps can accept an effect that later ones make redundant.
   std::map<std::string, std::string> removed;
+  auto refitWithout = [&](const std::vector<std::size_t>& drop) {
+    std::vector<Effect> reduced;
+    for (std::size_t j = 0; j < cur.fit.effects.size(); ++j)
+      if (std::find(drop.begin(), drop.end(), j) == drop.end()) reduced.push_back(cur.fit.effects[j]);
+    return fitEffects(nominal, rec, reduced, all, fo, ws, nparams(reduced));
+  };
   while (cur.fit.effects.size() >= 2) {
     int drop = -1;
-    double best_b = 0;
+    double best_d = 0;
     FitResult best_fit;
     for (std::size_t j = 0; j < cur.fit.effects.size(); ++j) {
-      std::vector<Effect> reduced = cur.fit.effects;
-      reduced.erase(reduced.begin() + static_cast<long>(j));
-      FitResult f = fitEffects(nominal, rec, reduced, all, fo, ws, static_cast<int>(reduced.size()));
+      FitResult f = refitWithout({j});
       rep.evaluations += f.evaluations;
-      const double b = bic(rec, f.residuals, all, static_cast<int>(reduced.size()));
-      if (b - cur.bic < o.bic_threshold && (drop < 0 || b < best_b)) {
+      const double d = deltaBic(cur.fit.residuals, nparams(cur.fit.effects), f.residuals, nparams(f.effects));
+      if (d < o.bic_threshold && (drop < 0 || d < best_d)) {
         drop = static_cast<int>(j);
-        best_b = b;
+        best_d = d;
         best_fit = std::move(f);
       }
     }
@@ -369,13 +540,85 @@ DiagnosisReport diagnose(const Robot& nominal, const io::Recording& full, const 
     const std::string lab = cur.fit.effects[static_cast<std::size_t>(drop)].label();
     removed[lab] = fmt("removed again after the later rounds: without it BIC changes by only %+.1f, so the other "
                        "accepted effects explain what it explained",
-                       best_b - cur.bic);
+                       best_d);
     progress("backward elimination: removed " + lab);
+    cur.bic += best_d;
     cur.fit = std::move(best_fit);
-    cur.bic = best_b;
     cur.cv = crossValidate(nominal, rec, cur.fit.effects, o.folds, fo, ws, o.cv_iterations, o.threads);
   }
-  // 3. Final model: fitted values with intervals (already from its full-data fit).
+  // 3. The remainder: locate tests on the final model's residuals and its held-out error against the noise.
+  auto heldoutRatio = [&](const CrossValidation& cv, double& p) {
+    double chi = 0;
+    int dof = 0;
+    for (Quantity q : presentQuantities(rec)) {
+      const Eigen::MatrixXd& R = cv.heldout.of(q);
+      const double s = fo.noise.of(q);
+      for (int k = 0; k < rows; ++k)
+        for (Eigen::Index c = 0; c < R.cols(); ++c)
+          if (evaluable[static_cast<std::size_t>(k)] && std::isfinite(R(k, c)) && s > 0) {
+            chi += R(k, c) * R(k, c) / (s * s);
+            ++dof;
+          }
+    }
+    p = dof ? stats::chiSquareSf(chi, dof) : 1.0;
+    return dof ? chi / dof : 1.0;
+  };
+  double base_p = 1.0;
+  const double base_ratio = heldoutRatio(baseline_cv, base_p);
+  MismatchReport final_mismatch;
+  auto assess = [&](Unexplained& u) {
+    final_mismatch = locateMismatch(rec, cur.fit.prediction, cur.fit.residuals, fo.noise, o.mismatch);
+    u = Unexplained{};
+    u.heldout_ratio = heldoutRatio(cur.cv, u.heldout_p);
+    u.heldout_rmse = cur.cv.rmse;
+    u.mismatch = final_mismatch.findings;
+    const bool above = u.heldout_p < o.mismatch.alpha && u.heldout_ratio > 1.3;
+    u.present = above || !final_mismatch.findings.empty();
+    u.fraction_explained = base_ratio > 1.0 ? std::clamp((base_ratio - u.heldout_ratio) / (base_ratio - 1.0), 0.0, 1.0)
+                                            : (u.present ? 0.0 : 1.0);
+    u.where = describeRemainder(final_mismatch, u.heldout_ratio);
+  };
+  assess(rep.unexplained);
+  // 3b. With a structured remainder, an accepted effect may be a proxy absorbing part of physics it does not model.
+  // A real effect has one value for the whole recording; a proxy's fitted value follows whatever part of the
+  // mismatch each training set holds. Effects whose held-out-fold values disagree beyond their interval and beyond
+  // a quarter of their size are dropped from the verdict.
+  if (rep.unexplained.present && !cur.fit.effects.empty() && cur.cv.fold_effects.size() >= 2) {
+    std::vector<std::size_t> unstable;
+    for (std::size_t j = 0; j < cur.fit.effects.size(); ++j) {
+      const Effect& e = cur.fit.effects[j];
+      double lo = e.value, hi = e.value;
+      for (const auto& fe : cur.cv.fold_effects)
+        if (j < fe.size()) {
+          lo = std::min(lo, fe[j].value);
+          hi = std::max(hi, fe[j].value);
+        }
+      const double width = j < cur.fit.interval95.size() && std::isfinite(cur.fit.interval95[j][1] - cur.fit.interval95[j][0])
+                               ? cur.fit.interval95[j][1] - cur.fit.interval95[j][0]
+                               : 0.0;
+      const double size = std::abs(e.value - nominalValue(nominal, e.kind, e.tube));
+      if (hi - lo > std::max(width, 0.25 * size)) {
+        unstable.push_back(j);
+        removed[e.label()] =
+            fmt("its fitted value changes between held-out blocks (%.4g to %.4g, against a 95 %% interval of width "
+                "%.3g): it absorbs part of a mismatch it does not model, so it is not named",
+                lo, hi, width);
+        progress("proxy check: " + e.label() + fmt(" unstable across folds (%.4g .. %.4g); dropped", lo, hi));
+      }
+    }
+    if (!unstable.empty()) {
+      FitResult f = refitWithout(unstable);
+      rep.evaluations += f.evaluations;
+      cur.bic += deltaBic(cur.fit.residuals, nparams(cur.fit.effects), f.residuals, nparams(f.effects));
+      cur.fit = std::move(f);
+      cur.cv = cur.fit.effects.empty() ? baseline_cv
+                                       : crossValidate(nominal, rec, cur.fit.effects, o.folds, fo, ws, o.cv_iterations,
+                                                       o.threads);
+      if (cur.fit.effects.empty()) cur.fit = base;
+      assess(rep.unexplained);
+    }
+  }
+  // 4. Final model: fitted values with intervals (already from its full-data fit).
   rep.final_effects = cur.fit.effects;
   for (std::size_t j = 0; j < cur.fit.effects.size() && j < cur.fit.interval95.size(); ++j)
     rep.final_intervals[cur.fit.effects[j].label()] = cur.fit.interval95[j];
@@ -384,17 +627,45 @@ DiagnosisReport diagnose(const Robot& nominal, const io::Recording& full, const 
   rep.final.effects = cur.fit.effects;
   rep.final.heldout_rmse = cur.cv.rmse;
   rep.final.last_block_rmse = rmse(rec, cur.cv.heldout, lastBlock);
-  rep.final.fit_rmse = rmse(rec, cur.fit.residuals, all);
+  rep.final.fit_rmse = rmse(rec, cur.fit.residuals, evaluable);
   rep.final.heldout_score = cur.cv.score;
   rep.final.bic = cur.bic;
+  // Rows the final model could not evaluate (the nominal model could): excluded from its scores, and listed.
+  int final_failed = 0;
+  for (int k = 0; k < rows; ++k)
+    if (evaluable[static_cast<std::size_t>(k)] && k < cur.fit.prediction.rows() &&
+        !cur.fit.prediction.ok[static_cast<std::size_t>(k)]) {
+      ++final_failed;
+      rep.failed_rows.push_back({k * stride + 1, cur.fit.prediction.reason[static_cast<std::size_t>(k)], rep.final.model});
+    }
+  // Rows reached through a snap are excluded (the landing state of a dynamic jump is uncertain) but are a physical
+  // prediction of the model, not a failure of it: they count separately from the rows the model could not solve.
+  int snapped = 0;
+  for (const FailedRow& fr : rep.failed_rows) snapped += fr.reason.rfind("snapped", 0) == 0;
+  const double failed_fraction = static_cast<double>(nfailed + final_failed - snapped) / rows;
+  rep.reliable = failed_fraction <= o.unreliable_fraction;
+  if (!rep.reliable)
+    rep.warnings.push_back(fmt("%.1f %% of the rows could not be evaluated (limit %.0f %%): the verdict is unreliable",
+                               100 * failed_fraction, 100 * o.unreliable_fraction));
+  if (snapped > 0)
+    rep.warnings.push_back(fmt("%.0f row(s) are reached through a snap of the model (a jump to another equilibrium "
+                               "branch) and are excluded; the verdict rests on the other rows",
+                               snapped));
   std::set<std::string> seen;
-  for (const Effect& e : cur.fit.effects)
-    if (seen.insert(effectName(e.kind)).second) rep.verdict.push_back(effectName(e.kind));
+  for (const Effect& e : cur.fit.effects) {
+    std::string name = effectName(e.kind);
+    std::set<std::string> alt;
+    for (const Rival& r : rivals_of[e.label()])
+      if (std::string(effectName(r.effect.kind)) != name) alt.insert(effectName(r.effect.kind));
+    for (const std::string& a : alt) name += " or " + a;
+    if (seen.insert(name).second) rep.verdict.push_back(name);
+  }
   // Accepted findings report the final joint values.
   for (const std::string& key : order) {
     Finding f = last[key];
     if (removed.count(key)) {
       f.accepted = false;
+      f.ambiguous_with.clear();
       f.explanation = "rejected: " + physics(f.effect.kind) + "; " + removed[key] + ".";
     }
     for (const Effect& e : cur.fit.effects)
@@ -404,6 +675,7 @@ DiagnosisReport diagnose(const Robot& nominal, const io::Recording& full, const 
         f.parameters = paramsOf(e);
         f.interval95.clear();
         if (rep.final_intervals.count(key)) f.interval95[parameterName(e.kind)] = rep.final_intervals[key];
+        f.partial = rep.unexplained.present;
       }
     rep.findings.push_back(f);
   }
@@ -414,9 +686,14 @@ DiagnosisReport diagnose(const Robot& nominal, const io::Recording& full, const 
   rep.plot.nominal_residuals = base.residuals;
   rep.plot.fitted_residuals = cur.fit.residuals;
   rep.plot.variables = configVariables(rec);
-  rep.plot.final_mismatch = locateMismatch(rec, cur.fit.prediction, cur.fit.residuals, fo.noise, o.mismatch);
-  // 4. Summary paragraph.
+  rep.plot.final_mismatch = final_mismatch;
+  // 5. Summary paragraph: never "nothing was left out" while the residual is above the noise.
   std::string s;
+  if (!rep.reliable)
+    s += fmt("Unreliable: %.1f %% of the rows could not be evaluated by the model (see failed_rows). ",
+             100 * failed_fraction);
+  else if (!rep.failed_rows.empty())
+    s += std::to_string(rep.failed_rows.size()) + " row(s) could not be evaluated and were excluded (failed_rows). ";
   if (rep.mismatch.findings.empty()) {
     s += "The nominal model's residuals are consistent with the measurement noise";
   } else {
@@ -428,20 +705,36 @@ DiagnosisReport diagnose(const Robot& nominal, const io::Recording& full, const 
     }
   }
   s += ". ";
-  if (rep.verdict.empty()) {
-    s += "No candidate effect improved both the held-out error and BIC, so the verdict is that nothing was left out "
-         "(within the noise).";
+  const Unexplained& u = rep.unexplained;
+  if (rep.verdict.empty() && !u.present) {
+    s += "No candidate effect improved both the held-out error and BIC, and the residuals are at the noise: nothing "
+         "was left out (within the noise).";
+  } else if (rep.verdict.empty()) {
+    s += "Not explained by any candidate: no effect in the library improves both the held-out error and BIC (or the "
+         "one that did was a proxy); " +
+         u.where + ". The cause is not in the candidate library, or this recording cannot identify it.";
   } else {
-    s += "Left out: ";
+    s += u.present ? "Partial explanation: " : "Left out: ";
     for (std::size_t j = 0; j < cur.fit.effects.size(); ++j) {
       const Effect& e = cur.fit.effects[j];
       s += (j ? ", " : "") + e.label() + " (" + parameterName(e.kind) + fmt(" = %.4g", e.value) + ")";
+      const auto& rv = rivals_of[e.label()];
+      if (!rv.empty()) {
+        s += " or";
+        for (std::size_t t = 0; t < rv.size(); ++t) s += (t ? ", " : " ") + rv[t].effect.label();
+        s += " (this recording cannot tell them apart)";
+      }
     }
     s += ". Held-out RMSE before -> after:";
     for (const auto& kv : rep.baseline.heldout_rmse) {
       const double after = rep.final.heldout_rmse.count(kv.first) ? rep.final.heldout_rmse.at(kv.first) : kv.second;
       s += " " + kv.first + fmt(" %.4g -> %.4g;", kv.second, after);
     }
+    if (u.present)
+      s += fmt(" These effects explain %.0f %% of the mismatch; ", 100 * u.fraction_explained) + u.where +
+           ", and is not explained by the candidate library.";
+    else
+      s += " The remaining residuals are at the noise.";
   }
   rep.summary = s;
   rep.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();

@@ -11,7 +11,8 @@ const std::vector<EffectKind>& allEffectKinds() {
   static const std::vector<EffectKind> k{EffectKind::BoundaryFriction, EffectKind::DistributedFriction,
                                          EffectKind::TorsionalStiffness, EffectKind::Precurvature,
                                          EffectKind::BendingStiffness,   EffectKind::ActuatorBacklash,
-                                         EffectKind::ActuatorOffset,     EffectKind::SensorLatency};
+                                         EffectKind::ActuatorOffset,     EffectKind::TranslationBacklash,
+                                         EffectKind::TranslationOffset,  EffectKind::SensorLatency};
   return k;
 }
 
@@ -25,6 +26,8 @@ const char* effectName(EffectKind k) {
     case EffectKind::ActuatorBacklash: return "actuator_backlash";
     case EffectKind::ActuatorOffset: return "actuator_offset";
     case EffectKind::SensorLatency: return "sensor_latency";
+    case EffectKind::TranslationBacklash: return "translation_backlash";
+    case EffectKind::TranslationOffset: return "translation_offset";
   }
   return "?";
 }
@@ -36,8 +39,10 @@ const char* parameterName(EffectKind k) {
     case EffectKind::TorsionalStiffness: return "poisson_ratio";
     case EffectKind::Precurvature: return "curvature";
     case EffectKind::BendingStiffness: return "bending_stiffness";
-    case EffectKind::ActuatorBacklash: return "width";
-    case EffectKind::ActuatorOffset: return "offset";
+    case EffectKind::ActuatorBacklash:
+    case EffectKind::TranslationBacklash: return "width";
+    case EffectKind::ActuatorOffset:
+    case EffectKind::TranslationOffset: return "offset";
     case EffectKind::SensorLatency: return "delay";
   }
   return "?";
@@ -50,18 +55,31 @@ const char* parameterUnit(EffectKind k) {
     case EffectKind::ActuatorBacklash:
     case EffectKind::ActuatorOffset: return "rad";
     case EffectKind::SensorLatency: return "s";
+    case EffectKind::TranslationBacklash:
+    case EffectKind::TranslationOffset: return "m";
     default: return "";
   }
 }
 
 bool isPerTube(EffectKind k) {
   return k == EffectKind::Precurvature || k == EffectKind::BendingStiffness || k == EffectKind::ActuatorBacklash ||
-         k == EffectKind::ActuatorOffset;
+         k == EffectKind::ActuatorOffset || k == EffectKind::TranslationBacklash || k == EffectKind::TranslationOffset;
 }
 
 bool isStateful(EffectKind k) {
   return k == EffectKind::BoundaryFriction || k == EffectKind::DistributedFriction ||
-         k == EffectKind::ActuatorBacklash;
+         k == EffectKind::ActuatorBacklash || k == EffectKind::TranslationBacklash;
+}
+
+bool isActuation(EffectKind k) {
+  return k == EffectKind::ActuatorBacklash || k == EffectKind::ActuatorOffset || k == EffectKind::SensorLatency ||
+         k == EffectKind::TranslationBacklash || k == EffectKind::TranslationOffset;
+}
+
+bool isLookAlike(EffectKind k) {
+  return k == EffectKind::BoundaryFriction || k == EffectKind::DistributedFriction ||
+         k == EffectKind::TorsionalStiffness || k == EffectKind::ActuatorBacklash || k == EffectKind::ActuatorOffset ||
+         k == EffectKind::SensorLatency || k == EffectKind::TranslationBacklash || k == EffectKind::TranslationOffset;
 }
 
 EffectKind parseEffectKind(const std::string& name) {
@@ -172,7 +190,9 @@ Robot applyToRobot(const Robot& nominal, const std::vector<Effect>& effects) {
         break;
       }
       case EffectKind::ActuatorBacklash:
-      case EffectKind::ActuatorOffset: check(e); break;
+      case EffectKind::ActuatorOffset:
+      case EffectKind::TranslationBacklash:
+      case EffectKind::TranslationOffset: check(e); break;
       case EffectKind::SensorLatency: break;
     }
   }

@@ -44,6 +44,12 @@ ParameterRange parameterRange(const Robot& nominal, const io::Recording& rec, Ef
     case EffectKind::ActuatorOffset:
       r = {-0.6, 0.6, {-0.4, -0.3, -0.2, -0.1, -0.05, 0.05, 0.1, 0.2, 0.3, 0.4}};
       break;
+    case EffectKind::TranslationBacklash:  // m; linear stages: play of up to 1 cm
+      r = {0.0, 0.01, {0.0005, 0.001, 0.002, 0.004, 0.007}};
+      break;
+    case EffectKind::TranslationOffset:  // m; zero errors of up to 1 cm
+      r = {-0.01, 0.01, {-0.006, -0.003, -0.0015, -0.0005, 0.0005, 0.0015, 0.003, 0.006}};
+      break;
     case EffectKind::SensorLatency: {
       double dt = 0.1;
       if (rec.time.size() > 1) {
@@ -64,11 +70,19 @@ ParameterRange parameterRange(const Robot& nominal, const io::Recording& rec, Ef
 
 namespace {
 
+constexpr double kFailedRowPenalty = 10.0;
+
 struct Layout {
   std::vector<int> rows;  // rows used
   std::vector<Quantity> quantities;
   int components = 0;  // per row
 };
+
+std::vector<char> intersect(const std::vector<char>& use, const std::vector<char>& rows) {
+  std::vector<char> u = use;
+  for (std::size_t k = 0; k < u.size() && !rows.empty(); ++k) u[k] = u[k] && k < rows.size() && rows[k];
+  return u;
+}
 
 Layout makeLayout(const io::Recording& rec, const std::vector<char>& use) {
   Layout L;
@@ -85,8 +99,8 @@ class Model {
 public:
   Model(const Robot& nominal, const io::Recording& rec, std::vector<Effect> effects, const std::vector<char>& use,
         const FitOptions& o, Workspace& ws)
-      : nominal_(nominal), rec_(rec), effects_(std::move(effects)), use_(use), o_(o), ws_(ws),
-        layout_(makeLayout(rec, use)) {
+      : nominal_(nominal), rec_(rec), effects_(std::move(effects)), use_(intersect(use, o.rows)), o_(o), ws_(ws),
+        layout_(makeLayout(rec, use_)) {
     for (int j = std::max(0, o.first_free); j < static_cast<int>(effects_.size()); ++j) {
       free_.push_back(j);
       const Effect& e = effects_[static_cast<std::size_t>(j)];
@@ -123,26 +137,33 @@ public:
     f.residuals = computeResiduals(rec_, f.prediction);
     return f;
   }
-  void weighted(const Residuals& r, double* out) const {
+  /// Noise-normalised residuals of the fit rows. A fit row the model could not evaluate at these parameter values
+  /// costs a fixed penalty per component (kFailedRowPenalty noise units), so that no optimiser can lower its cost
+  /// by making rows fail; an unmeasured component contributes 0.
+  void weighted(const FitResult& f, double* out) const {
     int i = 0;
-    for (int k : layout_.rows)
+    for (int k : layout_.rows) {
+      const bool failed = k < f.prediction.rows() && !f.prediction.ok[static_cast<std::size_t>(k)];
       for (Quantity q : layout_.quantities) {
-        const Eigen::MatrixXd& R = r.of(q);
+        const Eigen::MatrixXd& R = f.residuals.of(q);
+        const Eigen::MatrixXd& M = q == Quantity::Twist ? rec_.twist : q == Quantity::TipPosition ? rec_.tip_position
+                                                                                                  : rec_.tip_tangent;
         const double s = o_.noise.of(q) > 0 ? o_.noise.of(q) : 1.0;
         for (Eigen::Index c = 0; c < R.cols(); ++c) {
           const double v = R(k, c);
-          out[i++] = std::isfinite(v) ? v / s : 0.0;
+          out[i++] = std::isfinite(v) ? v / s : (failed && std::isfinite(M(k, c)) ? kFailedRowPenalty : 0.0);
         }
       }
+    }
   }
-  double cost(const Residuals& r) const {
+  double cost(const FitResult& f) const {
     Eigen::VectorXd v(residuals());
-    weighted(r, v.data());
+    weighted(f, v.data());
     return 0.5 * v.squaredNorm();
   }
   Eigen::VectorXd residualAt(const double* x) {
     Eigen::VectorXd v(residuals());
-    weighted(evaluate(effectsAt(x)).residuals, v.data());
+    weighted(evaluate(effectsAt(x)), v.data());
     return v;
   }
   int finiteCount(const Residuals& r) const {
@@ -181,7 +202,7 @@ private:
   const Robot& nominal_;
   const io::Recording& rec_;
   std::vector<Effect> effects_;
-  const std::vector<char>& use_;
+  std::vector<char> use_;
   const FitOptions& o_;
   Workspace& ws_;
   Layout layout_;
@@ -218,7 +239,7 @@ FitResult evaluateModel(const Robot& nominal, const io::Recording& rec, const st
                         const std::vector<char>& use, const FitOptions& options, Workspace& ws) {
   Model m(nominal, rec, effects, use, options, ws);
   FitResult f = m.evaluate(effects);
-  f.cost = m.cost(f.residuals);
+  f.cost = m.cost(f);
   f.evaluations = m.evaluations;
   return f;
 }
@@ -234,11 +255,11 @@ FitResult fitEffects(const Robot& nominal, const io::Recording& rec, const std::
   if (o.grid_search) {
     for (int j = 0; j < k; ++j) {
       if (m.effectIndex(j) < grid_from) continue;
-      double best = m.cost(m.evaluate(m.effectsAt(x.data())).residuals);
+      double best = m.cost(m.evaluate(m.effectsAt(x.data())));
       double bx = x[static_cast<std::size_t>(j)];
       for (double v : m.range(j).grid) {
         x[static_cast<std::size_t>(j)] = m.toX(j, v);
-        const double c = m.cost(m.evaluate(m.effectsAt(x.data())).residuals);
+        const double c = m.cost(m.evaluate(m.effectsAt(x.data())));
         if (c < best) {
           best = c;
           bx = x[static_cast<std::size_t>(j)];
@@ -267,12 +288,12 @@ FitResult fitEffects(const Robot& nominal, const io::Recording& rec, const std::
   ceres::Solver::Summary summary;
   ceres::Solve(so, &problem, &summary);
   FitResult f = m.evaluate(m.effectsAt(x.data()));
-  f.cost = m.cost(f.residuals);
+  f.cost = m.cost(f);
   f.converged = summary.IsSolutionUsable();
   f.message = summary.BriefReport();
   if (o.intervals) {
     Eigen::VectorXd r0(m.residuals());
-    m.weighted(f.residuals, r0.data());
+    m.weighted(f, r0.data());
     const Eigen::MatrixXd J = m.jacobian(x.data(), nullptr);
     const int dof = std::max(1, m.finiteCount(f.residuals) - k);
     const double s2 = 2.0 * f.cost / dof;
@@ -337,7 +358,7 @@ CrossValidation crossValidate(const Robot& nominal, const io::Recording& rec, co
   const std::vector<char> all(static_cast<std::size_t>(rows), 1);
   cv.rmse = rmse(rec, cv.heldout, all);
   cv.row_score = rowScores(rec, cv.heldout, options.noise);
-  cv.score = rows ? cv.row_score.mean() : 0.0;
+  cv.score = finiteMean(cv.row_score);
   return cv;
 }
 

@@ -21,7 +21,7 @@ Eigen::VectorXd playOperator(const Eigen::VectorXd& x, double width) {
 }
 
 std::vector<Configuration> transformActuation(const std::vector<Configuration>& commands, const Eigen::VectorXd& time,
-                                              const std::vector<Effect>& effects) {
+                                              const std::vector<Effect>& effects, const Robot* robot) {
   std::vector<Configuration> q = commands;
   const int rows = static_cast<int>(commands.size());
   if (rows == 0) return q;
@@ -49,19 +49,33 @@ std::vector<Configuration> transformActuation(const std::vector<Configuration>& 
       q[static_cast<std::size_t>(k)] = Configuration(a.alpha + w * (b.alpha - a.alpha), a.beta + w * (b.beta - a.beta));
     }
   }
-  // 2. Backlash (play) per tube on the rotation.
+  // 2. Backlash (play) per tube on the rotation or the translation.
+  bool translated = false;
   for (const Effect& e : effects) {
-    if (e.kind != EffectKind::ActuatorBacklash || e.tube < 1 || e.tube > n) continue;
+    const bool rot = e.kind == EffectKind::ActuatorBacklash, lin = e.kind == EffectKind::TranslationBacklash;
+    if ((!rot && !lin) || e.tube < 1 || e.tube > n) continue;
+    translated = translated || (lin && e.value > 0);
     Eigen::VectorXd x(rows);
-    for (int k = 0; k < rows; ++k) x[k] = q[static_cast<std::size_t>(k)].alpha[e.tube - 1];
+    for (int k = 0; k < rows; ++k) {
+      const Configuration& c = q[static_cast<std::size_t>(k)];
+      x[k] = rot ? c.alpha[e.tube - 1] : c.beta[e.tube - 1];
+    }
     const Eigen::VectorXd y = playOperator(x, e.value);
-    for (int k = 0; k < rows; ++k) q[static_cast<std::size_t>(k)].alpha[e.tube - 1] = y[k];
+    for (int k = 0; k < rows; ++k) (rot ? q[static_cast<std::size_t>(k)].alpha : q[static_cast<std::size_t>(k)].beta)[e.tube - 1] = y[k];
   }
   // 3. Constant offsets.
   for (const Effect& e : effects) {
-    if (e.kind != EffectKind::ActuatorOffset || e.tube < 1 || e.tube > n) continue;
-    for (auto& c : q) c.alpha[e.tube - 1] += e.value;
+    if (e.tube < 1 || e.tube > n) continue;
+    if (e.kind == EffectKind::ActuatorOffset)
+      for (auto& c : q) c.alpha[e.tube - 1] += e.value;
+    if (e.kind == EffectKind::TranslationOffset && e.value != 0.0) {
+      translated = true;
+      for (auto& c : q) c.beta[e.tube - 1] += e.value;
+    }
   }
+  // 4. The stages cannot push a tube through the nesting order: project (any distance) onto the admissible set.
+  if (translated && robot)
+    for (auto& c : q) projectAdmissible(*robot, c, std::numeric_limits<double>::infinity());
   return q;
 }
 
@@ -73,36 +87,42 @@ double largestMoment(const Solution& s) {
 }
 }  // namespace
 
-Prediction predict(const Robot& nominal, const std::vector<Configuration>& commands, const Eigen::VectorXd& time,
+Prediction predict(const Robot& nominal, const std::vector<Configuration>& commands0, const Eigen::VectorXd& time,
                    const std::vector<Effect>& effects, Workspace& ws, const PredictOptions& options) {
   const Robot robot = applyToRobot(nominal, effects);
   Prediction p;
-  p.actuation = transformActuation(commands, time, effects);
-  const int rows = static_cast<int>(commands.size());
+  const int rows = static_cast<int>(commands0.size());
   const int n = robot.size();
-  p.twist.setZero(rows, std::max(0, n - 1));
-  p.tip_position.setZero(rows, 3);
-  p.tip_tangent.setZero(rows, 3);
-  p.moment.setZero(rows);
+  const double nan = std::numeric_limits<double>::quiet_NaN();
+  // Commands within the admissibility tolerance are projected; rows beyond it are not evaluated.
+  std::vector<Configuration> commands = commands0;
+  std::vector<std::string> inadmissible(static_cast<std::size_t>(rows));
+  for (int k = 0; k < rows; ++k) {
+    const Admissibility a = projectAdmissible(robot, commands[static_cast<std::size_t>(k)]);
+    if (!a) inadmissible[static_cast<std::size_t>(k)] = "inadmissible command: " + a.message;
+  }
+  p.actuation = transformActuation(commands, time, effects, &robot);
+  p.twist.setConstant(rows, std::max(0, n - 1), nan);
+  p.tip_position.setConstant(rows, 3, nan);
+  p.tip_tangent.setConstant(rows, 3, nan);
+  p.moment.setConstant(rows, nan);
   p.ok.assign(static_cast<std::size_t>(rows), 0);
+  p.reason.assign(static_cast<std::size_t>(rows), std::string());
   if (rows == 0) return p;
   const bool friction = robot.friction().boundary > 0.0 || robot.friction().distributed > 0.0;
-  auto store = [&](int k, const Solution& s) {
-    if (s.converged()) {
-      p.ok[static_cast<std::size_t>(k)] = 1;
-      if (s.twist.size() == n - 1) p.twist.row(k) = s.twist.transpose();
-      p.tip_position.row(k) = s.tip_position.transpose();
-      p.tip_tangent.row(k) = s.tipTangent().transpose();
-      p.moment[k] = largestMoment(s);
-    } else {
-      ++p.failures;
-      if (k > 0) {
-        p.twist.row(k) = p.twist.row(k - 1);
-        p.tip_position.row(k) = p.tip_position.row(k - 1);
-        p.tip_tangent.row(k) = p.tip_tangent.row(k - 1);
-        p.moment[k] = p.moment[k - 1];
-      }
-    }
+  auto fail = [&](int k, const std::string& why) {
+    ++p.failures;
+    p.reason[static_cast<std::size_t>(k)] = why.empty() ? "did not converge" : why;
+  };
+  // A row is evaluated when its solution converged without a snap; failed rows keep NaN outputs.
+  auto store = [&](int k, const Solution& s, bool snapped) {
+    if (!s.converged()) return fail(k, "did not converge" + (s.summary.message.empty() ? "" : ": " + s.summary.message));
+    if (snapped) return fail(k, "snapped (the equilibrium branch ended; the quasi-static model cannot follow the jump)");
+    p.ok[static_cast<std::size_t>(k)] = 1;
+    if (s.twist.size() == n - 1) p.twist.row(k) = s.twist.transpose();
+    p.tip_position.row(k) = s.tip_position.transpose();
+    p.tip_tangent.row(k) = s.tipTangent().transpose();
+    p.moment[k] = largestMoment(s);
   };
   if (friction) {
     // Same semantics as ctr::replay(), with a coarse pass per row and the fine sub-steps as fallback.
@@ -113,57 +133,64 @@ Prediction predict(const Robot& nominal, const std::vector<Configuration>& comma
     // 2 rad, below the ~pi jump of a real snap); a flagged coarse row is replayed with the fine sub-steps.
     coarse.snap_threshold = std::min(2.0, options.friction.snap_threshold * coarse.max_rotation_step /
                                               std::max(options.friction.max_rotation_step, 1e-9));
-    StepResult last = initialState(robot, p.actuation[0], ws, options.friction);
-    store(0, last.solution);
-    for (int k = 1; k < rows; ++k) {
+    HysteresisState good;  // last evaluated state (invalid until the first one)
+    bool previous_failed = false;
+    for (int k = 0; k < rows; ++k) {
+      if (!inadmissible[static_cast<std::size_t>(k)].empty()) {
+        fail(k, inadmissible[static_cast<std::size_t>(k)]);
+        previous_failed = true;
+        continue;
+      }
       const Configuration& q = p.actuation[static_cast<std::size_t>(k)];
-      if (!last.state.valid) {
-        last = initialState(robot, q, ws, options.friction);  // restart after a failure (reported per row)
+      StepResult r;
+      if (!good.valid) {
+        r = initialState(robot, q, ws, options.friction);
       } else {
-        StepResult r;
         bool done = false;
-        // Coarse sub-steps reproduce the fine replay exactly only for a rotation-only row with at most one
+        // Coarse sub-steps reproduce the fine replay exactly only for a rotation-only move with at most one
         // friction site (the end state is then slip at the target or stick from the start); with several sites
         // or a translation the return mapping is path dependent and the fine sub-steps are the model.
-        const Configuration& from = p.actuation[static_cast<std::size_t>(k - 1)];
         // (The sites depend on the translations only, so equal beta means the same sites at both ends.)
-        if (try_coarse && q.beta == from.beta && contactSites(robot, q).size() <= 1) {
-          r = step(robot, last.state, q, ws, coarse);
+        if (try_coarse && q.beta == good.q.beta && contactSites(robot, q).size() <= 1) {
+          r = step(robot, good, q, ws, coarse);
           done = r.summary.converged && !r.summary.snapped && r.summary.substeps > 0;
         }
-        if (!done) r = step(robot, last.state, q, ws, options.friction);
-        last = std::move(r);
+        if (!done) r = step(robot, good, q, ws, options.friction);
+        if (!(r.summary.converged && r.state.valid) && previous_failed) {
+          // Two failures in a row: the memory cannot be carried on; restart at rest here.
+          StepResult rest = initialState(robot, q, ws, options.friction);
+          if (rest.summary.converged && rest.state.valid) {
+            r = std::move(rest);
+            ++p.restarts;
+          }
+        }
       }
-      store(k, last.solution);
+      const bool ok = r.summary.converged && r.state.valid;
+      if (!ok && r.solution.converged())
+        fail(k, "no consistent stick/slip contact set" + (r.summary.message.empty() ? "" : ": " + r.summary.message));
+      else
+        store(k, r.solution, r.summary.snapped);
+      if (ok) good = std::move(r.state);  // after a snap the replay goes on from the new branch
+      previous_failed = !p.ok[static_cast<std::size_t>(k)] && !ok;
     }
   } else {
     Solution prev;
     bool have_prev = false;
     for (int k = 0; k < rows; ++k) {
+      if (!inadmissible[static_cast<std::size_t>(k)].empty()) {
+        fail(k, inadmissible[static_cast<std::size_t>(k)]);
+        continue;
+      }
       const Configuration& q = p.actuation[static_cast<std::size_t>(k)];
       Solution s = solve(robot, q, ws, options.kinematics, have_prev ? &prev : nullptr);
       if (!s.converged() && have_prev) s = solve(robot, q, ws, options.kinematics, nullptr);
-      store(k, s);
+      store(k, s, s.summary.snapped);
       if (s.converged()) {
         prev = std::move(s);
         have_prev = true;
       }
     }
   }
-  // Rows failing before the first success take the first successful output.
-  int first = -1;
-  for (int k = 0; k < rows; ++k)
-    if (p.ok[static_cast<std::size_t>(k)]) {
-      first = k;
-      break;
-    }
-  if (first > 0)
-    for (int k = 0; k < first; ++k) {
-      p.twist.row(k) = p.twist.row(first);
-      p.tip_position.row(k) = p.tip_position.row(first);
-      p.tip_tangent.row(k) = p.tip_tangent.row(first);
-      p.moment[k] = p.moment[first];
-    }
   return p;
 }
 

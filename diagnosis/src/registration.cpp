@@ -17,7 +17,11 @@ Registration fitRegistration(const Eigen::MatrixXd& P, const Eigen::MatrixXd& T,
   const Eigen::Index rows = P.rows();
   const bool hasP = MP.cols() == 3, hasT = MT.cols() == 3;
   if (!hasP && !hasT) return reg;
-  auto used = [&](Eigen::Index k) { return k < static_cast<Eigen::Index>(use.size()) && use[static_cast<std::size_t>(k)]; };
+  // Rows flagged in `use` whose prediction exists (a row the model could not evaluate has NaN outputs).
+  auto used = [&](Eigen::Index k) {
+    return k < static_cast<Eigen::Index>(use.size()) && use[static_cast<std::size_t>(k)] && P.row(k).allFinite() &&
+           T.row(k).allFinite();
+  };
   const int iters = (hasP && o.estimate_offset) ? o.iterations : 1;
   double d = 0.0;
   for (int it = 0; it < iters; ++it) {

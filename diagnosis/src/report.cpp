@@ -65,6 +65,13 @@ json binsJson(const std::vector<BinSummary>& bins) {
   return a;
 }
 
+std::map<std::string, double> paramsOfEffect(const Effect& e) {
+  std::map<std::string, double> p;
+  if (isPerTube(e.kind)) p["tube"] = e.tube;
+  p[parameterName(e.kind)] = e.value;
+  return p;
+}
+
 std::string f4(double v) {
   char b[64];
   std::snprintf(b, sizeof b, "%.4g", v);
@@ -111,10 +118,44 @@ std::string reportToJson(const DiagnosisReport& r) {
       for (const Effect& e : f.model) s += "+" + e.label();
       return s;
     }();
+    if (f.accepted) x["partial"] = f.partial;
+    if (!f.ambiguous_with.empty()) {
+      json a = json::array();
+      for (const Rival& rv : f.ambiguous_with) {
+        json y{{"effect", effectName(rv.effect.kind)}, {"parameters", mapJson(paramsOfEffect(rv.effect))},
+               {"delta_bic", num(rv.delta_bic)}, {"heldout_rmse", mapJson(rv.heldout_rmse)},
+               {"heldout_p", num(rv.heldout_p)}, {"why", rv.why}};
+        a.push_back(y);
+      }
+      x["ambiguous_with"] = a;
+    }
     x["explanation"] = f.explanation;
     fs.push_back(x);
   }
   j["findings"] = fs;
+  json failed = json::array();
+  for (const FailedRow& fr : r.failed_rows)
+    failed.push_back(json{{"row", fr.row}, {"reason", fr.reason}, {"model", fr.model}});
+  j["failed_rows"] = failed;
+  j["reliable"] = r.reliable;
+  if (r.unexplained.present) {
+    const Unexplained& u = r.unexplained;
+    json un;
+    un["fraction_explained"] = num(u.fraction_explained);
+    un["heldout_rmse"] = mapJson(u.heldout_rmse);
+    json nz = json::object();
+    if (r.noise.twist > 0) nz["twist"] = r.noise.twist;
+    if (r.noise.tip_position > 0) nz["tip_position"] = r.noise.tip_position;
+    if (r.noise.tip_tangent > 0) nz["tip_tangent"] = r.noise.tip_tangent;
+    un["noise"] = nz;
+    json um = json::array();
+    for (const auto& f : u.mismatch) um.push_back(mismatchJson(f));
+    un["mismatch"] = um;
+    un["heldout_ratio"] = num(u.heldout_ratio);
+    un["heldout_p"] = num(u.heldout_p);
+    un["where"] = u.where;
+    j["unexplained"] = un;
+  }
   j["noise"] = json::object();
   if (r.noise.twist > 0) j["noise"]["twist"] = r.noise.twist;
   if (r.noise.tip_position > 0) j["noise"]["tip_position"] = r.noise.tip_position;
@@ -148,9 +189,54 @@ std::string reportToMarkdown(const DiagnosisReport& r, const io::Recording& full
   for (Quantity q : presentQuantities(rec)) o << " " << quantityName(q);
   o << (rec.hasTime() ? ", timed" : ", untimed") << "; frame: " << (r.frame == FrameMode::Unknown ? "unknown (registration estimated in every model)" : "base")
     << ". Held-out scheme: " << r.folds << " contiguous blocks in time (stateful models replayed over the whole sequence).\n\n";
-  o << "**Verdict:** " << (r.verdict.empty() ? "nothing left out (the nominal model explains the data within the noise)" : "");
+  o << "**Verdict:** ";
+  if (r.verdict.empty())
+    o << (r.unexplained.present ? "not explained by any candidate (a mismatch remains that no effect in the library "
+                                  "explains)"
+                                : "nothing left out (the nominal model explains the data within the noise)");
   for (std::size_t k = 0; k < r.verdict.size(); ++k) o << (k ? ", " : "") << "`" << r.verdict[k] << "`";
+  if (!r.verdict.empty() && r.unexplained.present) o << " (partial explanation)";
+  if (!r.reliable) o << " — **unreliable** (too many rows could not be evaluated)";
   o << "\n\n" << r.summary << "\n\n";
+  if (r.unexplained.present) {
+    const Unexplained& u = r.unexplained;
+    o << "## What is left unexplained\n\n";
+    o << "The " << (r.final_effects.empty() ? "nominal model" : "final model (" + r.final.model + ")") << " explains "
+      << f4(100 * u.fraction_explained) << " % of the baseline's excess held-out error; " << u.where
+      << ". Held-out chi-square against the noise: " << f4(u.heldout_ratio) << " x the noise variance (p = "
+      << f4(u.heldout_p) << ").\n\n";
+    if (!u.mismatch.empty()) {
+      o << "| signature | variable | quantity | p-value | where |\n|---|---|---|---|---|\n";
+      for (const auto& f : u.mismatch)
+        o << "| " << f.signature << " | " << f.variable << " | " << f.quantity << " | " << f4(f.p_value) << " | "
+          << f.where << " |\n";
+      o << "\n";
+    }
+  }
+  bool any_ambiguous = false;
+  for (const Finding& f : r.findings) any_ambiguous = any_ambiguous || !f.ambiguous_with.empty();
+  if (any_ambiguous) {
+    o << "## Look-alikes this recording cannot tell apart\n\n| accepted | rival | rival delta BIC | p (accepted "
+         "predicts held-out better) | evidence |\n|---|---|---|---|---|\n";
+    for (const Finding& f : r.findings)
+      for (const Rival& rv : f.ambiguous_with)
+        o << "| " << f.effect.label() << " | " << rv.effect.label() << " | " << f4(rv.delta_bic) << " | "
+          << f4(rv.heldout_p) << " | " << rv.why << " |\n";
+    o << "\n";
+  }
+  if (!r.failed_rows.empty()) {
+    o << "## Rows the model could not evaluate\n\nExcluded from every residual, fit, noise estimate and held-out "
+         "score (never replaced by another row's output).\n\n| row | model | reason |\n|---|---|---|\n";
+    std::size_t shown = 0;
+    for (const FailedRow& fr : r.failed_rows) {
+      if (++shown > 50) {
+        o << "| ... | | " << r.failed_rows.size() - 50 << " more in the JSON |\n";
+        break;
+      }
+      o << "| " << fr.row << " | " << fr.model << " | " << fr.reason << " |\n";
+    }
+    o << "\n";
+  }
   o << "## Where the nominal model misses\n\n";
   o << "Estimated noise (1 sigma per component):";
   if (r.noise.twist > 0) o << " twist " << f4(r.noise.twist * 180 / M_PI) << " deg;";

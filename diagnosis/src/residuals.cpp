@@ -3,6 +3,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <array>
 #include <limits>
 
 namespace ctr::diagnosis {
@@ -158,15 +159,54 @@ std::map<std::string, double> rmse(const io::Recording& rec, const Residuals& r,
 }
 
 Eigen::VectorXd rowScores(const io::Recording& rec, const Residuals& r, const NoiseLevels& noise) {
-  Eigen::VectorXd e = Eigen::VectorXd::Zero(rec.rows());
+  Eigen::VectorXd e = Eigen::VectorXd::Constant(rec.rows(), std::numeric_limits<double>::quiet_NaN());
   for (Quantity q : presentQuantities(rec)) {
     const Eigen::MatrixXd& R = r.of(q);
     const double s2 = std::max(1e-30, noise.of(q) * noise.of(q));
     for (Eigen::Index k = 0; k < R.rows(); ++k)
       for (Eigen::Index c = 0; c < R.cols(); ++c)
-        if (std::isfinite(R(k, c))) e[k] += R(k, c) * R(k, c) / s2;
+        if (std::isfinite(R(k, c))) e[k] = (std::isfinite(e[k]) ? e[k] : 0.0) + R(k, c) * R(k, c) / s2;
   }
   return e;
+}
+
+double finiteMean(const Eigen::VectorXd& v) {
+  double s = 0.0;
+  int n = 0;
+  for (Eigen::Index k = 0; k < v.size(); ++k)
+    if (std::isfinite(v[k])) {
+      s += v[k];
+      ++n;
+    }
+  return n ? s / n : 0.0;
+}
+
+std::array<double, 2> commonMeans(const Eigen::VectorXd& a, const Eigen::VectorXd& b) {
+  double sa = 0.0, sb = 0.0;
+  int n = 0;
+  for (Eigen::Index k = 0; k < std::min(a.size(), b.size()); ++k)
+    if (std::isfinite(a[k]) && std::isfinite(b[k])) {
+      sa += a[k];
+      sb += b[k];
+      ++n;
+    }
+  return n ? std::array<double, 2>{sa / n, sb / n} : std::array<double, 2>{0.0, 0.0};
+}
+
+std::vector<char> commonRows(const Residuals& a, const Residuals& b, const std::vector<char>& use) {
+  std::vector<char> u = use;
+  for (Eigen::Index k = 0; k < static_cast<Eigen::Index>(u.size()); ++k) {
+    if (!u[static_cast<std::size_t>(k)]) continue;
+    bool any_a = false, any_b = false;
+    for (Quantity q : {Quantity::Twist, Quantity::TipPosition, Quantity::TipTangent}) {
+      const Eigen::MatrixXd& A = a.of(q);
+      const Eigen::MatrixXd& B = b.of(q);
+      if (k < A.rows()) any_a = any_a || A.row(k).array().isFinite().any();
+      if (k < B.rows()) any_b = any_b || B.row(k).array().isFinite().any();
+    }
+    u[static_cast<std::size_t>(k)] = any_a && any_b;
+  }
+  return u;
 }
 
 double bic(const io::Recording& rec, const Residuals& r, const std::vector<char>& use, int parameters) {

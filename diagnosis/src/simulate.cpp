@@ -130,9 +130,14 @@ io::Recording simulateRecording(const Robot& nominal, const std::vector<Configur
   Workspace ws;
   Prediction p = predict(nominal, commands, time, effects, ws, o.predict);
   const int rows = p.rows();
-  if (p.failures > rows / 10)
-    throw std::runtime_error("simulateRecording: " + std::to_string(p.failures) + " of " + std::to_string(rows) +
-                             " rows did not converge");
+  // Rows the model cannot evaluate are written empty (never another row's output). Rows reached through a snap are
+  // expected in random-order recordings; other failures beyond 10 % mean the model cannot simulate this path.
+  int hard = 0;
+  for (int k = 0; k < rows; ++k)
+    hard += !p.ok[static_cast<std::size_t>(k)] && p.reason[static_cast<std::size_t>(k)].rfind("snapped", 0) != 0;
+  if (hard > rows / 10)
+    throw std::runtime_error("simulateRecording: " + std::to_string(hard) + " of " + std::to_string(rows) +
+                             " rows could not be evaluated");
   if (o.sensor_frame) applyRegistration(*o.sensor_frame, p.tip_position, p.tip_tangent);
   std::mt19937_64 rng(o.seed);
   std::normal_distribution<double> N(0.0, 1.0);

@@ -1,6 +1,8 @@
 #include "ctr/model/configuration.hpp"
 
+#include <algorithm>
 #include <cmath>
+#include <limits>
 #include <sstream>
 
 namespace ctr {
@@ -72,6 +74,59 @@ Admissibility checkAdmissible(const Robot& robot, const Configuration& q, double
     }
   }
   return {};
+}
+
+Admissibility projectAdmissible(const Robot& robot, Configuration& q, double tolerance) {
+  // Sizes and finiteness first: nothing to project there.
+  const int n = robot.size();
+  if (q.alpha.size() != n || q.beta.size() != n) return checkAdmissible(robot, q);
+  if (!q.alpha.allFinite() || !q.beta.allFinite()) return checkAdmissible(robot, q);
+  // Admissible as it is (checkAdmissible's default, rounding-level tolerance): q is left unchanged bit for bit, so
+  // every configuration accepted before the projection existed gives the same results.
+  if (checkAdmissible(robot, q)) return {};
+  Configuration p = q;
+  for (int i = 0; i < n; ++i) {
+    const Tube& t = robot.tube(i);
+    if (t.rotation_limits) p.alpha[i] = std::clamp(p.alpha[i], (*t.rotation_limits)[0], (*t.rotation_limits)[1]);
+    if (i == 0) {
+      p.beta[0] = std::min(p.beta[0], 0.0);
+    } else {
+      p.beta[i] = std::min(p.beta[i], p.beta[i - 1]);
+      // Coincident distal ends, exactly in floating point: distalEnd(i) >= distalEnd(i - 1) as checkAdmissible
+      // computes them (beta_{i-1} + L_{i-1} - L_i alone can leave the inner end an ulp behind).
+      const double L = t.length(), end = distalEnd(robot, p, i - 1);
+      if (p.beta[i] + L < end) {
+        // Equal lengths: equal translations; else the nearest value that puts the end at or beyond `end`.
+        double b = L == robot.tube(i - 1).length() ? p.beta[i - 1] : end - L;
+        for (int k = 0; k < 64 && b + L < end; ++k) b = std::nextafter(b, std::numeric_limits<double>::infinity());
+        p.beta[i] = b;
+      }
+    }
+    if (t.translation_limits)
+      p.beta[i] = std::clamp(p.beta[i], (*t.translation_limits)[0], (*t.translation_limits)[1]);
+  }
+  const double moved = std::max((p.alpha - q.alpha).cwiseAbs().maxCoeff(), (p.beta - q.beta).cwiseAbs().maxCoeff());
+  // The projection may not fix every constraint (limits that contradict the nesting, an inner tube shorter than the
+  // tube around it, the innermost tube inside the actuation unit): check the result.
+  if (moved <= tolerance * (1.0 + 1e-9) && checkAdmissible(robot, p)) {
+    q = p;
+    return {};
+  }
+  // Refused, q unchanged: name the first constraint violated by more than the tolerance ...
+  Admissibility a = checkAdmissible(robot, q, tolerance);
+  if (!a) return a;
+  // ... or, when every constraint alone is within the tolerance but the projection needs a larger move (violations
+  // that add up along the tubes) or cannot satisfy them jointly, the first violated constraint and why.
+  a = checkAdmissible(robot, q);
+  std::ostringstream os;
+  os << a.message << " (every constraint is within the admissibility tolerance " << tolerance
+     << ", but projecting them together ";
+  if (moved > tolerance * (1.0 + 1e-9))
+    os << "moves a value by " << moved << ")";
+  else
+    os << "does not give an admissible configuration)";
+  a.message = os.str();
+  return a;
 }
 
 }  // namespace ctr

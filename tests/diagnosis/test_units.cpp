@@ -241,13 +241,22 @@ TEST(ForwardModel, CoarsePassEqualsFineReplay) {
     const Prediction a = predict(r, cmd, time, c.effects, ws, coarse);
     const Prediction b = predict(r, cmd, time, c.effects, ws, fine);
     SCOPED_TRACE(c.robot + " " + effectName(c.effects[0].kind));
-    ASSERT_EQ(a.failures, b.failures);
-    EXPECT_EQ(a.failures, 0);
-    EXPECT_LT((a.tip_position - b.tip_position).cwiseAbs().maxCoeff(), 1e-8);
-    EXPECT_LT((a.tip_tangent - b.tip_tangent).cwiseAbs().maxCoeff(), 1e-8);
-    if (a.twist.size()) {
-      EXPECT_LT((a.twist - b.twist).cwiseAbs().maxCoeff(), 1e-8);
+    // Same rows evaluated (random-order 3-tube rows may be reached through a snap: excluded by both passes, never
+    // failed for another reason), identical outputs on them, NaN (not another row's output) on the others.
+    ASSERT_EQ(a.ok, b.ok);
+    for (int k = 0; k < a.rows(); ++k) {
+      if (a.ok[static_cast<std::size_t>(k)]) {
+        EXPECT_LT((a.tip_position.row(k) - b.tip_position.row(k)).cwiseAbs().maxCoeff(), 1e-8) << "row " << k;
+        EXPECT_LT((a.tip_tangent.row(k) - b.tip_tangent.row(k)).cwiseAbs().maxCoeff(), 1e-8) << "row " << k;
+        if (a.twist.cols()) {
+          EXPECT_LT((a.twist.row(k) - b.twist.row(k)).cwiseAbs().maxCoeff(), 1e-8) << "row " << k;
+        }
+      } else {
+        EXPECT_EQ(a.reason[static_cast<std::size_t>(k)].rfind("snapped", 0), 0u) << a.reason[static_cast<std::size_t>(k)];
+        EXPECT_TRUE(a.tip_position.row(k).array().isNaN().all()) << "row " << k;
+      }
     }
+    EXPECT_LE(a.failures, a.rows() / 5);
   }
 }
 

@@ -27,11 +27,38 @@ function rmseText(m) {
 app.appendChild(header('Diagnosis report',
   `${data.recording_rows} recorded rows (${rep.rows} used, every ${rep.stride}. row), ${data.tubes} tubes, ` +
   `frame: ${rep.frame}, ${rep.folds} held-out blocks, ${rep.replays} replays in ${fmt(rep.seconds, 3)} s`));
-const verdict = rep.verdict.length ? rep.verdict.join(' + ') : 'nothing left out';
+const un = rep.unexplained;
+const verdict = rep.verdict.length ? rep.verdict.join(' + ') + (un ? ' (partial explanation)' : '')
+  : (un ? 'not explained by any candidate' : 'nothing left out');
 app.appendChild(h('section', { class: 'card verdict ' + (rep.verdict.length ? 'found' : 'none'), id: 'verdict' },
   h('h2', {}, 'Verdict: ', h('span', { class: 'verdict-name' }, verdict)),
+  rep.reliable === false ? h('p', { class: 'warnings' }, 'Unreliable: too many rows could not be evaluated (see below).') : null,
   h('p', {}, rep.summary || ''),
   rep.warnings && rep.warnings.length ? h('ul', { class: 'warnings' }, rep.warnings.map((w) => h('li', {}, w))) : null));
+
+// What the final model leaves unexplained.
+if (un) {
+  app.appendChild(h('section', { class: 'card', id: 'unexplained' }, h('h2', {}, 'Left unexplained'),
+    h('p', {}, `The final model explains ${fmt(100 * un.fraction_explained, 3)} % of the baseline's excess held-out ` +
+      `error; ${un.where}. Held-out residuals: ${fmt(un.heldout_ratio, 3)} × the noise variance (p = ${fmt(un.heldout_p, 2)}).`),
+    (un.mismatch || []).length ? table(['signature', 'variable', 'quantity', 'p-value', 'where'],
+      un.mismatch.map((f) => [f.signature, f.variable, f.quantity, fmt(f.p_value, 3), f.where])) : null));
+}
+
+// Look-alikes the recording cannot tell apart.
+const ties = [];
+for (const f of rep.findings) for (const r of (f.ambiguous_with || [])) ties.push([f.effect, r.effect, fmt(r.delta_bic, 4), fmt(r.heldout_p, 2), r.why]);
+if (ties.length) {
+  app.appendChild(h('section', { class: 'card', id: 'ambiguous' }, h('h2', {}, 'Look-alikes this recording cannot tell apart'),
+    table(['accepted', 'rival', 'rival ΔBIC', 'p (accepted better held out)', 'evidence'], ties)));
+}
+
+// Rows the model could not evaluate.
+if ((rep.failed_rows || []).length) {
+  app.appendChild(h('section', { class: 'card', id: 'failed-rows' }, h('h2', {}, `Rows not evaluated (${rep.failed_rows.length})`),
+    h('p', { class: 'note' }, 'Excluded from every residual, fit, noise estimate and held-out score; never replaced by another row\'s output.'),
+    table(['row', 'model', 'reason'], rep.failed_rows.slice(0, 50).map((r) => [String(r.row), r.model, r.reason]))));
+}
 
 // Fitted parameters.
 const eff = (rep.final && rep.final.effects) || [];

@@ -21,7 +21,7 @@ namespace ctr::diagnosis {
 struct DiagnoseOptions {
   FrameMode frame = FrameMode::Base;   ///< Unknown: registration estimated in every model (baseline included).
   int folds = 4;                       ///< Contiguous held-out blocks.
-  int max_effects = 3;                 ///< Largest combination of effects.
+  int max_effects = 4;                 ///< Largest combination of effects.
   double bic_threshold = 10.0;         ///< Accept only if BIC drops by more than this ("very strong" evidence).
   double heldout_p = 0.05;             ///< Held-out improvement must be significant at this level.
   double min_heldout_gain = 0.02;      ///< ... and reduce the held-out normalised error by at least this fraction.
@@ -30,6 +30,7 @@ struct DiagnoseOptions {
   int max_iterations = 15;             ///< Ceres iterations of a full fit.
   int screen_iterations = 8;           ///< Ceres iterations when screening a candidate (new parameter only).
   int cv_iterations = 3;               ///< Ceres iterations of a fold refit (warm-started).
+  double unreliable_fraction = 0.05;   ///< More failed rows than this fraction make the verdict unreliable.
   int max_rows = 300;                  ///< Longer recordings are decimated uniformly (every k-th row, history kept
                                        ///< by the quasi-static sub-stepping) to bound the run time; 0 = never.
   MismatchOptions mismatch;
@@ -48,6 +49,16 @@ struct ModelScore {
   double bic = 0.0;
 };
 
+/// @brief A rival look-alike effect that fits the recording as well as an accepted one (formats.md
+/// `ambiguous_with`): neither adds significantly on top of the other.
+struct Rival {
+  Effect effect;                               ///< Fitted value alone on top of the model of its round.
+  double delta_bic = 0.0;                      ///< BIC(model with it) - BIC(model of its round).
+  std::map<std::string, double> heldout_rmse;  ///< Held-out RMSE with it instead of the accepted effect.
+  double heldout_p = 1.0;                      ///< One-sided p that the accepted effect predicts held-out rows better.
+  std::string why;                             ///< The evidence (encompassing fits).
+};
+
 /// @brief One candidate tried (accepted or not), with the evidence.
 struct Finding {
   Effect effect;                               ///< Fitted value (alone on top of the model of its round).
@@ -60,7 +71,27 @@ struct Finding {
   double heldout_score = 0.0;
   double heldout_p = 1.0;                      ///< One-sided p of the held-out improvement.
   double delta_bic = 0.0;                      ///< BIC(model with it) - BIC(model of its round).
+  std::vector<Rival> ambiguous_with;           ///< Look-alikes this recording cannot tell from it (accepted only).
+  bool partial = false;                        ///< Accepted, but a structured remainder is left (see `unexplained`).
   std::string explanation;
+};
+
+/// @brief A row the model could not evaluate, excluded from every residual, fit, noise estimate and score.
+struct FailedRow {
+  int row = 0;         ///< 1-based data row of the recording as given (before any decimation).
+  std::string reason;  ///< e.g. "did not converge", "inadmissible command: ...", "snapped ...".
+  std::string model;   ///< "nominal" or the final model that failed on it.
+};
+
+/// @brief What the final model leaves unexplained (formats.md `unexplained`).
+struct Unexplained {
+  bool present = false;                        ///< Held-out error above the noise, or a structured residual.
+  double fraction_explained = 0.0;             ///< Of the baseline's excess held-out error over the noise.
+  std::map<std::string, double> heldout_rmse;  ///< Final model's held-out RMSE.
+  double heldout_ratio = 1.0;                  ///< Final held-out squared error / noise variance (per component).
+  double heldout_p = 1.0;                      ///< Chi-square p of the held-out residuals against the noise.
+  std::vector<MismatchFinding> mismatch;       ///< Locate tests on the final model's residuals (significant ones).
+  std::string where;                           ///< Plain words: where the remainder is and how it behaves.
 };
 
 /// @brief Per-row curves for plots (measured vs nominal vs fitted).
@@ -73,7 +104,12 @@ struct PlotSeries {
 
 /// @brief The diagnosis.
 struct DiagnosisReport {
-  std::vector<std::string> verdict;   ///< Effects judged present (JSON names); empty = nominal explains the data.
+  std::vector<std::string> verdict;   ///< Effects judged present (JSON names; "X or Y" when the recording cannot
+                                      ///< tell look-alikes apart); empty with `unexplained.present` = a mismatch
+                                      ///< no candidate explains; empty without it = nominal explains the data.
+  Unexplained unexplained;            ///< Remainder after the final model.
+  std::vector<FailedRow> failed_rows; ///< Rows excluded because a model could not evaluate them.
+  bool reliable = true;               ///< False when more than unreliable_fraction of the rows failed.
   std::vector<Effect> final_effects;  ///< With fitted values.
   std::map<std::string, std::array<double, 2>> final_intervals;  ///< Keyed by Effect::label().
   ModelScore baseline, final;

@@ -20,6 +20,8 @@ enum class EffectKind {
   ActuatorBacklash,     ///< `actuator_backlash`: dead band (play) of full width w in one tube's rotation drive.
   ActuatorOffset,       ///< `actuator_offset`: constant offset between commanded and true rotation of one tube.
   SensorLatency,        ///< `sensor_latency`: measurement at time t shows the robot commanded at t - delay.
+  TranslationBacklash,  ///< `translation_backlash`: dead band (play) of full width w (m) in one tube's linear stage.
+  TranslationOffset,    ///< `translation_offset`: constant offset (m) between commanded and true translation.
 };
 
 /// @brief All kinds, in the order of formats.md.
@@ -34,6 +36,12 @@ const char* parameterUnit(EffectKind k);
 bool isPerTube(EffectKind k);
 /// @brief True for kinds whose output depends on the history of the actuation (friction, backlash).
 bool isStateful(EffectKind k);
+/// @brief True for kinds acting on the actuation (latency, backlash, offsets) rather than on the robot.
+bool isActuation(EffectKind k);
+/// @brief Look-alike group: kinds that all make the measured shape lag or shift relative to the command and that a
+/// recording may not tell apart (friction, latency, backlash, offsets, torsional stiffness). A candidate of the
+/// group is tested against its rivals of the group before it is accepted.
+bool isLookAlike(EffectKind k);
 /// @brief Parses a JSON name; throws std::invalid_argument listing the valid names.
 EffectKind parseEffectKind(const std::string& name);
 
@@ -42,6 +50,7 @@ struct Effect {
   EffectKind kind = EffectKind::BoundaryFriction;
   int tube = 0;        ///< 1-based tube for per-tube kinds, else 0.
   double value = 0.0;  ///< The parameter (mu, poisson_ratio, curvature, bending_stiffness, width, offset, delay).
+                       ///< Translation backlash and offset in metres.
 
   /// @brief "precurvature[tube 2]" or "boundary_friction".
   std::string label() const;

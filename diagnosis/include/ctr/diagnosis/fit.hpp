@@ -34,6 +34,9 @@ struct FitOptions {
   double difference_step = 2e-3;  ///< Central-difference step in units of the parameter range.
   double function_tolerance = 1e-5;  ///< Ceres relative cost-change tolerance.
   int first_free = 0;             ///< Effects before this index keep their start values (not fitted).
+  /// Rows any fit or registration may use (empty = all): the diagnosis leaves out the rows the nominal model could
+  /// not evaluate (failed rows). Intersected with the `use` / training rows of each call.
+  std::vector<char> rows;
   PredictOptions predict;
 };
 

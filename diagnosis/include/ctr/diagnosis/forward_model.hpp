@@ -33,14 +33,22 @@ struct PredictOptions {
 };
 
 /// @brief Model output per row of a recording.
+///
+/// A row the model cannot evaluate (command inadmissible beyond the tolerance, not converged, snapped, no consistent
+/// stick/slip set) has ok = 0, its reason, and NaN outputs: no row ever carries another row's output. The stateful
+/// replay continues past it from the last evaluated state (one quasi-static move to the next row, so the friction
+/// and backlash memory is kept); only if that move fails too does it restart at rest (frictionless memory) and
+/// `restarts` counts it.
 struct Prediction {
-  Eigen::MatrixXd twist;         ///< rows x (n-1) (rad).
-  Eigen::MatrixXd tip_position;  ///< rows x 3 (m).
-  Eigen::MatrixXd tip_tangent;   ///< rows x 3 (unit).
-  Eigen::VectorXd moment;        ///< Largest concentrated-moment magnitude per row (N m).
+  Eigen::MatrixXd twist;         ///< rows x (n-1) (rad); NaN on failed rows.
+  Eigen::MatrixXd tip_position;  ///< rows x 3 (m); NaN on failed rows.
+  Eigen::MatrixXd tip_tangent;   ///< rows x 3 (unit); NaN on failed rows.
+  Eigen::VectorXd moment;        ///< Largest concentrated-moment magnitude per row (N m); NaN on failed rows.
   std::vector<Configuration> actuation;  ///< The true actuation after latency/backlash/offset.
-  std::vector<char> ok;          ///< Row solved (converged); failed rows repeat the previous row's output.
-  int failures = 0;              ///< Rows that did not converge.
+  std::vector<char> ok;          ///< Row evaluated (admissible, converged, no snap).
+  std::vector<std::string> reason;  ///< Why a row failed ("" when ok).
+  int failures = 0;              ///< Rows with ok = 0.
+  int restarts = 0;              ///< Stateful replay restarted at rest after a failure (memory lost).
   int rows() const { return static_cast<int>(ok.size()); }
 };
 
@@ -48,12 +56,17 @@ struct Prediction {
 Eigen::VectorXd playOperator(const Eigen::VectorXd& x, double width);
 
 /// @brief The true actuation of each row: commands delayed by sensor latency (linear interpolation in `time`;
-/// needs time.size() == rows, else latency is ignored), then backlash (play per tube), then offsets.
+/// needs time.size() == rows, else latency is ignored), then backlash (play per tube, rotation and translation),
+/// then offsets (rotation and translation). Translation effects can move a tube past the nesting constraints; the
+/// result is then projected onto the admissible set (an inner tube retracted behind an outer tube's end is taken at
+/// that end), which needs the robot: pass it, or the translations are left as computed.
 std::vector<Configuration> transformActuation(const std::vector<Configuration>& commands, const Eigen::VectorXd& time,
-                                              const std::vector<Effect>& effects);
+                                              const std::vector<Effect>& effects, const Robot* robot = nullptr);
 
 /// @brief Replays the recording's commands under the effects (stateful friction when mu > 0, otherwise a chain of
-/// warm-started frictionless solves in row order) and returns the model's measurements per row.
+/// warm-started frictionless solves in row order) and returns the model's measurements per row. Commands that
+/// violate the nesting constraints by no more than kAdmissibilityTolerance are projected first; rows beyond it fail
+/// ("inadmissible: ...") and are skipped.
 Prediction predict(const Robot& nominal, const std::vector<Configuration>& commands, const Eigen::VectorXd& time,
                    const std::vector<Effect>& effects, Workspace& ws, const PredictOptions& options = {});
 

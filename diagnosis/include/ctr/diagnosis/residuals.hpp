@@ -4,6 +4,7 @@
 #pragma once
 
 #include <Eigen/Core>
+#include <array>
 #include <map>
 #include <string>
 #include <vector>
@@ -68,8 +69,16 @@ SumSquares sumSquares(const Eigen::MatrixXd& r, const std::vector<char>& use);
 /// of the per-row Euclidean error (m, unit-vector norm).
 std::map<std::string, double> rmse(const io::Recording& rec, const Residuals& r, const std::vector<char>& use);
 
-/// @brief Per-row noise-normalised squared error summed over the present quantities (0 where nothing measured).
+/// @brief Per-row noise-normalised squared error summed over the present quantities (NaN where nothing is
+/// measured or the model could not evaluate the row).
 Eigen::VectorXd rowScores(const io::Recording& rec, const Residuals& r, const NoiseLevels& noise);
+
+/// @brief Mean of the finite entries (0 when none).
+double finiteMean(const Eigen::VectorXd& v);
+/// @brief Means of a and b over the rows where both are finite (compares two models on the same rows).
+std::array<double, 2> commonMeans(const Eigen::VectorXd& a, const Eigen::VectorXd& b);
+/// @brief Rows flagged in `use` where both residual sets have a finite value (both models evaluated the row).
+std::vector<char> commonRows(const Residuals& a, const Residuals& b, const std::vector<char>& use);
 
 /// @brief Gaussian BIC with an unknown variance per quantity: sum_q N_q ln(RSS_q / N_q) + k ln(N).
 double bic(const io::Recording& rec, const Residuals& r, const std::vector<char>& use, int parameters);

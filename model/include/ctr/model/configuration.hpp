@@ -34,6 +34,22 @@ struct Admissibility {
 /// and the per-tube limits of the robot description.
 Admissibility checkAdmissible(const Robot& robot, const Configuration& q, double tolerance = 1e-12);
 
+/// @brief Tolerance (m for translations, rad for rotations) within which a configuration read from a file may
+/// violate the nesting/ordering constraints and the per-tube limits and still be taken as admissible: it is then
+/// projected onto the admissible set (formats.md "admissibility tolerance"). 1 um / 1e-6 rad: logged values rounded
+/// to 1 um (6 decimals in metres, 3 in millimetres) put a constraint between two of them up to 1 um off, while
+/// moving a tube end by 1 um moves the tip by less than 1 um, far below any tracker's noise. Larger violations are
+/// errors (docs/formats-io.md).
+inline constexpr double kAdmissibilityTolerance = 1e-6;
+
+/// @brief Projects q onto the admissible set when it violates the constraints by no more than `tolerance`:
+/// beta_1 <= 0, then for i = 2..n beta_i = min(beta_i, beta_{i-1}) and max(beta_i, beta_{i-1} + L_{i-1} - L_i)
+/// (coincident distal ends, ordered exactly in floating point), and rotations/translations clamped to the tube
+/// limits. Returns ok (q projected, every value moved by at most `tolerance`, checkAdmissible(robot, q) holds) or
+/// the violated constraint of the unprojected q (q unchanged). A q that checkAdmissible already accepts is left
+/// unchanged bit for bit.
+Admissibility projectAdmissible(const Robot& robot, Configuration& q, double tolerance = kAdmissibilityTolerance);
+
 /// @brief Distal end s_i = beta_i + L_i of tube i (0-based).
 inline double distalEnd(const Robot& robot, const Configuration& q, int i) {
   return q.beta[i] + robot.tube(i).length();

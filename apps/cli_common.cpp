@@ -62,7 +62,7 @@ Configuration defaultConfiguration(const Robot& robot) {
   return q;
 }
 
-Configuration ConfigOptions::resolve(const Robot& robot) const {
+Configuration ConfigOptions::resolve(const Robot& robot, int swept_tube, double swept_angle) const {
   const int n = robot.size();
   Configuration q = defaultConfiguration(robot);
   if (!alpha.empty()) {
@@ -78,6 +78,19 @@ Configuration ConfigOptions::resolve(const Robot& robot) const {
       throw UsageError("--beta: " + std::to_string(b.size()) + " values given, robot '" + robot.name() + "' has " +
                        std::to_string(n) + " tubes");
     for (int i = 0; i < n; ++i) q.beta[i] = b[static_cast<std::size_t>(i)];
+  }
+  if (swept_tube >= 0 && swept_tube < n) q.alpha[swept_tube] = swept_angle;
+  // Values typed or pasted from a log are rounded: violations up to kAdmissibilityTolerance are projected (e.g. an
+  // inner tube whose end coincides with the outer tube's end), larger ones are usage errors naming the option.
+  const Admissibility adm = projectAdmissible(robot, q);
+  if (!adm) {
+    const bool rotation = adm.message.rfind("alpha_", 0) == 0;
+    std::string option = rotation ? "--alpha" : "--beta";
+    if (rotation && swept_tube >= 0 && adm.message.rfind("alpha_" + std::to_string(swept_tube + 1) + " ", 0) == 0)
+      option = "--from";
+    else if ((rotation ? alpha : beta).empty())
+      option += " (default: " + std::string(rotation ? "0" : "straight parts retracted") + ")";
+    throw UsageError(option + ": configuration is not admissible: " + adm.message);
   }
   return q;
 }

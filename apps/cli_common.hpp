@@ -33,8 +33,11 @@ struct ConfigOptions {
   std::string alpha, beta;
   void add(CLI::App* app);
   /// Configuration for the robot: missing alpha -> zeros; missing beta -> -straight_length of each tube, clamped
-  /// to the nesting rules. Throws UsageError for wrong counts.
-  Configuration resolve(const Robot& robot) const;
+  /// to the nesting rules. The rotation of `swept_tube` (0-based, if >= 0; `ctr sweep`) is `swept_angle` (--from).
+  /// Projected onto the admissible set when it violates it by at most kAdmissibilityTolerance (rounded values,
+  /// docs/formats-io.md "Admissibility tolerance"). Throws UsageError for wrong counts and for larger violations
+  /// (naming the option and the constraint).
+  Configuration resolve(const Robot& robot, int swept_tube = -1, double swept_angle = 0.0) const;
 };
 
 /// Default translations: each tube's straight part inside the actuation unit where admissible.

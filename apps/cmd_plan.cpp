@@ -103,11 +103,11 @@ void registerPlan(CLI::App& app, Action& action) {
         std::vector<Configuration> wps;
         for (const auto& pt : r.replay.points) wps.push_back(pt.q);
         if (wps.empty()) wps = r.path;
-        if (wps.empty()) wps.push_back(q.start);
+        if (wps.empty()) wps.push_back(p.query().start);  // projected onto the admissible set
         reports::PlanningViewOptions vo;
         vo.title = "Plan: " + q.name + " (" + plan::toString(q.mode) + ")";
         vo.info_json = j.dump();
-        const auto start = plan::startCache(*p.context(), q.start, q.history);
+        const auto start = plan::startCache(*p.context(), p.query().start, q.history);
         if (start && start->physics_ok) vo.start = start->hysteresis;
         reports::writeHtml(o->html, reports::planningHtml(*p.context(), wps, viewGoal(q), vo));
         std::cerr << "wrote " << o->html << "\n";

@@ -117,6 +117,15 @@ void registerInject(CLI::App* parent, Action& action) {
         const io::Recording act = io::loadRecording(o->actuation, robot.size(), false);
         commands = act.commands;
         time = act.time;
+        // Rows within the admissibility tolerance are kept as logged (the model projects them); larger violations
+        // are errors naming the row.
+        for (std::size_t r = 0; r < commands.size(); ++r) {
+          Configuration q = commands[r];
+          const Admissibility adm = projectAdmissible(robot, q);
+          if (!adm)
+            throw io::InputError(o->actuation, act.lineOf(static_cast<int>(r)), "",
+                                 "row " + std::to_string(r + 1) + " is not admissible: " + adm.message);
+        }
       } else {
         diagnosis::ActuationOptions a;
         a.pattern = o->pattern == "sweep" ? diagnosis::ActuationPattern::Sweep
@@ -129,10 +138,10 @@ void registerInject(CLI::App* parent, Action& action) {
         a.translate = o->translate;
         a.seed = o->seed;
         diagnosis::makeActuation(robot, a, commands, time);
-      }
-      for (std::size_t r = 0; r < commands.size(); ++r) {
-        const Admissibility adm = checkAdmissible(robot, commands[r]);
-        if (!adm) throw UsageError("actuation row " + std::to_string(r + 1) + " is not admissible: " + adm.message);
+        for (std::size_t r = 0; r < commands.size(); ++r) {
+          const Admissibility adm = checkAdmissible(robot, commands[r]);
+          if (!adm) throw UsageError("actuation row " + std::to_string(r + 1) + " is not admissible: " + adm.message);
+        }
       }
       diagnosis::SimulationOptions s;
       s.twist_sd = parseNumber(o->noise_twist, "--noise-twist", true);

@@ -25,11 +25,13 @@ void registerSimulate(CLI::App& app, Action& action) {
     action = [o]() {
       checkOutputPath("--out", o->out, {{"--robot", o->robot}, {"--actuation", o->actuation}});
       const Robot robot = o->friction.apply(io::loadRobot(o->robot));
-      const io::Recording act = io::loadRecording(o->actuation, robot.size(), false);
+      io::Recording act = io::loadRecording(o->actuation, robot.size(), false);
+      // Logged rows are rounded: violations up to kAdmissibilityTolerance are projected (docs/formats-io.md
+      // "Admissibility tolerance"); larger ones name the file, line and row.
       for (int r = 0; r < act.rows(); ++r) {
-        const Admissibility adm = checkAdmissible(robot, act.commands[static_cast<std::size_t>(r)]);
+        const Admissibility adm = projectAdmissible(robot, act.commands[static_cast<std::size_t>(r)]);
         if (!adm)
-          throw io::InputError(o->actuation, r + 2, "", "row " + std::to_string(r + 1) + " is not admissible: " +
+          throw io::InputError(o->actuation, act.lineOf(r), "", "row " + std::to_string(r + 1) + " is not admissible: " +
                                                             adm.message);
       }
       Workspace ws;

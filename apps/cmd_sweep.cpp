@@ -58,11 +58,8 @@ void registerSweep(CLI::App& app, Action& action) {
           dirs.push_back(-static_cast<int>(sgn));
         }
       }
-      Configuration q = o->config.resolve(robot);
       const int K = o->tube - 1;
-      q.alpha[K] = angles[0];
-      const Admissibility adm = checkAdmissible(robot, q);
-      if (!adm) throw UsageError("configuration is not admissible: " + adm.message);
+      Configuration q = o->config.resolve(robot, K, angles[0]);  // projected within the tolerance, else exit 2
 
       Workspace ws;
       const FrictionOptions fo = o->friction.options();
@@ -129,7 +126,7 @@ void registerSweep(CLI::App& app, Action& action) {
         if (robot.friction().boundary > 0) {
           const std::size_t first = o->both ? (angles.size() + 1) / 2 : angles.size();
           const std::size_t every = std::max<std::size_t>(1, (first + 71) / 72);
-          Configuration qb = o->config.resolve(robot);
+          Configuration qb = o->config.resolve(robot, K, angles[0]);
           std::vector<std::size_t> picks;
           for (std::size_t k = 0; k < first; k += every) picks.push_back(k);
           if (picks.back() + 1 != first) picks.push_back(first - 1);

@@ -36,13 +36,17 @@ void registerView(CLI::App& app, Action& action) {
       checkOutputPath("--html", o->html,
                       {{"path", o->path}, {"--env", o->env}, {"--robot", o->robot}, {"--query", o->query}});
       const Robot robot = io::loadRobot(o->robot);
-      const io::Recording rec = io::loadRecording(o->path, robot.size(), false);
+      io::Recording rec = io::loadRecording(o->path, robot.size(), false);
       for (const auto& w : rec.warnings)
         if (w.find("unknown column") == std::string::npos) std::cerr << "warning: " << o->path << ": " << w << "\n";
       if (rec.rows() == 0) throw UsageError(o->path + ": the path has no rows");
+      // Rows written with rounded values: violations up to kAdmissibilityTolerance are projected
+      // (docs/formats-io.md "Admissibility tolerance"); larger ones name the file, line and row.
       for (int k = 0; k < rec.rows(); ++k) {
-        const Admissibility a = checkAdmissible(robot, rec.commands[static_cast<std::size_t>(k)], 1e-9);
-        if (!a) throw UsageError(o->path + ": row " + std::to_string(k + 1) + " is not admissible: " + a.message);
+        const Admissibility a = projectAdmissible(robot, rec.commands[static_cast<std::size_t>(k)]);
+        if (!a)
+          throw io::InputError(o->path, rec.lineOf(k), "",
+                               "row " + std::to_string(k + 1) + " is not admissible: " + a.message);
       }
       env::BuildOptions bo;
       if (o->env_resolution > 0) bo.resolution = o->env_resolution;

@@ -118,7 +118,10 @@ std::string reportToJson(const DiagnosisReport& r) {
       for (const Effect& e : f.model) s += "+" + e.label();
       return s;
     }();
-    if (f.accepted) x["partial"] = f.partial;
+    if (f.accepted) {
+      x["partial"] = f.partial;
+      x["named"] = f.named;
+    }
     if (!f.ambiguous_with.empty()) {
       json a = json::array();
       for (const Rival& rv : f.ambiguous_with) {

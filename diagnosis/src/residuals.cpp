@@ -115,16 +115,44 @@ NoiseLevels estimateNoise(const io::Recording& rec, const Residuals& r) {
   }
   for (Quantity q : presentQuantities(rec)) {
     const Eigen::MatrixXd& R = r.of(q);
-    std::vector<double> ds, dn;
-    for (int k = 0; k < rows; ++k)
-      for (Eigen::Index c = 0; c < R.cols(); ++c) {
-        if (!std::isfinite(R(k, c))) continue;
-        if (k > 0 && std::isfinite(R(k - 1, c))) ds.push_back(std::abs(R(k, c) - R(k - 1, c)));
+    double s = std::numeric_limits<double>::quiet_NaN();
+    if (q == Quantity::Twist) {
+      // Per component: robust spread of the differences.
+      std::vector<double> ds, dn;
+      for (int k = 0; k < rows; ++k)
+        for (Eigen::Index c = 0; c < R.cols(); ++c) {
+          if (!std::isfinite(R(k, c))) continue;
+          if (k > 0 && std::isfinite(R(k - 1, c))) ds.push_back(std::abs(R(k, c) - R(k - 1, c)));
+          const int j = nn[static_cast<std::size_t>(k)];
+          if (j >= 0 && j > k && std::isfinite(R(j, c))) dn.push_back(std::abs(R(k, c) - R(j, c)));
+        }
+      const double s1 = robustSpread(ds), s2 = robustSpread(dn);
+      s = std::isfinite(s1) && std::isfinite(s2) ? std::min(s1, s2) : std::isfinite(s1) ? s1 : s2;
+    } else {
+      // Vectors: the median squared norm of the row differences against the chi-square median of the noise's
+      // dimension. A position has isotropic noise in 3 components; a measured unit tangent only in the 2 directions
+      // normal to it (its component along itself is second order), so pooling its 3 components as if each were
+      // Gaussian under-estimates the noise. The level returned is per component, as the chi-square tests use it:
+      // E|r|^2 / 3 per row.
+      const double dim = q == Quantity::TipPosition ? 3.0 : 2.0;
+      const double chi2_median = q == Quantity::TipPosition ? 2.365973884 : 1.386294361;  // medians of chi2(3), chi2(2)
+      std::vector<double> ds, dn;
+      auto finite = [&](int k) { return R.row(k).allFinite(); };
+      for (int k = 0; k < rows; ++k) {
+        if (!finite(k)) continue;
+        if (k > 0 && finite(k - 1)) ds.push_back((R.row(k) - R.row(k - 1)).squaredNorm());
         const int j = nn[static_cast<std::size_t>(k)];
-        if (j >= 0 && j > k && std::isfinite(R(j, c))) dn.push_back(std::abs(R(k, c) - R(j, c)));
+        if (j >= 0 && j > k && finite(j)) dn.push_back((R.row(k) - R.row(j)).squaredNorm());
       }
-    double s1 = robustSpread(ds), s2 = robustSpread(dn);
-    double s = std::isfinite(s1) && std::isfinite(s2) ? std::min(s1, s2) : std::isfinite(s1) ? s1 : s2;
+      auto level = [&](std::vector<double>& d) {
+        if (d.size() < 3) return std::numeric_limits<double>::quiet_NaN();
+        std::nth_element(d.begin(), d.begin() + static_cast<long>(d.size() / 2), d.end());
+        const double sigma2_axis = d[d.size() / 2] / (2.0 * chi2_median);  // per noisy axis (a difference doubles it)
+        return std::sqrt(sigma2_axis * dim / 3.0);
+      };
+      const double s1 = level(ds), s2 = level(dn);
+      s = std::isfinite(s1) && std::isfinite(s2) ? std::min(s1, s2) : std::isfinite(s1) ? s1 : s2;
+    }
     const double floor = q == Quantity::TipPosition ? 1e-7 : 1e-5;
     if (!std::isfinite(s) || s < floor) s = floor;
     (q == Quantity::Twist ? out.twist : q == Quantity::TipPosition ? out.tip_position : out.tip_tangent) = s;

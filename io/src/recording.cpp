@@ -183,6 +183,7 @@ Recording parse(const std::string& text, const std::string& src, int tubes, bool
   const int rows = static_cast<int>(lines.size()) - 1;
   rec.tubes = n;
   rec.commands.reserve(static_cast<std::size_t>(rows));
+  rec.lines.reserve(static_cast<std::size_t>(rows));
   if (has_twist) rec.twist = Eigen::MatrixXd::Constant(rows, n - 1, kNaN);
   if (has_tip) rec.tip_position = Eigen::MatrixXd::Constant(rows, 3, kNaN);
   if (has_tangent) rec.tip_tangent = Eigen::MatrixXd::Constant(rows, 3, kNaN);
@@ -260,6 +261,7 @@ Recording parse(const std::string& text, const std::string& src, int tubes, bool
       last_time_line = line;
     }
     rec.commands.push_back(std::move(q));
+    rec.lines.push_back(line);
   }
   if (require_measurement && !measured)
     fail(header_line, "", "no measured value in any row (twist, tip position and tip tangent cells are all empty)");

@@ -81,12 +81,15 @@ void CtrPlanner::init(Robot robot, env::Environment e) {
     throw io::InputError(query.file, query.lineOf("start.alpha"), "start.alpha",
                          "has " + std::to_string(query.start.size()) + " values, robot '" + robot.name() + "' has " +
                              std::to_string(n) + " tubes");
-  const Admissibility adm = checkAdmissible(robot, query.start);
+  // Start and goal configurations are read from the query file (rounded values): violations up to
+  // kAdmissibilityTolerance are projected in query_ (docs/formats-io.md "Admissibility tolerance"), larger ones name
+  // the file, line, key and constraint.
+  const Admissibility adm = projectAdmissible(robot, query_.start);
   if (!adm) throw io::InputError(query.file, query.lineOf("start"), "start", "not admissible: " + adm.message);
   if (query.goal_configuration) {
     if (query.goal_configuration->size() != n)
       throw io::InputError(query.file, query.lineOf("goal.configuration"), "goal.configuration", "wrong number of tubes");
-    const Admissibility ga = checkAdmissible(robot, *query.goal_configuration);
+    const Admissibility ga = projectAdmissible(robot, *query_.goal_configuration);
     if (!ga) throw io::InputError(query.file, query.lineOf("goal.configuration"), "goal.configuration", "not admissible: " + ga.message);
   }
   if (!query.base_start.empty()) {

@@ -151,6 +151,8 @@ const std::vector<Case> kCases = {
    "fk --robot {ex}/robots/tube_pair_B.yaml --alpha 0,inf", 2, {"--alpha", "not a finite number"}},
   {"FkBetaMillimetres", "fk", "wrong units: --beta in mm (not admissible)", "", none,
    "fk --robot {ex}/robots/tube_pair_B.yaml --beta -18,-18", 2, {"not admissible"}},
+  {"FkBetaBeyondTolerance", "fk", "--beta with the inner tube end 1 mm behind the outer end (beyond the admissibility tolerance)", "", none,
+   "fk --robot {ex}/robots/tube_pair_B.yaml --beta -0.018,-0.019", 2, {"--beta", "not admissible", "distal end of tube 2"}},
   {"FkShapeDirMissing", "fk", "--shape into a folder that does not exist", "", none,
    "fk --robot {ex}/robots/tube_pair_B.yaml --shape {d}/no/such/dir/shape.csv", 2, {"{d}/no/such/dir/shape.csv", "cannot write"}},
   {"FkShapeStepZero", "fk", "--shape-step 0", "", none,
@@ -205,6 +207,9 @@ const std::vector<Case> kCases = {
   {"SimulateMillimetres", "simulate", "wrong units: translations in mm (row not admissible)", "", [](Dir& d) {
      d.write("act.csv", actuation({kRows[0], "0,0.1,-18,-18"})); },
    "simulate --robot {ex}/robots/tube_pair_B.yaml --actuation {d}/act.csv --out {d}/rec.csv", 2, {"act.csv:3", "not admissible"}},
+  {"SimulateRowBeyondTolerance", "simulate", "row 2 with the inner tube end 1 mm behind (beyond the admissibility tolerance)", "", [](Dir& d) {
+     d.write("act.csv", actuation({kRows[0], "0,0.1,-0.018,-0.019", kRows[2]})); },
+   "simulate --robot {ex}/robots/tube_pair_B.yaml --actuation {d}/act.csv --out {d}/rec.csv", 2, {"act.csv:3", "row 2", "distal end of tube 2"}},
   {"SimulateOutDirMissing", "simulate", "--out into a folder that does not exist", "", [](Dir& d) { d.write("act.csv", actuation(kRows)); },
    "simulate --robot {ex}/robots/tube_pair_B.yaml --actuation {d}/act.csv --out {d}/none/rec.csv", 2, {"{d}/none/rec.csv", "cannot write"}},
   {"SimulateOutIsInput", "simulate", "--out equal to --actuation (output = input)", "", [](Dir& d) { d.write("act.csv", actuation(kRows)); },
@@ -321,6 +326,10 @@ const std::vector<Case> kCases = {
      const std::string t = edit(heartQuery(), "beta: [-0.10, -0.16, -0.21]", "beta: [-100, -160, -210]");
      d.write("q.yaml", t); d.expect["line"] = std::to_string(lineOf(t, "start:")); },
    "plan {d}/q.yaml --json {d}/r.json", 2, {"q.yaml:{line}", "start", "admissible"}},
+  {"PlanStartBeyondTolerance", "plan", "start with the middle tube end 1 mm behind (beyond the admissibility tolerance)", "plan", [](Dir& d) {
+     const std::string t = edit(heartQuery(), "beta: [-0.10, -0.16, -0.21]", "beta: [-0.10, -0.161, -0.21]");
+     d.write("q.yaml", t); d.expect["line"] = std::to_string(lineOf(t, "start:")); },
+   "plan {d}/q.yaml --json {d}/r.json", 2, {"q.yaml:{line}", "start", "distal end of tube 2"}},
   {"PlanStartWrongJoints", "plan", "start with 2 values for a 3-tube robot", "plan", [](Dir& d) {
      const std::string t = edit(edit(heartQuery(), "alpha: [0.0, 0.0, 0.0]", "alpha: [0.0, 0.0]"), "beta: [-0.10, -0.16, -0.21]", "beta: [-0.10, -0.16]");
      d.write("q.yaml", t); d.expect["line"] = std::to_string(lineOf(t, "alpha: [0.0, 0.0]")); },

@@ -184,6 +184,77 @@ TEST(Cli, SimulateWritesARecordingAndNothingOnBadInput) {
   EXPECT_FALSE(fs::exists(out));
 }
 
+// Admissibility tolerance (docs/formats-io.md): a configuration whose inner tube ends where the outer tube ends, with
+// the values rounded as in a log (1e-10 m off), is projected; a 1 mm violation is still an input error (exit 2).
+TEST(Cli, FkProjectsRoundedCoincidentEndsAndRefusesLargerViolations) {
+  const std::string base = "fk --robot " + robot("tube_pair_B.yaml") + " --alpha 0,1 --json --beta ";
+  const Proc exact = run(base + "-0.018,-0.018");
+  ASSERT_EQ(exact.code, 0) << exact.err;
+  const Proc rounded = run(base + "-0.018,-0.0180000001");
+  ASSERT_EQ(rounded.code, 0) << rounded.err;
+  EXPECT_EQ(rounded.out, exact.out);  // projected onto coincident ends: the very same configuration
+  const Proc mm = run(base + "-0.018,-0.019");
+  EXPECT_EQ(mm.code, 2);
+  EXPECT_NE(mm.err.find("--beta"), std::string::npos) << mm.err;
+  EXPECT_NE(mm.err.find("not admissible"), std::string::npos) << mm.err;
+  EXPECT_NE(mm.err.find("distal end of tube 2"), std::string::npos) << mm.err;
+  EXPECT_TRUE(mm.out.empty()) << mm.out;
+  // A 3-tube robot (ends coincide at beta = -0.10, -0.16, -0.21), and beta_1 slightly above 0 in sweep.
+  const std::string heart = "fk --robot " + robot("proc_intracardiac.yaml") + " --json --beta ";
+  const Proc h = run(heart + "-0.10,-0.16,-0.21");
+  ASSERT_EQ(h.code, 0) << h.err;
+  const Proc hr = run(heart + "-0.1,-0.1600000001,-0.2100000004");
+  ASSERT_EQ(hr.code, 0) << hr.err;
+  const auto jh = nlohmann::json::parse(h.out), jhr = nlohmann::json::parse(hr.out);
+  for (int d = 0; d < 3; ++d)
+    EXPECT_NEAR(jhr["tip_position"][d].get<double>(), jh["tip_position"][d].get<double>(), 1e-9);
+  const Proc sweep = run("sweep --robot " + robot("tube_pair_B.yaml") +
+                         " --tube 2 --from 0 --to 0.2 --step 0.1 --beta 0.0000003,0.0000003");
+  EXPECT_EQ(sweep.code, 0) << sweep.err;
+  // First data row: alpha_1,alpha_2,beta_1,beta_2,... with the translations projected to 0.
+  const std::string row = sweep.out.substr(sweep.out.find('\n') + 1);
+  EXPECT_EQ(row.rfind("0,0,0,0,", 0), 0u) << sweep.out;
+  const Proc sweep_bad = run("sweep --robot " + robot("tube_pair_B.yaml") +
+                             " --tube 2 --from 0 --to 0.2 --step 0.1 --beta 0.001,0.001");
+  EXPECT_EQ(sweep_bad.code, 2);
+  EXPECT_NE(sweep_bad.err.find("--beta"), std::string::npos) << sweep_bad.err;
+  EXPECT_NE(sweep_bad.err.find("beta_1"), std::string::npos) << sweep_bad.err;
+}
+
+TEST(Cli, SimulateProjectsRoundedRowsAndNamesARowBeyondTheTolerance) {
+  const fs::path act = tmp("act_rounded.csv"), out = tmp("rec_rounded.csv"), ref = tmp("rec_exact.csv");
+  auto write = [&](const std::string& beta_2) {
+    std::ofstream a(act);
+    a << "alpha_1,alpha_2,beta_1,beta_2\n# logged with rounded translations\n";
+    for (int k = 0; k <= 4; ++k) a << "0," << k * 0.3 << ",-0.018," << (k == 2 ? beta_2 : "-0.018") << "\n";
+  };
+  const std::string cmd = "simulate --robot " + robot("tube_pair_B.yaml") + " --boundary-friction 0.1 --actuation " +
+                          act.string() + " --out ";
+  write("-0.018");
+  fs::remove(ref);
+  const Proc exact = run(cmd + ref.string());
+  ASSERT_EQ(exact.code, 0) << exact.err;
+  write("-0.0180000001");  // row 3: the inner end 1e-10 m behind the outer end
+  fs::remove(out);
+  const Proc rounded = run(cmd + out.string());
+  ASSERT_EQ(rounded.code, 0) << rounded.err;
+  auto text = [](const fs::path& f) {
+    std::ifstream in(f);
+    std::stringstream ss;
+    ss << in.rdbuf();
+    return ss.str();
+  };
+  EXPECT_EQ(text(out), text(ref));  // the row was projected onto coincident ends
+  write("-0.019");  // row 3 (line 5: header, comment, rows 1-2 before it) 1 mm behind
+  fs::remove(out);
+  const Proc bad = run(cmd + out.string());
+  EXPECT_EQ(bad.code, 2);
+  EXPECT_NE(bad.err.find(act.string() + ":5"), std::string::npos) << bad.err;
+  EXPECT_NE(bad.err.find("row 3 is not admissible"), std::string::npos) << bad.err;
+  EXPECT_NE(bad.err.find("distal end of tube 2"), std::string::npos) << bad.err;
+  EXPECT_FALSE(fs::exists(out));
+}
+
 TEST(Cli, DemoPaperSweep) {
   const Proc r = run("demo --paper");
   ASSERT_EQ(r.code, 0) << r.err;

@@ -199,6 +199,12 @@ TEST(Recording, TolerantSyntax) {
   EXPECT_FALSE(rec.hasTime());
   ASSERT_EQ(rec.warnings.size(), 1u);
   EXPECT_NE(rec.warnings[0].find("temperature"), std::string::npos);
+  // The file line of each row (comments and blank lines counted), for messages about rows found after parsing.
+  ASSERT_EQ(rec.lines.size(), 3u);
+  EXPECT_EQ(rec.lineOf(0), 4);
+  EXPECT_EQ(rec.lineOf(1), 6);
+  EXPECT_EQ(rec.lineOf(2), 7);
+  EXPECT_EQ(rec.lineOf(3), 0);
 }
 
 TEST(Recording, LineNumbersCountCommentsAndCrlf) {

@@ -4,6 +4,7 @@
 
 #include <filesystem>
 #include <fstream>
+#include <memory>
 
 #include "ctr/io/input_error.hpp"
 #include "ctr/io/robot_yaml.hpp"
@@ -144,6 +145,43 @@ TEST(Query, TargetOutsideTheMapAndBadStartAreInputErrors) {
   const Query clk = parseQuery(queryText("target: tricuspid", "time_limit_clock: cpu\n"), "q.yaml", ".");
   EXPECT_TRUE(clk.cpu_time_limit);
   expectInputError(queryText("target: tricuspid", "time_limit_clock: sundial\n"), "time_limit_clock");
+}
+
+TEST(Query, RoundedCoincidentEndsInStartAndGoalAreProjected) {
+  // At beta = (-0.10, -0.16, -0.21) the three distal ends of the intracardiac robot coincide; a logged start with
+  // the middle / inner translations rounded puts their ends 1e-10 / 5e-10 m behind: projected (admissibility
+  // tolerance, docs/formats-io.md), the query loads. The goal configuration is projected the same way.
+  std::string text = queryText("configuration: {alpha: [0, 0.2, 0.4], beta: [-0.1, -0.1600000001, -0.2100000005]}");
+  const std::string from = "beta: [-0.10, -0.16, -0.21]";
+  text.replace(text.find(from), from.size(), "beta: [-0.10, -0.1600000001, -0.2100000005]");
+  const Query q = parseQuery(text, "q.yaml", ".");
+  const Robot robot = io::loadRobot(src("examples/robots/proc_intracardiac.yaml"));
+  ASSERT_FALSE(checkAdmissible(robot, q.start));
+  ASSERT_TRUE(q.goal_configuration.has_value());
+  ASSERT_FALSE(checkAdmissible(robot, *q.goal_configuration));
+  std::unique_ptr<CtrPlanner> p;
+  try {
+    p = std::make_unique<CtrPlanner>(q);
+  } catch (const std::exception& e) {
+    FAIL() << "rounded start refused: " << e.what();
+  }
+  for (const Configuration* c : {&p->query().start, &*p->query().goal_configuration}) {
+    const Configuration& raw = c == &p->query().start ? q.start : *q.goal_configuration;
+    EXPECT_TRUE(checkAdmissible(p->context()->robot(), *c, 0.0)) << checkAdmissible(p->context()->robot(), *c, 0.0).message;
+    EXPECT_LE((c->beta - raw.beta).cwiseAbs().maxCoeff(), kAdmissibilityTolerance);
+    EXPECT_EQ(c->alpha, raw.alpha);
+    EXPECT_EQ(c->beta[0], raw.beta[0]);
+  }
+  // 1 mm behind: an input error naming the file, the start's line and the constraint.
+  Query bad = q;
+  bad.start.beta[1] = -0.161;
+  try {
+    CtrPlanner pb(bad);
+    ADD_FAILURE() << "start 1 mm outside the admissible set accepted";
+  } catch (const io::InputError& e) {
+    EXPECT_EQ(e.line(), 3) << e.what();
+    EXPECT_NE(std::string(e.what()).find("distal end of tube 2"), std::string::npos) << e.what();
+  }
 }
 
 TEST(StateSpace, SamplerProducesOnlyAdmissibleConfigurations) {

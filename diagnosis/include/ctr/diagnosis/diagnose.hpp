@@ -73,6 +73,8 @@ struct Finding {
   double delta_bic = 0.0;                      ///< BIC(model with it) - BIC(model of its round).
   std::vector<Rival> ambiguous_with;           ///< Look-alikes this recording cannot tell from it (accepted only).
   bool partial = false;                        ///< Accepted, but a structured remainder is left (see `unexplained`).
+  bool named = true;                           ///< Accepted and named in the verdict (false: partial explanation
+                                               ///< confounded with the unexplained remainder; kept in the final fit).
   std::string explanation;
 };
 

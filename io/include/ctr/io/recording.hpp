@@ -20,7 +20,10 @@ struct Recording {
   Eigen::MatrixXd tip_tangent;          ///< rows x 3, or 0 cols if absent.
   Eigen::VectorXd time;                 ///< rows, or size 0 if absent.
   std::vector<std::string> warnings;    ///< E.g. unknown columns ignored.
+  std::vector<int> lines;               ///< 1-based line of each row in the file read (empty if not read).
   int rows() const { return static_cast<int>(commands.size()); }
+  /// @brief Line of row r (0-based) in the file it was read from (blank and comment lines counted); 0 if unknown.
+  int lineOf(int r) const { return r >= 0 && r < static_cast<int>(lines.size()) ? lines[static_cast<std::size_t>(r)] : 0; }
   bool hasTwist() const { return twist.cols() > 0; }
   bool hasTipPosition() const { return tip_position.cols() > 0; }
   bool hasTipTangent() const { return tip_tangent.cols() > 0; }

@@ -48,6 +48,7 @@ struct Candidate {
   double gain = 0.0;
   bool pass = false;
   bool failed = false;
+  bool probed_only = false;  ///< Distributed friction probed at a large coefficient and not fitted.
   std::string reason;
 };
 
@@ -298,7 +299,9 @@ DiagnosisReport diagnose(const Robot& nominal, const io::Recording& full, const 
              modelName(cur.fit.effects));
     std::vector<Candidate> cands(todo.size());
     std::atomic<int> evals{0};
-    auto evaluateCandidate = [&](Candidate& c, Workspace& tws) {
+    // Phase 1 (every candidate): screening -- only the new effect is fitted (grid + a few iterations), the accepted
+    // ones held.
+    auto screenCandidate = [&](Candidate& c, Workspace& tws) {
       std::vector<Effect> start = cur.fit.effects;
       start.push_back(c.slot);
       const int nprev = static_cast<int>(cur.fit.effects.size());
@@ -313,58 +316,58 @@ DiagnosisReport diagnose(const Robot& nominal, const io::Recording& full, const 
           c.fit = std::move(pr);
           c.bic = cur.bic + pb;
           c.delta_bic = pb;
+          c.probed_only = true;
           c.reason = fmt("even mu = 0.3 changes BIC by only %+.1f: the distributed contact forces are too small to "
                          "produce the observed twist (as the paper found, sec. II.C)", pb);
           progress("  " + c.slot.label() + fmt(": probe mu = 0.3, dBIC = %+.1f; not fitted", pb));
           return;
         }
       }
-      // Screening: only the new effect is fitted (grid + a few iterations), the accepted ones held.
       FitOptions so = fo;
       so.first_free = nprev;
       so.max_iterations = o.screen_iterations;
       so.function_tolerance = 1e-3;
       so.intervals = false;
+      so.gate_bic = 0.5 * o.bic_threshold;
       c.fit = fitEffects(nominal, rec, start, all, so, tws, nprev);
       evals += c.fit.evaluations;
       c.delta_bic = deltaBic(cur.fit.residuals, nprev, c.fit.residuals, nparams(start));
       c.bic = cur.bic + c.delta_bic;
-      if (c.delta_bic < -o.bic_threshold) {
-        // Joint refinement of all parameters with intervals, from the screening optimum.
-        FitResult joint = fitEffects(nominal, rec, c.fit.effects, all, fo, tws, static_cast<int>(start.size()));
-        evals += joint.evaluations;
-        const double jd = deltaBic(c.fit.residuals, nparams(start), joint.residuals, nparams(start));
-        if (jd <= 1e-9) {
-          c.fit = std::move(joint);
-          c.delta_bic = deltaBic(cur.fit.residuals, nprev, c.fit.residuals, nparams(start));
-          c.bic = cur.bic + c.delta_bic;
-        }
-      }
-      if (c.delta_bic < -o.bic_threshold) {
-        c.cv = crossValidate(nominal, rec, c.fit.effects, o.folds, fo, tws, o.cv_iterations, o.threads);
+      if (c.delta_bic >= -o.bic_threshold)
+        c.reason = fmt("it does not lower BIC by more than %.0f (change %+.1f): the fit does not improve beyond "
+                       "what one more parameter buys by chance",
+                       o.bic_threshold, c.delta_bic);
+      progress("  " + c.slot.label() + ": " + parameterName(c.slot.kind) +
+               fmt(" = %.4g, screening dBIC = %+.1f", c.fit.effects.back().value, c.delta_bic));
+    };
+    // Phase 2 (finalists): the linearisation of the screened model in all its parameters (intervals, and the
+    // one-step held-out test from it). The winner alone is then refined jointly (below).
+    auto refineCandidate = [&](Candidate& c, Workspace& tws) {
+      c.fit = linearizeModel(nominal, rec, c.fit.effects, all, fo, tws);
+      evals += c.fit.evaluations;
+      auto heldOut = [&](const FitResult* linearisation) {
+        c.cv = crossValidate(nominal, rec, c.fit.effects, o.folds, fo, tws, o.cv_iterations, 1, linearisation);
         c.cv_done = true;
         evals += c.cv.evaluations;
         c.heldout_p = stats::chunkedBootstrapTest(cur.cv.row_score, c.cv.row_score, chunks);
         const auto means = commonMeans(cur.cv.row_score, c.cv.row_score);  // same rows for both
         c.gain = means[0] > 0 ? 1.0 - means[1] / means[0] : 0.0;
         c.pass = c.heldout_p < o.heldout_p && c.gain > o.min_heldout_gain;
-        if (!c.pass)
-          c.reason = fmt("it lowers BIC by %.1f but does not improve the held-out error enough (%.1f %% lower, p = %.2g)",
-                         -c.delta_bic, 100 * c.gain, c.heldout_p);
-      } else {
-        c.reason = fmt("it does not lower BIC by more than %.0f (change %+.1f): the fit does not improve beyond "
-                       "what one more parameter buys by chance",
-                       o.bic_threshold, c.delta_bic);
-      }
+      };
+      heldOut(o.one_step_cv ? &c.fit : nullptr);
+      // Near the decision the one-step folds (a linearisation) are not trusted: the folds are refitted iteratively.
+      if (o.one_step_cv && c.gain > 0 && c.heldout_p > 0.2 * o.heldout_p && c.heldout_p < 5 * o.heldout_p)
+        heldOut(nullptr);
+      if (!c.pass)
+        c.reason = fmt("it lowers BIC by %.1f but does not improve the held-out error enough (%.1f %% lower, p = %.2g)",
+                       -c.delta_bic, 100 * c.gain, c.heldout_p);
       progress("  " + c.slot.label() + ": " + parameterName(c.slot.kind) +
                fmt(" = %.4g, dBIC = %+.1f", c.fit.effects.back().value, c.delta_bic) +
-               (c.cv_done ? fmt(", held-out gain %.1f %%, p = %.2g", 100 * c.gain, c.heldout_p) : std::string()));
+               fmt(", held-out gain %.1f %%, p = %.2g", 100 * c.gain, c.heldout_p));
     };
-    detail::parallelFor(static_cast<int>(todo.size()), o.threads, ws, [&](int i, Workspace& tws) {
-      Candidate& c = cands[static_cast<std::size_t>(i)];
-      c.slot = todo[static_cast<std::size_t>(i)];
+    auto guarded = [&](Candidate& c, Workspace& tws, const std::function<void(Candidate&, Workspace&)>& fn) {
       try {
-        evaluateCandidate(c, tws);
+        fn(c, tws);
       } catch (const std::exception& ex) {
         // E.g. a model the kinematics layer cannot evaluate: the candidate cannot be tried.
         c.pass = false;
@@ -373,6 +376,36 @@ DiagnosisReport diagnose(const Robot& nominal, const io::Recording& full, const 
         c.reason = std::string("it could not be evaluated (") + ex.what() + ")";
         progress("  " + c.slot.label() + ": not evaluated: " + ex.what());
       }
+    };
+    detail::parallelFor(static_cast<int>(todo.size()), o.threads, ws, [&](int i, Workspace& tws) {
+      Candidate& c = cands[static_cast<std::size_t>(i)];
+      c.slot = todo[static_cast<std::size_t>(i)];
+      guarded(c, tws, screenCandidate);
+    });
+    // Finalists: the best few by screening BIC (and every one within twice the threshold of the best, so that
+    // look-alikes are compared on equal terms); the others cannot win the round.
+    std::vector<int> ranked;
+    for (std::size_t i = 0; i < cands.size(); ++i)
+      if (!cands[i].failed && !cands[i].probed_only && cands[i].delta_bic < -o.bic_threshold)
+        ranked.push_back(static_cast<int>(i));
+    std::stable_sort(ranked.begin(), ranked.end(), [&](int a, int b) {
+      return cands[static_cast<std::size_t>(a)].delta_bic < cands[static_cast<std::size_t>(b)].delta_bic;
+    });
+    std::vector<int> finalists;
+    for (std::size_t r = 0; r < ranked.size(); ++r) {
+      const Candidate& c = cands[static_cast<std::size_t>(ranked[r])];
+      if (static_cast<int>(r) < o.finalists ||
+          c.delta_bic < cands[static_cast<std::size_t>(ranked[0])].delta_bic + 2 * o.bic_threshold)
+        finalists.push_back(ranked[r]);
+      else
+        cands[static_cast<std::size_t>(ranked[r])].reason =
+            fmt("its screening fit lowers BIC by %.1f, ", -c.delta_bic) +
+            fmt("%.1f less than the best candidate of the round: it cannot win the round, so it was not refined or "
+                "cross-validated",
+                c.delta_bic - cands[static_cast<std::size_t>(ranked[0])].delta_bic);
+    }
+    detail::parallelFor(static_cast<int>(finalists.size()), o.threads, ws, [&](int i, Workspace& tws) {
+      guarded(cands[static_cast<std::size_t>(finalists[static_cast<std::size_t>(i)])], tws, refineCandidate);
     });
     rep.evaluations += evals;
     // Best passing candidate by BIC.
@@ -459,6 +492,25 @@ DiagnosisReport diagnose(const Robot& nominal, const io::Recording& full, const 
         ties.clear();  // the rivals were compared with the former winner only
       }
     }
+    if (best >= 0) {
+      // The winner's joint refinement of all parameters (from the screening optimum), its intervals and its
+      // held-out scores at the refined values.
+      Candidate& W = cands[static_cast<std::size_t>(best)];
+      const int k = nparams(W.fit.effects);
+      FitResult joint = fitEffects(nominal, rec, W.fit.effects, all, fo, ws, k);
+      rep.evaluations += joint.evaluations;
+      if (deltaBic(W.fit.residuals, k, joint.residuals, k) <= 1e-9) {
+        W.fit = std::move(joint);
+        W.delta_bic = deltaBic(cur.fit.residuals, k - 1, W.fit.residuals, k);
+        W.bic = cur.bic + W.delta_bic;
+        W.cv = crossValidate(nominal, rec, W.fit.effects, o.folds, fo, ws, o.cv_iterations, o.threads,
+                             o.one_step_cv ? &W.fit : nullptr);
+        rep.evaluations += W.cv.evaluations;
+        W.heldout_p = stats::chunkedBootstrapTest(cur.cv.row_score, W.cv.row_score, chunks);
+        const auto means = commonMeans(cur.cv.row_score, W.cv.row_score);
+        W.gain = means[0] > 0 ? 1.0 - means[1] / means[0] : 0.0;
+      }
+    }
     for (std::size_t i = 0; i < cands.size(); ++i) {
       Candidate& c = cands[i];
       Finding f;
@@ -531,7 +583,10 @@ DiagnosisReport diagnose(const Robot& nominal, const io::Recording& full, const 
     detail::parallelFor(static_cast<int>(without.size()), o.threads, ws, [&](int j, Workspace& tws) {
       std::vector<Effect> reduced = cur.fit.effects;
       reduced.erase(reduced.begin() + j);
-      without[static_cast<std::size_t>(j)] = fitEffects(nominal, rec, reduced, all, fo, tws, nparams(reduced));
+      FitOptions bo = fo;  // warm start: a few iterations, no intervals (recomputed if the reduced model is kept)
+      bo.intervals = false;
+      bo.max_iterations = 4;
+      without[static_cast<std::size_t>(j)] = fitEffects(nominal, rec, reduced, all, bo, tws, nparams(reduced));
     });
     for (const FitResult& f : without) rep.evaluations += f.evaluations;
   };
@@ -554,9 +609,11 @@ DiagnosisReport diagnose(const Robot& nominal, const io::Recording& full, const 
                        best_d);
     progress("backward elimination: removed " + lab);
     cur.bic += best_d;
-    cur.fit = std::move(without[static_cast<std::size_t>(drop)]);
+    cur.fit = fitEffects(nominal, rec, without[static_cast<std::size_t>(drop)].effects, all, fo, ws,
+                         nparams(without[static_cast<std::size_t>(drop)].effects));
+    rep.evaluations += cur.fit.evaluations;
     without.clear();
-    cur.cv = crossValidate(nominal, rec, cur.fit.effects, o.folds, fo, ws, o.cv_iterations, o.threads);
+    cur.cv = crossValidate(nominal, rec, cur.fit.effects, o.folds, fo, ws, o.cv_iterations, o.threads, o.one_step_cv ? &cur.fit : nullptr);
   }
   // 3. The remainder: locate tests on the final model's residuals and its held-out error against the noise.
   auto heldoutRatio = [&](const CrossValidation& cv, double& p) {
@@ -629,6 +686,7 @@ DiagnosisReport diagnose(const Robot& nominal, const io::Recording& full, const 
     FitOptions ho = fo;
     ho.intervals = true;
     ho.grid_search = false;
+    ho.max_iterations = 4;  // warm start from the full-data values
     detail::parallelFor(2, o.threads, ws, [&](int h, Workspace& tws) {
       halves[static_cast<std::size_t>(h)] =
           fitEffects(nominal, rec, cur.fit.effects, half[static_cast<std::size_t>(h)], ho, tws, nparams(cur.fit.effects));
@@ -681,7 +739,7 @@ DiagnosisReport diagnose(const Robot& nominal, const io::Recording& full, const 
       cur.fit = std::move(f);
       cur.cv = cur.fit.effects.empty() ? baseline_cv
                                        : crossValidate(nominal, rec, cur.fit.effects, o.folds, fo, ws, o.cv_iterations,
-                                                       o.threads);
+                                                       o.threads, o.one_step_cv ? &cur.fit : nullptr);
       if (cur.fit.effects.empty()) cur.fit = base;
       assess(rep.unexplained);
     }

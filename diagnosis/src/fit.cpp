@@ -112,6 +112,8 @@ public:
   int effectIndex(int j) const { return free_[static_cast<std::size_t>(j)]; }
   int residuals() const { return static_cast<int>(layout_.rows.size()) * layout_.components; }
   int componentsPerRow() const { return layout_.components; }
+  const std::vector<int>& rows() const { return layout_.rows; }
+  bool forwardDifferences() const { return o_.forward_differences; }
   double toX(int j, double v) const {
     const auto& r = ranges_[static_cast<std::size_t>(j)];
     return std::clamp((v - r.lo) / (r.hi - r.lo), 0.0, 1.0);
@@ -173,8 +175,9 @@ public:
         for (Eigen::Index j = 0; j < r.of(q).cols(); ++j) c += std::isfinite(r.of(q)(k, j)) ? 1 : 0;
     return c;
   }
-  /// Central-difference Jacobian in x units (one-sided at the bounds).
-  Eigen::MatrixXd jacobian(const double* x, const Eigen::VectorXd* r0) {
+  /// Central-difference Jacobian in x units (one-sided at the bounds); with `forward` (and r0 given) a one-sided
+  /// difference away from the nearer bound (one replay per parameter instead of two).
+  Eigen::MatrixXd jacobian(const double* x, const Eigen::VectorXd* r0, bool forward = false) {
     const int k = parameters();
     Eigen::MatrixXd J(residuals(), k);
     std::vector<double> xp(x, x + k);
@@ -182,9 +185,13 @@ public:
       const double h = o_.difference_step;
       const double xj = x[j];
       double a = std::min(1.0, xj + h), b = std::max(0.0, xj - h);
+      if (forward && r0) {
+        if (xj + h <= 1.0) b = xj;
+        else a = xj;
+      }
       Eigen::VectorXd ra, rb;
       xp[static_cast<std::size_t>(j)] = a;
-      ra = residualAt(xp.data());
+      ra = a == xj && r0 ? *r0 : residualAt(xp.data());
       if (r0 && (b == xj)) {
         rb = *r0;
       } else {
@@ -223,7 +230,7 @@ public:
     if (!r0.allFinite()) return false;
     Eigen::Map<Eigen::VectorXd>(residuals, num_residuals()) = r0;
     if (jacobians && jacobians[0]) {
-      const Eigen::MatrixXd J = m_.jacobian(x.data(), &r0);
+      const Eigen::MatrixXd J = m_.jacobian(x.data(), &r0, m_.forwardDifferences());
       Eigen::Map<Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>>(jacobians[0], num_residuals(), k) = J;
     }
     return true;
@@ -232,6 +239,37 @@ public:
 private:
   Model& m_;
 };
+
+/// Jacobian (central differences) at x, kept in f for the one-step cross-validation, and the 95 % intervals.
+void addLinearisation(Model& m, const std::vector<double>& x, FitResult& f) {
+  const int k = m.parameters();
+  Eigen::VectorXd r0(m.residuals());
+  m.weighted(f, r0.data());
+  const Eigen::MatrixXd J = m.jacobian(x.data(), nullptr);
+  const int dof = std::max(1, m.finiteCount(f.residuals) - k);
+  const double s2 = 2.0 * f.cost / dof;
+  const Eigen::MatrixXd H = J.transpose() * J;
+  const Eigen::MatrixXd C = H.completeOrthogonalDecomposition().pseudoInverse() * s2;
+  // Residuals of consecutive rows are serially correlated (model error varies smoothly along a path): the
+  // interval uses the pre-whitened Newey-West (HAC) covariance over rows, never narrower than the classical one.
+  const stats::HacCovariance hac = stats::hacCovariance(J, r0, m.componentsPerRow());
+  f.jacobian = J;
+  f.weighted_residuals = r0;
+  f.jacobian_rows = m.rows();
+  f.components = m.componentsPerRow();
+  f.x = x;
+  f.interval_serial_correlation = hac.rho;
+  const double nan = std::numeric_limits<double>::quiet_NaN();
+  f.interval95.assign(f.effects.size(), {nan, nan});
+  for (int j = 0; j < k; ++j) {
+    const double var = std::max(C(j, j), hac.covariance(j, j));
+    const double sd = std::sqrt(std::max(0.0, var)) * m.span(j);
+    const double v = f.effects[static_cast<std::size_t>(m.effectIndex(j))].value;
+    const double half = H(j, j) > 0 ? 1.96 * sd : std::numeric_limits<double>::infinity();
+    f.interval95[static_cast<std::size_t>(m.effectIndex(j))] = {std::max(m.range(j).lo, v - half),
+                                                               std::min(m.range(j).hi, v + half)};
+  }
+}
 
 }  // namespace
 
@@ -268,6 +306,27 @@ FitResult fitEffects(const Robot& nominal, const io::Recording& rec, const std::
       x[static_cast<std::size_t>(j)] = bx;
     }
   }
+  // Gate: the Gauss-Newton model at the grid's best point predicts the largest cost drop the optimiser can reach;
+  // when even that is worth less than gate_bic in BIC, the candidate cannot pass and the iterations are skipped.
+  if (o.gate_bic > 0) {
+    const Eigen::VectorXd r0 = m.residualAt(x.data());
+    const Eigen::MatrixXd J = m.jacobian(x.data(), &r0, true);
+    const Eigen::MatrixXd H = J.transpose() * J;
+    Eigen::VectorXd dx = -H.completeOrthogonalDecomposition().solve(J.transpose() * r0);
+    for (int j = 0; j < k; ++j)
+      dx[j] = std::clamp(x[static_cast<std::size_t>(j)] + (std::isfinite(dx[j]) ? dx[j] : 0.0), 0.0, 1.0) -
+              x[static_cast<std::size_t>(j)];
+    const double c0 = r0.squaredNorm(), c1 = (r0 + J * dx).squaredNorm();
+    const int n = std::max(1, m.residuals());
+    if (c0 > 0 && n * std::log(c0 / std::max(c1, 1e-300 * c0)) < o.gate_bic) {
+      FitResult f = m.evaluate(m.effectsAt(x.data()));
+      f.cost = m.cost(f);
+      f.converged = true;
+      f.message = "gated: the linearised optimum cannot lower BIC enough";
+      f.evaluations = m.evaluations;
+      return f;
+    }
+  }
   ceres::Problem::Options po;
   po.cost_function_ownership = ceres::TAKE_OWNERSHIP;
   ceres::Problem problem(po);
@@ -291,29 +350,20 @@ FitResult fitEffects(const Robot& nominal, const io::Recording& rec, const std::
   f.cost = m.cost(f);
   f.converged = summary.IsSolutionUsable();
   f.message = summary.BriefReport();
-  if (o.intervals) {
-    Eigen::VectorXd r0(m.residuals());
-    m.weighted(f, r0.data());
-    const Eigen::MatrixXd J = m.jacobian(x.data(), nullptr);
-    const int dof = std::max(1, m.finiteCount(f.residuals) - k);
-    const double s2 = 2.0 * f.cost / dof;
-    const Eigen::MatrixXd H = J.transpose() * J;
-    const Eigen::MatrixXd C = H.completeOrthogonalDecomposition().pseudoInverse() * s2;
-    // Residuals of consecutive rows are serially correlated (model error varies smoothly along a path): the
-    // interval uses the pre-whitened Newey-West (HAC) covariance over rows, never narrower than the classical one.
-    const stats::HacCovariance hac = stats::hacCovariance(J, r0, m.componentsPerRow());
-    f.interval_serial_correlation = hac.rho;
-    const double nan = std::numeric_limits<double>::quiet_NaN();
-    f.interval95.assign(f.effects.size(), {nan, nan});
-    for (int j = 0; j < k; ++j) {
-      const double var = std::max(C(j, j), hac.covariance(j, j));
-      const double sd = std::sqrt(std::max(0.0, var)) * m.span(j);
-      const double v = f.effects[static_cast<std::size_t>(m.effectIndex(j))].value;
-      const double half = H(j, j) > 0 ? 1.96 * sd : std::numeric_limits<double>::infinity();
-      f.interval95[static_cast<std::size_t>(m.effectIndex(j))] = {std::max(m.range(j).lo, v - half),
-                                                                 std::min(m.range(j).hi, v + half)};
-    }
-  }
+  if (o.intervals) addLinearisation(m, x, f);
+  f.evaluations = m.evaluations;
+  return f;
+}
+
+FitResult linearizeModel(const Robot& nominal, const io::Recording& rec, const std::vector<Effect>& effects,
+                         const std::vector<char>& use, const FitOptions& options, Workspace& ws) {
+  Model m(nominal, rec, effects, use, options, ws);
+  std::vector<double> x(static_cast<std::size_t>(m.parameters()));
+  for (int j = 0; j < m.parameters(); ++j)
+    x[static_cast<std::size_t>(j)] = m.toX(j, effects[static_cast<std::size_t>(m.effectIndex(j))].value);
+  FitResult f = m.evaluate(m.effectsAt(x.data()));
+  f.cost = m.cost(f);
+  if (m.parameters() > 0) addLinearisation(m, x, f);
   f.evaluations = m.evaluations;
   return f;
 }
@@ -326,7 +376,8 @@ std::vector<int> foldOfRows(int rows, int folds) {
 }
 
 CrossValidation crossValidate(const Robot& nominal, const io::Recording& rec, const std::vector<Effect>& start,
-                              int folds, const FitOptions& options, Workspace& ws, int max_iterations, int threads) {
+                              int folds, const FitOptions& options, Workspace& ws, int max_iterations, int threads,
+                              const FitResult* full) {
   CrossValidation cv;
   const int rows = rec.rows();
   const std::vector<int> fold = foldOfRows(rows, folds);
@@ -340,11 +391,38 @@ CrossValidation crossValidate(const Robot& nominal, const io::Recording& rec, co
     cv.heldout.of(q) = Eigen::MatrixXd::Constant(rows, M.cols(), std::numeric_limits<double>::quiet_NaN());
   }
   std::vector<FitResult> fits(static_cast<std::size_t>(nf));
+  const bool one_step = full && !start.empty() && full->jacobian.cols() == static_cast<Eigen::Index>(start.size()) &&
+                        full->x.size() == start.size() && full->components > 0 &&
+                        full->jacobian.rows() == static_cast<Eigen::Index>(full->jacobian_rows.size()) * full->components;
   auto fitFold = [&](int f, Workspace& w) {
     std::vector<char> train(static_cast<std::size_t>(rows));
     for (int k = 0; k < rows; ++k) train[static_cast<std::size_t>(k)] = fold[static_cast<std::size_t>(k)] != f;
-    fits[static_cast<std::size_t>(f)] = start.empty() ? evaluateModel(nominal, rec, start, train, o, w)
-                                                      : fitEffects(nominal, rec, start, train, o, w);
+    if (start.empty()) {
+      fits[static_cast<std::size_t>(f)] = evaluateModel(nominal, rec, start, train, o, w);
+    } else if (one_step) {
+      // One Gauss-Newton step from the full-data optimum using the training rows' part of its linearisation.
+      const int C = full->components, k = static_cast<int>(start.size());
+      Eigen::MatrixXd H = Eigen::MatrixXd::Zero(k, k);
+      Eigen::VectorXd g = Eigen::VectorXd::Zero(k);
+      for (std::size_t i = 0; i < full->jacobian_rows.size(); ++i) {
+        if (fold[static_cast<std::size_t>(full->jacobian_rows[i])] == f) continue;
+        const auto Ji = full->jacobian.middleRows(static_cast<Eigen::Index>(i) * C, C);
+        H.noalias() += Ji.transpose() * Ji;
+        g.noalias() += Ji.transpose() * full->weighted_residuals.segment(static_cast<Eigen::Index>(i) * C, C);
+      }
+      H.diagonal().array() += 1e-9 * std::max(1e-300, H.diagonal().maxCoeff());
+      const Eigen::VectorXd dx = -H.ldlt().solve(g);
+      std::vector<Effect> e = start;
+      for (int j = 0; j < k; ++j) {
+        const ParameterRange pr = parameterRange(nominal, rec, e[static_cast<std::size_t>(j)].kind,
+                                                 e[static_cast<std::size_t>(j)].tube);
+        const double xj = std::clamp(full->x[static_cast<std::size_t>(j)] + (dx.allFinite() ? dx[j] : 0.0), 0.0, 1.0);
+        e[static_cast<std::size_t>(j)].value = pr.lo + xj * (pr.hi - pr.lo);
+      }
+      fits[static_cast<std::size_t>(f)] = evaluateModel(nominal, rec, e, train, o, w);
+    } else {
+      fits[static_cast<std::size_t>(f)] = fitEffects(nominal, rec, start, train, o, w);
+    }
   };
   detail::parallelFor(nf, threads, ws, fitFold);  // folds are independent fits
   for (int f = 0; f < nf; ++f) {

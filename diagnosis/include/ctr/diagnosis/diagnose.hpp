@@ -27,9 +27,13 @@ struct DiagnoseOptions {
   double min_heldout_gain = 0.02;      ///< ... and reduce the held-out normalised error by at least this fraction.
   int threads = 2;                     ///< Candidates (and each one's cross-validation folds) fitted in parallel.
   std::vector<EffectKind> candidates;  ///< Kinds to try; empty = all (sensor_latency only with time).
-  int max_iterations = 15;             ///< Ceres iterations of a full fit.
+  int max_iterations = 6;              ///< Ceres iterations of a full (joint) fit, started from the screening optimum.
   int screen_iterations = 8;           ///< Ceres iterations when screening a candidate (new parameter only).
-  int cv_iterations = 3;               ///< Ceres iterations of a fold refit (warm-started).
+  int cv_iterations = 3;               ///< Ceres iterations of a fold refit when no linearisation is available
+                                       ///< (otherwise one Gauss-Newton step from the full-data fit, fit.hpp).
+  bool one_step_cv = true;             ///< Fold refits by one Gauss-Newton step (see crossValidate).
+  int finalists = 4;                   ///< Candidates per round refined jointly and cross-validated: the best by
+                                       ///< screening BIC (plus all within twice bic_threshold of the best).
   double unreliable_fraction = 0.05;   ///< More failed rows than this fraction make the verdict unreliable.
   int max_rows = 300;                  ///< Longer recordings are decimated uniformly (every k-th row, history kept
                                        ///< by the quasi-static sub-stepping) to bound the run time; 0 = never.

@@ -31,7 +31,13 @@ struct FitOptions {
   int max_iterations = 20;        ///< Ceres iterations.
   bool grid_search = true;        ///< Scan the grid of the effects flagged `free` whose start is not trusted.
   bool intervals = true;          ///< 95 % intervals from the Gauss-Newton covariance.
-  double difference_step = 2e-3;  ///< Central-difference step in units of the parameter range.
+  double difference_step = 2e-3;  ///< Difference step in units of the parameter range.
+  /// One-sided differences in the optimiser's iterations (one replay per parameter); the intervals always use
+  /// central differences.
+  bool forward_differences = true;
+  /// Screening gate (0 = off): after the grid scan, skip the iterations when the Gauss-Newton model predicts a BIC
+  /// drop below this (N ln(RSS/RSS_predicted); the candidate could not pass the selection threshold).
+  double gate_bic = 0.0;
   double function_tolerance = 1e-5;  ///< Ceres relative cost-change tolerance.
   int first_free = 0;             ///< Effects before this index keep their start values (not fitted).
   /// Rows any fit or registration may use (empty = all): the diagnosis leaves out the rows the nominal model could
@@ -53,6 +59,14 @@ struct FitResult {
   int evaluations = 0;                                ///< Replays of the whole sequence.
   bool converged = true;
   std::string message;
+  /// Linearisation at the optimum (filled when intervals are computed): Jacobian of the noise-normalised residuals
+  /// of the fit rows (row blocks of `components` entries, rows listed in `jacobian_rows`) with respect to the
+  /// parameters scaled to [0, 1] over their ranges (`x`). Used by the one-step cross-validation.
+  Eigen::MatrixXd jacobian;
+  Eigen::VectorXd weighted_residuals;
+  std::vector<int> jacobian_rows;
+  int components = 0;
+  std::vector<double> x;
 };
 
 /// @brief Evaluates a model (no fitting): replay, registration on the rows in `use`, residuals on all rows.
@@ -63,6 +77,11 @@ FitResult evaluateModel(const Robot& nominal, const io::Recording& rec, const st
 /// grid) on the rows in `use`. Stateful effects are always replayed over the whole sequence.
 FitResult fitEffects(const Robot& nominal, const io::Recording& rec, const std::vector<Effect>& start,
                      const std::vector<char>& use, const FitOptions& options, Workspace& ws, int grid_from = 0);
+
+/// @brief Evaluates a model at the given values (no fitting) with its linearisation (FitResult::jacobian, central
+/// differences) and the 95 % intervals it implies: 2k + 1 replays for k effects.
+FitResult linearizeModel(const Robot& nominal, const io::Recording& rec, const std::vector<Effect>& effects,
+                         const std::vector<char>& use, const FitOptions& options, Workspace& ws);
 
 /// @brief Held-out evaluation: for each of `folds` contiguous blocks of rows, the effects are refitted (from
 /// `start`, no grid) on the other blocks and the residuals of the block are kept.
@@ -80,8 +99,12 @@ std::vector<int> foldOfRows(int rows, int folds);
 
 /// @brief Cross-validates a model. With no effects (baseline) only the registration is refitted per fold.
 /// With threads > 1 the folds are fitted concurrently (one workspace each; the result does not depend on it).
+/// When `full` is the full-data fit of `start` with its linearisation (FitResult::jacobian), each fold's refit is
+/// one Gauss-Newton step from the full-data optimum on the fold's training rows (the one-step estimator,
+/// asymptotically equal to the fold's own optimum) and costs one replay per fold; otherwise each fold runs up to
+/// `max_iterations` Levenberg-Marquardt iterations.
 CrossValidation crossValidate(const Robot& nominal, const io::Recording& rec, const std::vector<Effect>& start,
                               int folds, const FitOptions& options, Workspace& ws, int max_iterations = 6,
-                              int threads = 1);
+                              int threads = 1, const FitResult* full = nullptr);
 
 }  // namespace ctr::diagnosis

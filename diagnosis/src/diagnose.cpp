@@ -283,7 +283,7 @@ DiagnosisReport diagnose(const Robot& nominal, const io::Recording& full, const 
   std::vector<std::string> order;
   const int chunks = std::max(3, std::min(24, rows / 3));
   // 2. Forward selection.
-  for (int round = 1; round <= o.max_effects; ++round) {
+  for (int round = 1; static_cast<int>(cur.fit.effects.size()) < o.max_effects; ++round) {
     std::vector<Effect> todo;
     for (const Effect& s : slots) {
       bool in = false;
@@ -302,7 +302,13 @@ DiagnosisReport diagnose(const Robot& nominal, const io::Recording& full, const 
     // Phase 1 (every candidate): screening -- only the new effect is fitted (grid + a few iterations), the accepted
     // ones held.
     auto screenCandidate = [&](Candidate& c, Workspace& tws) {
-      std::vector<Effect> start = cur.fit.effects;
+      // Accepted look-alikes of the candidate's group are refitted with it (a look-alike accepted earlier may have
+      // absorbed part of this one); the others are held.
+      std::vector<Effect> start, freed;
+      for (const Effect& e : cur.fit.effects)
+        (isLookAlike(c.slot.kind) && lookAlikeGroup(e.kind) == lookAlikeGroup(c.slot.kind) ? freed : start).push_back(e);
+      const int first_free = static_cast<int>(start.size());
+      start.insert(start.end(), freed.begin(), freed.end());
       start.push_back(c.slot);
       const int nprev = static_cast<int>(cur.fit.effects.size());
       if (c.slot.kind == EffectKind::DistributedFriction) {
@@ -324,7 +330,7 @@ DiagnosisReport diagnose(const Robot& nominal, const io::Recording& full, const 
         }
       }
       FitOptions so = fo;
-      so.first_free = nprev;
+      so.first_free = first_free;
       so.max_iterations = o.screen_iterations;
       so.function_tolerance = 1e-3;
       so.intervals = false;
@@ -412,21 +418,28 @@ DiagnosisReport diagnose(const Robot& nominal, const io::Recording& full, const 
     int best = -1;
     for (std::size_t i = 0; i < cands.size(); ++i)
       if (cands[i].pass && (best < 0 || cands[i].bic < cands[static_cast<std::size_t>(best)].bic)) best = static_cast<int>(i);
-    // Look-alikes: before accepting the best of the group, test it against every rival of the group that fits
-    // nearly as well (BIC within the threshold) with encompassing fits: both together, then does each add on top
-    // of the other? Only the one that adds is named; when neither adds, the recording cannot tell them apart.
+    // Look-alikes: before accepting the best of the group, test it against every rival of the group among the
+    // finalists with encompassing fits: both together, then does each add on top of the other? Only the one that
+    // adds is named; when neither adds, the recording cannot tell them apart; when both add, both are present and
+    // are accepted together from their joint fit (a look-alike accepted alone absorbs part of the other -- e.g.
+    // latency absorbing one joint's backlash -- and the other then screens too small on top of it).
     std::map<int, std::string> rival_note;  // candidate index -> why it lost to (or ties with) the winner
     std::vector<Rival> ties;
+    int pair_with = -1;  // a look-alike accepted together with the winner (both add on top of each other)
+    Candidate pair;      // the model with both
     if (best >= 0 && isLookAlike(cands[static_cast<std::size_t>(best)].slot.kind)) {
       std::vector<int> rv;
       for (std::size_t i = 0; i < cands.size(); ++i) {
         const Candidate& c = cands[i];
-        if (static_cast<int>(i) == best || c.failed || !c.cv_done || !isLookAlike(c.slot.kind)) continue;
-        if (c.bic - cands[static_cast<std::size_t>(best)].bic < o.bic_threshold) rv.push_back(static_cast<int>(i));
+        if (static_cast<int>(i) == best || c.failed || !c.cv_done ||
+            lookAlikeGroup(c.slot.kind) != lookAlikeGroup(cands[static_cast<std::size_t>(best)].slot.kind))
+          continue;
+        rv.push_back(static_cast<int>(i));
       }
       struct Encompassing {
         double add_winner = 0, add_rival = 0;  // BIC drop of adding each on top of the other
         bool ok = false;
+        FitResult joint;
       };
       std::vector<Encompassing> enc(rv.size());
       evals = 0;
@@ -442,13 +455,13 @@ DiagnosisReport diagnose(const Robot& nominal, const io::Recording& full, const 
           evals += J.evaluations;
           const int k = nparams(both);
           enc[static_cast<std::size_t>(j)] = {deltaBic(J.residuals, k, R.fit.residuals, k - 1),
-                                              deltaBic(J.residuals, k, W.fit.residuals, k - 1), true};
+                                              deltaBic(J.residuals, k, W.fit.residuals, k - 1), true, J};
         } catch (const std::exception&) {
           enc[static_cast<std::size_t>(j)].ok = false;
         }
       });
       rep.evaluations += evals;
-      int switch_to = -1;
+      int switch_to = -1, pair_index = -1;
       for (std::size_t j = 0; j < rv.size(); ++j) {
         const int i = rv[j];
         const Candidate& R = cands[static_cast<std::size_t>(i)];
@@ -465,8 +478,12 @@ DiagnosisReport diagnose(const Robot& nominal, const io::Recording& full, const 
           rival_note[best] = "its look-alike " + rl + " explains what it explains and more (on top of it, " + rl +
                              fmt(" lowers BIC by %.1f; the reverse only %.1f)", e.add_rival, e.add_winner);
         } else if (w_adds && r_adds) {
-          rival_note[i] = "both it and " + wl + fmt(" add on top of each other (BIC %.1f and %.1f): both are tested "
-                                                    "in the next round", -e.add_rival, -e.add_winner);
+          rival_note[i] = "both it and " + wl + fmt(" add on top of each other (BIC %.1f and %.1f)", -e.add_rival,
+                                                    -e.add_winner);
+          if (pair_with < 0 || e.add_rival > enc[static_cast<std::size_t>(pair_index)].add_rival) {
+            pair_with = i;
+            pair_index = static_cast<int>(j);
+          }
         } else {
           Rival r;
           r.effect = R.fit.effects.back();
@@ -490,9 +507,57 @@ DiagnosisReport diagnose(const Robot& nominal, const io::Recording& full, const 
                  W.slot.label() + " explains and more; accepted instead");
         best = switch_to;
         ties.clear();  // the rivals were compared with the former winner only
+        pair_with = -1;
+      } else if (pair_with >= 0 && static_cast<int>(cur.fit.effects.size()) + 2 <= o.max_effects) {
+        // Both present: the pair from its joint fit, with its own held-out test against the current model.
+        Candidate P;
+        P.slot = W.slot;
+        P.fit = enc[static_cast<std::size_t>(pair_index)].joint;
+        const int k = nparams(P.fit.effects);
+        FitResult refined = fitEffects(nominal, rec, P.fit.effects, all, fo, ws, k);  // + intervals, linearisation
+        rep.evaluations += refined.evaluations;
+        if (deltaBic(P.fit.residuals, k, refined.residuals, k) <= 1e-9) P.fit = std::move(refined);
+        else P.fit = linearizeModel(nominal, rec, P.fit.effects, all, fo, ws);
+        P.delta_bic = deltaBic(cur.fit.residuals, k - 2, P.fit.residuals, k);
+        P.bic = cur.bic + P.delta_bic;
+        P.cv = crossValidate(nominal, rec, P.fit.effects, o.folds, fo, ws, o.cv_iterations, o.threads,
+                             o.one_step_cv ? &P.fit : nullptr);
+        P.cv_done = true;
+        rep.evaluations += P.cv.evaluations;
+        P.heldout_p = stats::chunkedBootstrapTest(cur.cv.row_score, P.cv.row_score, chunks);
+        const auto means = commonMeans(cur.cv.row_score, P.cv.row_score);
+        P.gain = means[0] > 0 ? 1.0 - means[1] / means[0] : 0.0;
+        P.pass = P.delta_bic < -2 * o.bic_threshold && P.heldout_p < o.heldout_p && P.gain > o.min_heldout_gain;
+        if (P.pass) {
+          progress("look-alikes: " + W.slot.label() + " and " + cands[static_cast<std::size_t>(pair_with)].slot.label() +
+                   " each add on top of the other; accepted together" +
+                   fmt(" (dBIC %+.1f, held-out gain %.1f %%)", P.delta_bic, 100 * P.gain));
+          pair = std::move(P);
+        } else {
+          pair_with = -1;
+        }
+      } else {
+        pair_with = -1;
       }
     }
-    if (best >= 0) {
+    if (best >= 0 && pair_with >= 0) {
+      // The pair's joint values for both findings; the model of the round is the pair.
+      Candidate& W = cands[static_cast<std::size_t>(best)];
+      Candidate& R = cands[static_cast<std::size_t>(pair_with)];
+      const std::size_t k = pair.fit.effects.size();
+      W.fit.effects.back() = pair.fit.effects[k - 2];
+      R.fit.effects.back() = pair.fit.effects[k - 1];
+      if (pair.fit.interval95.size() == k) {
+        W.fit.interval95.assign(k - 1, {0.0, 0.0});
+        W.fit.interval95.back() = pair.fit.interval95[k - 2];
+        R.fit.interval95.assign(k, {0.0, 0.0});
+        R.fit.interval95.back() = pair.fit.interval95[k - 1];
+      }
+      W.delta_bic = R.delta_bic = pair.delta_bic;
+      W.gain = R.gain = pair.gain;
+      W.heldout_p = R.heldout_p = pair.heldout_p;
+      W.cv = R.cv = pair.cv;
+    } else if (best >= 0) {
       // The winner's joint refinement of all parameters (from the screening optimum), its intervals and its
       // held-out scores at the refined values.
       Candidate& W = cands[static_cast<std::size_t>(best)];
@@ -521,7 +586,7 @@ DiagnosisReport diagnose(const Robot& nominal, const io::Recording& full, const 
         f.model.push_back(c.slot);
       }
       f.round = round;
-      f.accepted = static_cast<int>(i) == best;
+      f.accepted = static_cast<int>(i) == best || static_cast<int>(i) == pair_with;
       f.parameters = paramsOf(f.effect);
       if (!c.fit.interval95.empty()) f.interval95[parameterName(c.slot.kind)] = c.fit.interval95.back();
       if (c.cv_done) {
@@ -531,7 +596,14 @@ DiagnosisReport diagnose(const Robot& nominal, const io::Recording& full, const 
       }
       f.delta_bic = c.delta_bic;
       const auto note = rival_note.find(static_cast<int>(i));
-      if (f.accepted) {
+      if (f.accepted && pair_with >= 0) {
+        const Candidate& other = cands[static_cast<std::size_t>(static_cast<int>(i) == best ? pair_with : best)];
+        f.explanation = "accepted together with its look-alike " + other.slot.label() + ": " + physics(c.slot.kind) +
+                        ". " + (note != rival_note.end() ? note->second + ". " : std::string()) +
+                        fmt("Both fitted together on top of the previous model lower BIC by %.1f and the held-out "
+                            "error by %.1f %% (one-sided p = %.2g).",
+                            -c.delta_bic, 100 * c.gain, c.heldout_p);
+      } else if (f.accepted) {
         f.explanation = "accepted: " + physics(c.slot.kind) + ". " +
                         fmt("Fitted on top of the previous model it lowers BIC by %.1f and the held-out error by %.1f %% "
                             "(one-sided p = %.2g over contiguous held-out blocks).",
@@ -561,7 +633,12 @@ DiagnosisReport diagnose(const Robot& nominal, const io::Recording& full, const 
       progress("round " + std::to_string(round) + ": no candidate improves held-out error and BIC; stopping");
       break;
     }
-    cur = std::move(cands[static_cast<std::size_t>(best)]);
+    if (pair_with >= 0) {
+      rivals_of[cands[static_cast<std::size_t>(pair_with)].slot.label()] = {};
+      cur = std::move(pair);
+    } else {
+      cur = std::move(cands[static_cast<std::size_t>(best)]);
+    }
     rivals_of[cur.slot.label()] = ties;
     progress("round " + std::to_string(round) + ": accepted " + cur.slot.label() +
              (ties.empty() ? std::string() : " (tied with " + std::to_string(ties.size()) + " look-alike(s))"));

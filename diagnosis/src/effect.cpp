@@ -76,11 +76,21 @@ bool isActuation(EffectKind k) {
          k == EffectKind::TranslationBacklash || k == EffectKind::TranslationOffset;
 }
 
-bool isLookAlike(EffectKind k) {
-  return k == EffectKind::BoundaryFriction || k == EffectKind::DistributedFriction ||
-         k == EffectKind::TorsionalStiffness || k == EffectKind::ActuatorBacklash || k == EffectKind::ActuatorOffset ||
-         k == EffectKind::SensorLatency || k == EffectKind::TranslationBacklash || k == EffectKind::TranslationOffset;
+int lookAlikeGroup(EffectKind k) {
+  switch (k) {
+    case EffectKind::BoundaryFriction:
+    case EffectKind::DistributedFriction:
+    case EffectKind::SensorLatency:
+    case EffectKind::ActuatorBacklash:
+    case EffectKind::TranslationBacklash: return 1;
+    case EffectKind::ActuatorOffset:
+    case EffectKind::TranslationOffset:
+    case EffectKind::TorsionalStiffness: return 2;
+    default: return 0;
+  }
 }
+
+bool isLookAlike(EffectKind k) { return lookAlikeGroup(k) != 0; }
 
 EffectKind parseEffectKind(const std::string& name) {
   for (EffectKind k : allEffectKinds())

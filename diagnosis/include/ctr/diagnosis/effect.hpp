@@ -38,9 +38,13 @@ bool isPerTube(EffectKind k);
 bool isStateful(EffectKind k);
 /// @brief True for kinds acting on the actuation (latency, backlash, offsets) rather than on the robot.
 bool isActuation(EffectKind k);
-/// @brief Look-alike group: kinds that all make the measured shape lag or shift relative to the command and that a
-/// recording may not tell apart (friction, latency, backlash, offsets, torsional stiffness). A candidate of the
-/// group is tested against its rivals of the group before it is accepted.
+/// @brief Look-alike group of a kind: 1 = "lag" (the shape lags the command and depends on the direction of
+/// motion: boundary/distributed friction, sensor latency, rotary/linear backlash), 2 = "shift" (the shape is that of
+/// a shifted configuration: rotary/linear offsets, torsional stiffness), 0 = none. A recording may not tell the
+/// members of a group apart: a candidate is tested against its rivals of the group before it is accepted, and
+/// screened with the accepted members of its group refitted.
+int lookAlikeGroup(EffectKind k);
+/// @brief lookAlikeGroup(k) != 0.
 bool isLookAlike(EffectKind k);
 /// @brief Parses a JSON name; throws std::invalid_argument listing the valid names.
 EffectKind parseEffectKind(const std::string& name);

@@ -428,13 +428,15 @@ DiagnosisReport diagnose(const Robot& nominal, const io::Recording& full, const 
     int pair_with = -1;  // a look-alike accepted together with the winner (both add on top of each other)
     Candidate pair;      // the model with both
     if (best >= 0 && isLookAlike(cands[static_cast<std::size_t>(best)].slot.kind)) {
+      // Rivals: the best (by screening BIC) up to 4 candidates of the winner's group that lower BIC by more than
+      // the threshold on their own, finalists or not.
       std::vector<int> rv;
-      for (std::size_t i = 0; i < cands.size(); ++i) {
-        const Candidate& c = cands[i];
-        if (static_cast<int>(i) == best || c.failed || !c.cv_done ||
+      for (int i : ranked) {
+        const Candidate& c = cands[static_cast<std::size_t>(i)];
+        if (i == best || c.failed ||
             lookAlikeGroup(c.slot.kind) != lookAlikeGroup(cands[static_cast<std::size_t>(best)].slot.kind))
           continue;
-        rv.push_back(static_cast<int>(i));
+        if (rv.size() < 4) rv.push_back(i);
       }
       struct Encompassing {
         double add_winner = 0, add_rival = 0;  // BIC drop of adding each on top of the other
@@ -461,7 +463,16 @@ DiagnosisReport diagnose(const Robot& nominal, const io::Recording& full, const 
         }
       });
       rep.evaluations += evals;
+      // Rivals that may tie or win need their own held-out scores.
+      evals = 0;
+      detail::parallelFor(static_cast<int>(rv.size()), o.threads, ws, [&](int j, Workspace& tws) {
+        Candidate& R = cands[static_cast<std::size_t>(rv[static_cast<std::size_t>(j)])];
+        const Encompassing& e = enc[static_cast<std::size_t>(j)];
+        if (!R.cv_done && e.ok && e.add_winner <= o.bic_threshold) guarded(R, tws, refineCandidate);
+      });
+      rep.evaluations += evals;
       int switch_to = -1, pair_index = -1;
+      std::vector<int> both_add;  // rivals that each add on top of the winner and the winner on top of them
       for (std::size_t j = 0; j < rv.size(); ++j) {
         const int i = rv[j];
         const Candidate& R = cands[static_cast<std::size_t>(i)];
@@ -469,6 +480,8 @@ DiagnosisReport diagnose(const Robot& nominal, const io::Recording& full, const 
         if (!e.ok) continue;
         const bool w_adds = e.add_winner > o.bic_threshold, r_adds = e.add_rival > o.bic_threshold;
         const std::string wl = W.slot.label(), rl = R.slot.label();
+        progress("look-alikes: " + wl + " vs " + rl + fmt(": on top of each other they lower BIC by %.1f and %.1f",
+                                                          e.add_winner, e.add_rival));
         if (w_adds && !r_adds) {
           rival_note[i] = "its look-alike " + wl + " explains what it explains and more (on top of it, " + wl +
                           fmt(" lowers BIC by %.1f; on top of ", e.add_winner) + wl +
@@ -480,6 +493,7 @@ DiagnosisReport diagnose(const Robot& nominal, const io::Recording& full, const 
         } else if (w_adds && r_adds) {
           rival_note[i] = "both it and " + wl + fmt(" add on top of each other (BIC %.1f and %.1f)", -e.add_rival,
                                                     -e.add_winner);
+          both_add.push_back(static_cast<int>(j));
           if (pair_with < 0 || e.add_rival > enc[static_cast<std::size_t>(pair_index)].add_rival) {
             pair_with = i;
             pair_index = static_cast<int>(j);
@@ -502,6 +516,19 @@ DiagnosisReport diagnose(const Robot& nominal, const io::Recording& full, const 
           }
         }
       }
+      // A partner is taken only when it is clearly the best one: when another rival that also adds fits the pair
+      // nearly as well (joint BIC within the threshold), the winner is accepted alone and the next round, which
+      // refits it with each of them, decides between them.
+      for (int j : both_add)
+        if (pair_index >= 0 && j != pair_index &&
+            enc[static_cast<std::size_t>(pair_index)].add_rival - enc[static_cast<std::size_t>(j)].add_rival <
+                o.bic_threshold) {
+          progress("look-alikes: " + cands[static_cast<std::size_t>(pair_with)].slot.label() + " and " +
+                   cands[static_cast<std::size_t>(rv[static_cast<std::size_t>(j)])].slot.label() +
+                   " both pair with " + W.slot.label() + " about equally well; " + W.slot.label() + " accepted alone");
+          pair_with = -1;
+          break;
+        }
       if (switch_to >= 0) {
         progress("look-alikes: " + cands[static_cast<std::size_t>(switch_to)].slot.label() + " explains what " +
                  W.slot.label() + " explains and more; accepted instead");

@@ -210,8 +210,10 @@ std::string reportToMarkdown(const DiagnosisReport& r, const io::Recording& full
       << f4(u.heldout_p) << ").\n\n";
     if (!u.mismatch.empty()) {
       o << "| signature | variable | quantity | p-value | where |\n|---|---|---|---|---|\n";
+      std::size_t shown = 0;
       for (const auto& f : u.mismatch)
-        o << "| " << f.signature << " | " << f.variable << " | " << f.quantity << " | " << f4(f.p_value) << " | "
+        if (++shown <= 12)
+          o << "| " << f.signature << " | " << f.variable << " | " << f.quantity << " | " << f4(f.p_value) << " | "
           << f.where << " |\n";
       o << "\n";
     }

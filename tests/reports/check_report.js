@@ -124,8 +124,12 @@ if (/<script[^>]+src=|<link[^>]+href=["']?https?:/i.test(htmlText)) fail('the re
       check(rows === d.report.findings.length + 1, `candidate table has ${rows} rows, expected ${d.report.findings.length + 1}`);
       check(await page.locator('#verdict').count() === 1, 'no verdict');
       const verdict = await page.locator('#verdict .verdict-name').textContent();
-      const want = d.report.verdict.length ? d.report.verdict.join(' + ') : 'nothing left out';
+      const un = d.report.unexplained;
+      const want = d.report.verdict.length ? d.report.verdict.join(' + ') + (un ? ' (partial explanation)' : '')
+        : (un ? 'not explained by any candidate' : 'nothing left out');
       check(verdict === want, `verdict shows '${verdict}', expected '${want}'`);
+      check(!un || await page.locator('#unexplained').count() === 1, 'no unexplained section');
+      check(!(d.report.failed_rows || []).length || await page.locator('#failed-rows').count() === 1, 'no failed-rows section');
       check(info.charts.some((c) => /residual vs/.test(c.title)), 'no residual-vs-configuration chart');
       check(info.charts.some((c) => /Tip position error|twist/i.test(c.title)), 'no measured-vs-model chart');
       if (d.report.final.effects.length) check(await page.locator('#parameters tbody tr').count() === d.report.final.effects.length, 'parameters table rows');

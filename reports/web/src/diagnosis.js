@@ -42,7 +42,7 @@ if (un) {
     h('p', {}, `The final model explains ${fmt(100 * un.fraction_explained, 3)} % of the baseline's excess held-out ` +
       `error; ${un.where}. Held-out residuals: ${fmt(un.heldout_ratio, 3)} × the noise variance (p = ${fmt(un.heldout_p, 2)}).`),
     (un.mismatch || []).length ? table(['signature', 'variable', 'quantity', 'p-value', 'where'],
-      un.mismatch.map((f) => [f.signature, f.variable, f.quantity, fmt(f.p_value, 3), f.where])) : null));
+      un.mismatch.slice(0, 12).map((f) => [f.signature, f.variable, f.quantity, fmt(f.p_value, 3), f.where])) : null));
 }
 
 // Look-alikes the recording cannot tell apart.

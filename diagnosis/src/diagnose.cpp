@@ -63,12 +63,15 @@ std::string physics(EffectKind k) {
     case EffectKind::TorsionalStiffness:
       return "a different ratio of bending to torsional stiffness (Poisson ratio), which changes how much the "
              "tubes wind up between base and tip (the paper itself moved nu from 0.3 to 0.6)";
-    case EffectKind::Precurvature: return "a tube's precurvature differing from its description";
-    case EffectKind::BendingStiffness: return "a tube's bending stiffness (stiffness ratio) differing from its description";
+    case EffectKind::Precurvature:
+      return "a tube's precurvature differing from its description";
+    case EffectKind::BendingStiffness:
+      return "a tube's bending stiffness (stiffness ratio) differing from its description";
     case EffectKind::ActuatorBacklash:
       return "a dead band in a rotation drive: after each reversal the tube does not turn until the play is taken up, "
              "giving a constant-width direction-dependent offset";
-    case EffectKind::ActuatorOffset: return "a constant offset between commanded and true rotation of a tube";
+    case EffectKind::ActuatorOffset:
+      return "a constant offset between commanded and true rotation of a tube";
     case EffectKind::SensorLatency:
       return "the measurement lagging the joint reading: a direction-dependent error whose size grows with the "
              "actuator speed rather than with the bending moment";
@@ -170,12 +173,18 @@ std::string describeRemainder(const MismatchReport& m, double ratio) {
   std::set<std::string> seen;
   for (const MismatchFinding& f : m.findings) {
     std::string p;
-    if (f.signature == "drift") p = "grows with time (drift)";
-    else if (f.signature == "scales_with_speed") p = "grows with the actuator speed";
-    else if (f.signature == "scales_with_moment") p = "grows with the concentrated bending moment";
-    else if (f.signature == "direction_dependent") p = "depends on the direction of approach of " + f.variable;
-    else if (f.signature == "constant") p = "is spread over all configurations (no direction, moment, speed or time dependence)";
-    else if (f.signature == "exceeds_noise" && f.variable != "all") p = "is largest at " + f.where.substr(0, f.where.find(':'));
+    if (f.signature == "drift")
+      p = "grows with time (drift)";
+    else if (f.signature == "scales_with_speed")
+      p = "grows with the actuator speed";
+    else if (f.signature == "scales_with_moment")
+      p = "grows with the concentrated bending moment";
+    else if (f.signature == "direction_dependent")
+      p = "depends on the direction of approach of " + f.variable;
+    else if (f.signature == "constant")
+      p = "is spread over all configurations (no direction, moment, speed or time dependence)";
+    else if (f.signature == "exceeds_noise" && f.variable != "all")
+      p = "is largest at " + f.where.substr(0, f.where.find(':'));
     if (p.empty() || !seen.insert(p).second) continue;
     parts.push_back(p);
     if (parts.size() >= 3) break;
@@ -211,14 +220,15 @@ DiagnosisReport diagnose(const Robot& nominal, const io::Recording& full, const 
   rep.rows = rows;
   rep.stride = stride;
   if (stride > 1)
-    rep.warnings.push_back("the recording has " + std::to_string(full.rows()) + " rows; every " + std::to_string(stride) +
-                           "th row was used (" + std::to_string(rows) + " rows) to bound the run time (max_rows = " +
-                           std::to_string(o.max_rows) + ")");
+    rep.warnings.push_back("the recording has " + std::to_string(full.rows()) + " rows; every " +
+                           std::to_string(stride) + "th row was used (" + std::to_string(rows) +
+                           " rows) to bound the run time (max_rows = " + std::to_string(o.max_rows) + ")");
   const std::vector<char> all(static_cast<std::size_t>(rows), 1);
   std::vector<char> lastBlock(static_cast<std::size_t>(rows), 0);
   {
     const std::vector<int> fold = foldOfRows(rows, o.folds);
-    for (int k = 0; k < rows; ++k) lastBlock[static_cast<std::size_t>(k)] = fold[static_cast<std::size_t>(k)] == fold.back();
+    for (int k = 0; k < rows; ++k)
+      lastBlock[static_cast<std::size_t>(k)] = fold[static_cast<std::size_t>(k)] == fold.back();
   }
   FitOptions fo;
   fo.frame = o.frame;
@@ -238,8 +248,8 @@ DiagnosisReport diagnose(const Robot& nominal, const io::Recording& full, const 
     rep.failed_rows.push_back({k * stride + 1, base.prediction.reason[static_cast<std::size_t>(k)], "nominal"});
   }
   if (nfailed == rows)
-    throw std::runtime_error("the nominal model could not evaluate any row of the recording (row 1: " +
-                             base.prediction.reason[0] + ")");
+    throw std::runtime_error(
+        "the nominal model could not evaluate any row of the recording (row 1: " + base.prediction.reason[0] + ")");
   if (nfailed > 0) {
     rep.warnings.push_back(std::to_string(nfailed) + " of " + std::to_string(rows) +
                            " rows could not be evaluated by the nominal model and are excluded from every residual, "
@@ -278,7 +288,7 @@ DiagnosisReport diagnose(const Robot& nominal, const io::Recording& full, const 
   rep.baseline.bic = cur.bic;
   const CrossValidation baseline_cv = cur.cv;
   const std::vector<Effect> slots = candidateSlots(nominal, rec, o);
-  std::map<std::string, Finding> last;  // latest finding per slot label
+  std::map<std::string, Finding> last;                  // latest finding per slot label
   std::map<std::string, std::vector<Rival>> rivals_of;  // accepted label -> look-alikes it cannot be told from
   std::vector<std::string> order;
   const int chunks = std::max(3, std::min(24, rows / 3));
@@ -306,7 +316,8 @@ DiagnosisReport diagnose(const Robot& nominal, const io::Recording& full, const 
       // absorbed part of this one); the others are held.
       std::vector<Effect> start, freed;
       for (const Effect& e : cur.fit.effects)
-        (isLookAlike(c.slot.kind) && lookAlikeGroup(e.kind) == lookAlikeGroup(c.slot.kind) ? freed : start).push_back(e);
+        (isLookAlike(c.slot.kind) && lookAlikeGroup(e.kind) == lookAlikeGroup(c.slot.kind) ? freed : start)
+            .push_back(e);
       const int first_free = static_cast<int>(start.size());
       start.insert(start.end(), freed.begin(), freed.end());
       start.push_back(c.slot);
@@ -323,8 +334,10 @@ DiagnosisReport diagnose(const Robot& nominal, const io::Recording& full, const 
           c.bic = cur.bic + pb;
           c.delta_bic = pb;
           c.probed_only = true;
-          c.reason = fmt("even mu = 0.3 changes BIC by only %+.1f: the distributed contact forces are too small to "
-                         "produce the observed twist (as the paper found, sec. II.C)", pb);
+          c.reason =
+              fmt("even mu = 0.3 changes BIC by only %+.1f: the distributed contact forces are too small to "
+                  "produce the observed twist (as the paper found, sec. II.C)",
+                  pb);
           progress("  " + c.slot.label() + fmt(": probe mu = 0.3, dBIC = %+.1f; not fitted", pb));
           return;
         }
@@ -340,9 +353,10 @@ DiagnosisReport diagnose(const Robot& nominal, const io::Recording& full, const 
       c.delta_bic = deltaBic(cur.fit.residuals, nprev, c.fit.residuals, nparams(start));
       c.bic = cur.bic + c.delta_bic;
       if (c.delta_bic >= -o.bic_threshold)
-        c.reason = fmt("it does not lower BIC by more than %.0f (change %+.1f): the fit does not improve beyond "
-                       "what one more parameter buys by chance",
-                       o.bic_threshold, c.delta_bic);
+        c.reason =
+            fmt("it does not lower BIC by more than %.0f (change %+.1f): the fit does not improve beyond "
+                "what one more parameter buys by chance",
+                o.bic_threshold, c.delta_bic);
       progress("  " + c.slot.label() + ": " + parameterName(c.slot.kind) +
                fmt(" = %.4g, screening dBIC = %+.1f", c.fit.effects.back().value, c.delta_bic));
     };
@@ -417,7 +431,8 @@ DiagnosisReport diagnose(const Robot& nominal, const io::Recording& full, const 
     // Best passing candidate by BIC.
     int best = -1;
     for (std::size_t i = 0; i < cands.size(); ++i)
-      if (cands[i].pass && (best < 0 || cands[i].bic < cands[static_cast<std::size_t>(best)].bic)) best = static_cast<int>(i);
+      if (cands[i].pass && (best < 0 || cands[i].bic < cands[static_cast<std::size_t>(best)].bic))
+        best = static_cast<int>(i);
     // Look-alikes: before accepting the best of the group, test it against every rival of the group among the
     // finalists with encompassing fits: both together, then does each add on top of the other? Only the one that
     // adds is named; when neither adds, the recording cannot tell them apart; when both add, both are present and
@@ -480,8 +495,8 @@ DiagnosisReport diagnose(const Robot& nominal, const io::Recording& full, const 
         if (!e.ok) continue;
         const bool w_adds = e.add_winner > o.bic_threshold, r_adds = e.add_rival > o.bic_threshold;
         const std::string wl = W.slot.label(), rl = R.slot.label();
-        progress("look-alikes: " + wl + " vs " + rl + fmt(": on top of each other they lower BIC by %.1f and %.1f",
-                                                          e.add_winner, e.add_rival));
+        progress("look-alikes: " + wl + " vs " + rl +
+                 fmt(": on top of each other they lower BIC by %.1f and %.1f", e.add_winner, e.add_rival));
         if (w_adds && !r_adds) {
           rival_note[i] = "its look-alike " + wl + " explains what it explains and more (on top of it, " + wl +
                           fmt(" lowers BIC by %.1f; on top of ", e.add_winner) + wl +
@@ -491,8 +506,8 @@ DiagnosisReport diagnose(const Robot& nominal, const io::Recording& full, const 
           rival_note[best] = "its look-alike " + rl + " explains what it explains and more (on top of it, " + rl +
                              fmt(" lowers BIC by %.1f; the reverse only %.1f)", e.add_rival, e.add_winner);
         } else if (w_adds && r_adds) {
-          rival_note[i] = "both it and " + wl + fmt(" add on top of each other (BIC %.1f and %.1f)", -e.add_rival,
-                                                    -e.add_winner);
+          rival_note[i] =
+              "both it and " + wl + fmt(" add on top of each other (BIC %.1f and %.1f)", -e.add_rival, -e.add_winner);
           both_add.push_back(static_cast<int>(j));
           if (pair_with < 0 || e.add_rival > enc[static_cast<std::size_t>(pair_index)].add_rival) {
             pair_with = i;
@@ -504,12 +519,13 @@ DiagnosisReport diagnose(const Robot& nominal, const io::Recording& full, const 
           r.delta_bic = R.delta_bic;
           r.heldout_rmse = R.cv.rmse;
           r.heldout_p = stats::chunkedBootstrapTest(R.cv.row_score, W.cv.row_score, chunks);
-          r.why = fmt("alone they fit equally well (BIC %.1f apart); together, neither adds on top of the other (BIC "
-                      "%.1f and %.1f)",
-                      R.bic - W.bic, -e.add_winner, -e.add_rival);
+          r.why =
+              fmt("alone they fit equally well (BIC %.1f apart); together, neither adds on top of the other (BIC "
+                  "%.1f and %.1f)",
+                  R.bic - W.bic, -e.add_winner, -e.add_rival);
           if (r.heldout_p < o.heldout_p) {
-            rival_note[i] = "it fits as well in-sample but " + wl + fmt(" predicts held-out rows better (p = %.2g)",
-                                                                         r.heldout_p);
+            rival_note[i] =
+                "it fits as well in-sample but " + wl + fmt(" predicts held-out rows better (p = %.2g)", r.heldout_p);
           } else {
             rival_note[i] = "this recording cannot tell it from " + wl + " (" + r.why + ")";
             ties.push_back(r);
@@ -524,8 +540,8 @@ DiagnosisReport diagnose(const Robot& nominal, const io::Recording& full, const 
             enc[static_cast<std::size_t>(pair_index)].add_rival - enc[static_cast<std::size_t>(j)].add_rival <
                 o.bic_threshold) {
           progress("look-alikes: " + cands[static_cast<std::size_t>(pair_with)].slot.label() + " and " +
-                   cands[static_cast<std::size_t>(rv[static_cast<std::size_t>(j)])].slot.label() +
-                   " both pair with " + W.slot.label() + " about equally well; " + W.slot.label() + " accepted alone");
+                   cands[static_cast<std::size_t>(rv[static_cast<std::size_t>(j)])].slot.label() + " both pair with " +
+                   W.slot.label() + " about equally well; " + W.slot.label() + " accepted alone");
           pair_with = -1;
           break;
         }
@@ -543,8 +559,10 @@ DiagnosisReport diagnose(const Robot& nominal, const io::Recording& full, const 
         const int k = nparams(P.fit.effects);
         FitResult refined = fitEffects(nominal, rec, P.fit.effects, all, fo, ws, k);  // + intervals, linearisation
         rep.evaluations += refined.evaluations;
-        if (deltaBic(P.fit.residuals, k, refined.residuals, k) <= 1e-9) P.fit = std::move(refined);
-        else P.fit = linearizeModel(nominal, rec, P.fit.effects, all, fo, ws);
+        if (deltaBic(P.fit.residuals, k, refined.residuals, k) <= 1e-9)
+          P.fit = std::move(refined);
+        else
+          P.fit = linearizeModel(nominal, rec, P.fit.effects, all, fo, ws);
         P.delta_bic = deltaBic(cur.fit.residuals, k - 2, P.fit.residuals, k);
         P.bic = cur.bic + P.delta_bic;
         P.cv = crossValidate(nominal, rec, P.fit.effects, o.folds, fo, ws, o.cv_iterations, o.threads,
@@ -556,7 +574,8 @@ DiagnosisReport diagnose(const Robot& nominal, const io::Recording& full, const 
         P.gain = means[0] > 0 ? 1.0 - means[1] / means[0] : 0.0;
         P.pass = P.delta_bic < -2 * o.bic_threshold && P.heldout_p < o.heldout_p && P.gain > o.min_heldout_gain;
         if (P.pass) {
-          progress("look-alikes: " + W.slot.label() + " and " + cands[static_cast<std::size_t>(pair_with)].slot.label() +
+          progress("look-alikes: " + W.slot.label() + " and " +
+                   cands[static_cast<std::size_t>(pair_with)].slot.label() +
                    " each add on top of the other; accepted together" +
                    fmt(" (dBIC %+.1f, held-out gain %.1f %%)", P.delta_bic, 100 * P.gain));
           pair = std::move(P);
@@ -631,15 +650,15 @@ DiagnosisReport diagnose(const Robot& nominal, const io::Recording& full, const 
                             "error by %.1f %% (one-sided p = %.2g).",
                             -c.delta_bic, 100 * c.gain, c.heldout_p);
       } else if (f.accepted) {
-        f.explanation = "accepted: " + physics(c.slot.kind) + ". " +
-                        fmt("Fitted on top of the previous model it lowers BIC by %.1f and the held-out error by %.1f %% "
-                            "(one-sided p = %.2g over contiguous held-out blocks).",
-                            -c.delta_bic, 100 * c.gain, c.heldout_p);
+        f.explanation =
+            "accepted: " + physics(c.slot.kind) + ". " +
+            fmt("Fitted on top of the previous model it lowers BIC by %.1f and the held-out error by %.1f %% "
+                "(one-sided p = %.2g over contiguous held-out blocks).",
+                -c.delta_bic, 100 * c.gain, c.heldout_p);
         if (!ties.empty()) {
           f.ambiguous_with = ties;
           f.explanation += " This recording cannot tell it from";
-          for (std::size_t t = 0; t < ties.size(); ++t)
-            f.explanation += (t ? ", " : " ") + ties[t].effect.label();
+          for (std::size_t t = 0; t < ties.size(); ++t) f.explanation += (t ? ", " : " ") + ties[t].effect.label();
           f.explanation += " (" + ties.front().why + ").";
         }
       } else if (note != rival_note.end()) {
@@ -708,16 +727,18 @@ DiagnosisReport diagnose(const Robot& nominal, const io::Recording& full, const 
     }
     if (drop < 0) break;
     const std::string lab = cur.fit.effects[static_cast<std::size_t>(drop)].label();
-    removed[lab] = fmt("removed again after the later rounds: without it BIC changes by only %+.1f, so the other "
-                       "accepted effects explain what it explained",
-                       best_d);
+    removed[lab] =
+        fmt("removed again after the later rounds: without it BIC changes by only %+.1f, so the other "
+            "accepted effects explain what it explained",
+            best_d);
     progress("backward elimination: removed " + lab);
     cur.bic += best_d;
     cur.fit = fitEffects(nominal, rec, without[static_cast<std::size_t>(drop)].effects, all, fo, ws,
                          nparams(without[static_cast<std::size_t>(drop)].effects));
     rep.evaluations += cur.fit.evaluations;
     without.clear();
-    cur.cv = crossValidate(nominal, rec, cur.fit.effects, o.folds, fo, ws, o.cv_iterations, o.threads, o.one_step_cv ? &cur.fit : nullptr);
+    cur.cv = crossValidate(nominal, rec, cur.fit.effects, o.folds, fo, ws, o.cv_iterations, o.threads,
+                           o.one_step_cv ? &cur.fit : nullptr);
   }
   // 3. The remainder: locate tests on the final model's residuals and its held-out error against the noise.
   auto heldoutRatio = [&](const CrossValidation& cv, double& p) {
@@ -777,7 +798,8 @@ DiagnosisReport diagnose(const Robot& nominal, const io::Recording& full, const 
     {
       std::vector<std::pair<double, int>> order_rows;
       for (int k = 0; k < rows; ++k)
-        if (evaluable[static_cast<std::size_t>(k)]) order_rows.push_back({split ? split->value[k] : static_cast<double>(k), k});
+        if (evaluable[static_cast<std::size_t>(k)])
+          order_rows.push_back({split ? split->value[k] : static_cast<double>(k), k});
       std::stable_sort(order_rows.begin(), order_rows.end(),
                        [](const auto& a, const auto& b) { return a.first < b.first; });
       half[0].assign(static_cast<std::size_t>(rows), 0);
@@ -792,8 +814,8 @@ DiagnosisReport diagnose(const Robot& nominal, const io::Recording& full, const 
     ho.grid_search = false;
     ho.max_iterations = 4;  // warm start from the full-data values
     detail::parallelFor(2, o.threads, ws, [&](int h, Workspace& tws) {
-      halves[static_cast<std::size_t>(h)] =
-          fitEffects(nominal, rec, cur.fit.effects, half[static_cast<std::size_t>(h)], ho, tws, nparams(cur.fit.effects));
+      halves[static_cast<std::size_t>(h)] = fitEffects(nominal, rec, cur.fit.effects, half[static_cast<std::size_t>(h)],
+                                                       ho, tws, nparams(cur.fit.effects));
     });
     rep.evaluations += halves[0].evaluations + halves[1].evaluations;
     std::vector<std::size_t> unstable;
@@ -807,9 +829,10 @@ DiagnosisReport diagnose(const Robot& nominal, const io::Recording& full, const 
           lo = std::min(lo, fe[j].value);
           hi = std::max(hi, fe[j].value);
         }
-      const double width = j < cur.fit.interval95.size() && std::isfinite(cur.fit.interval95[j][1] - cur.fit.interval95[j][0])
-                               ? cur.fit.interval95[j][1] - cur.fit.interval95[j][0]
-                               : 0.0;
+      const double width =
+          j < cur.fit.interval95.size() && std::isfinite(cur.fit.interval95[j][1] - cur.fit.interval95[j][0])
+              ? cur.fit.interval95[j][1] - cur.fit.interval95[j][0]
+              : 0.0;
       const bool time_unstable = cur.cv.fold_effects.size() >= 2 && hi - lo > std::max(width, 0.25 * size);
       // Configuration halves.
       const double va = halves[0].effects[j].value, vb = halves[1].effects[j].value;
@@ -830,7 +853,8 @@ DiagnosisReport diagnose(const Robot& nominal, const io::Recording& full, const 
                       "interval of width %.3g): it absorbs part of a mismatch it does not model, so it is not named",
                       lo, hi, width)
                 : "its fitted value depends on which rows it is fitted on (" + fmt("%.4g", va) + " with " + split_name +
-                      " below its median, " + fmt("%.4g above, z = %.1f): it absorbs part of a mismatch it does not ", vb, z) +
+                      " below its median, " +
+                      fmt("%.4g above, z = %.1f): it absorbs part of a mismatch it does not ", vb, z) +
                       "model, so it is not named";
         progress("constancy: " + e.label() + " is not constant over the recording; dropped");
       }
@@ -934,7 +958,8 @@ DiagnosisReport diagnose(const Robot& nominal, const io::Recording& full, const 
     if (evaluable[static_cast<std::size_t>(k)] && k < cur.fit.prediction.rows() &&
         !cur.fit.prediction.ok[static_cast<std::size_t>(k)]) {
       ++final_failed;
-      rep.failed_rows.push_back({k * stride + 1, cur.fit.prediction.reason[static_cast<std::size_t>(k)], rep.final.model});
+      rep.failed_rows.push_back(
+          {k * stride + 1, cur.fit.prediction.reason[static_cast<std::size_t>(k)], rep.final.model});
     }
   // Rows reached through a snap are excluded (the landing state of a dynamic jump is uncertain) but are a physical
   // prediction of the model, not a failure of it: they count separately from the rows the model could not solve.
@@ -946,9 +971,10 @@ DiagnosisReport diagnose(const Robot& nominal, const io::Recording& full, const 
     rep.warnings.push_back(fmt("%.1f %% of the rows could not be evaluated (limit %.0f %%): the verdict is unreliable",
                                100 * failed_fraction, 100 * o.unreliable_fraction));
   if (snapped > 0)
-    rep.warnings.push_back(fmt("%.0f row(s) are reached through a snap of the model (a jump to another equilibrium "
-                               "branch) and are excluded; the verdict rests on the other rows",
-                               snapped));
+    rep.warnings.push_back(
+        fmt("%.0f row(s) are reached through a snap of the model (a jump to another equilibrium "
+            "branch) and are excluded; the verdict rests on the other rows",
+            snapped));
   std::set<std::string> seen;
   for (const Effect& e : cur.fit.effects) {
     if (confounded.count(e.label())) continue;  // a partial explanation, not named

@@ -8,7 +8,7 @@
 namespace ctr::diagnosis {
 
 const std::vector<EffectKind>& allEffectKinds() {
-  static const std::vector<EffectKind> k{EffectKind::BoundaryFriction, EffectKind::DistributedFriction,
+  static const std::vector<EffectKind> k{EffectKind::BoundaryFriction,   EffectKind::DistributedFriction,
                                          EffectKind::TorsionalStiffness, EffectKind::Precurvature,
                                          EffectKind::BendingStiffness,   EffectKind::ActuatorBacklash,
                                          EffectKind::ActuatorOffset,     EffectKind::TranslationBacklash,
@@ -18,16 +18,26 @@ const std::vector<EffectKind>& allEffectKinds() {
 
 const char* effectName(EffectKind k) {
   switch (k) {
-    case EffectKind::BoundaryFriction: return "boundary_friction";
-    case EffectKind::DistributedFriction: return "distributed_friction";
-    case EffectKind::TorsionalStiffness: return "torsional_stiffness";
-    case EffectKind::Precurvature: return "precurvature";
-    case EffectKind::BendingStiffness: return "bending_stiffness";
-    case EffectKind::ActuatorBacklash: return "actuator_backlash";
-    case EffectKind::ActuatorOffset: return "actuator_offset";
-    case EffectKind::SensorLatency: return "sensor_latency";
-    case EffectKind::TranslationBacklash: return "translation_backlash";
-    case EffectKind::TranslationOffset: return "translation_offset";
+    case EffectKind::BoundaryFriction:
+      return "boundary_friction";
+    case EffectKind::DistributedFriction:
+      return "distributed_friction";
+    case EffectKind::TorsionalStiffness:
+      return "torsional_stiffness";
+    case EffectKind::Precurvature:
+      return "precurvature";
+    case EffectKind::BendingStiffness:
+      return "bending_stiffness";
+    case EffectKind::ActuatorBacklash:
+      return "actuator_backlash";
+    case EffectKind::ActuatorOffset:
+      return "actuator_offset";
+    case EffectKind::SensorLatency:
+      return "sensor_latency";
+    case EffectKind::TranslationBacklash:
+      return "translation_backlash";
+    case EffectKind::TranslationOffset:
+      return "translation_offset";
   }
   return "?";
 }
@@ -35,29 +45,42 @@ const char* effectName(EffectKind k) {
 const char* parameterName(EffectKind k) {
   switch (k) {
     case EffectKind::BoundaryFriction:
-    case EffectKind::DistributedFriction: return "mu";
-    case EffectKind::TorsionalStiffness: return "poisson_ratio";
-    case EffectKind::Precurvature: return "curvature";
-    case EffectKind::BendingStiffness: return "bending_stiffness";
+    case EffectKind::DistributedFriction:
+      return "mu";
+    case EffectKind::TorsionalStiffness:
+      return "poisson_ratio";
+    case EffectKind::Precurvature:
+      return "curvature";
+    case EffectKind::BendingStiffness:
+      return "bending_stiffness";
     case EffectKind::ActuatorBacklash:
-    case EffectKind::TranslationBacklash: return "width";
+    case EffectKind::TranslationBacklash:
+      return "width";
     case EffectKind::ActuatorOffset:
-    case EffectKind::TranslationOffset: return "offset";
-    case EffectKind::SensorLatency: return "delay";
+    case EffectKind::TranslationOffset:
+      return "offset";
+    case EffectKind::SensorLatency:
+      return "delay";
   }
   return "?";
 }
 
 const char* parameterUnit(EffectKind k) {
   switch (k) {
-    case EffectKind::Precurvature: return "1/m";
-    case EffectKind::BendingStiffness: return "N m^2";
+    case EffectKind::Precurvature:
+      return "1/m";
+    case EffectKind::BendingStiffness:
+      return "N m^2";
     case EffectKind::ActuatorBacklash:
-    case EffectKind::ActuatorOffset: return "rad";
-    case EffectKind::SensorLatency: return "s";
+    case EffectKind::ActuatorOffset:
+      return "rad";
+    case EffectKind::SensorLatency:
+      return "s";
     case EffectKind::TranslationBacklash:
-    case EffectKind::TranslationOffset: return "m";
-    default: return "";
+    case EffectKind::TranslationOffset:
+      return "m";
+    default:
+      return "";
   }
 }
 
@@ -82,15 +105,20 @@ int lookAlikeGroup(EffectKind k) {
     case EffectKind::DistributedFriction:
     case EffectKind::SensorLatency:
     case EffectKind::ActuatorBacklash:
-    case EffectKind::TranslationBacklash: return 1;
+    case EffectKind::TranslationBacklash:
+      return 1;
     case EffectKind::ActuatorOffset:
     case EffectKind::TranslationOffset:
-    case EffectKind::TorsionalStiffness: return 2;
-    default: return 0;
+    case EffectKind::TorsionalStiffness:
+      return 2;
+    default:
+      return 0;
   }
 }
 
-bool isLookAlike(EffectKind k) { return lookAlikeGroup(k) != 0; }
+bool isLookAlike(EffectKind k) {
+  return lookAlikeGroup(k) != 0;
+}
 
 EffectKind parseEffectKind(const std::string& name) {
   for (EffectKind k : allEffectKinds())
@@ -137,7 +165,8 @@ Effect parseEffect(const std::string& text) {
     std::string item;
     while (std::getline(ss, item, ',')) {
       const auto eq = item.find('=');
-      if (eq == std::string::npos) throw std::invalid_argument("effect '" + text + "': expected key=value, got '" + item + "'");
+      if (eq == std::string::npos)
+        throw std::invalid_argument("effect '" + text + "': expected key=value, got '" + item + "'");
       const std::string key = item.substr(0, eq), val = item.substr(eq + 1);
       if (key == "tube") {
         e.tube = static_cast<int>(parseValue(val, "tube"));
@@ -163,9 +192,12 @@ double nominalValue(const Robot& nominal, EffectKind kind, int tube) {
       if (t.poisson_ratio) return *t.poisson_ratio;
       return t.bending_stiffness / t.torsional_stiffness - 1.0;
     }
-    case EffectKind::Precurvature: return nominal.tube(tube - 1).curvature;
-    case EffectKind::BendingStiffness: return nominal.tube(tube - 1).bending_stiffness;
-    default: return 0.0;
+    case EffectKind::Precurvature:
+      return nominal.tube(tube - 1).curvature;
+    case EffectKind::BendingStiffness:
+      return nominal.tube(tube - 1).bending_stiffness;
+    default:
+      return 0.0;
   }
 }
 
@@ -179,8 +211,12 @@ Robot applyToRobot(const Robot& nominal, const std::vector<Effect>& effects) {
   };
   for (const Effect& e : effects) {
     switch (e.kind) {
-      case EffectKind::BoundaryFriction: f.boundary = e.value; break;
-      case EffectKind::DistributedFriction: f.distributed = e.value; break;
+      case EffectKind::BoundaryFriction:
+        f.boundary = e.value;
+        break;
+      case EffectKind::DistributedFriction:
+        f.distributed = e.value;
+        break;
       case EffectKind::TorsionalStiffness:
         for (Tube& t : tubes) {
           t.poisson_ratio = e.value;
@@ -202,8 +238,11 @@ Robot applyToRobot(const Robot& nominal, const std::vector<Effect>& effects) {
       case EffectKind::ActuatorBacklash:
       case EffectKind::ActuatorOffset:
       case EffectKind::TranslationBacklash:
-      case EffectKind::TranslationOffset: check(e); break;
-      case EffectKind::SensorLatency: break;
+      case EffectKind::TranslationOffset:
+        check(e);
+        break;
+      case EffectKind::SensorLatency:
+        break;
     }
   }
   return Robot(nominal.name(), std::move(tubes), f);

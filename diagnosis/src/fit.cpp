@@ -89,17 +89,21 @@ Layout makeLayout(const io::Recording& rec, const std::vector<char>& use) {
   for (int k = 0; k < rec.rows(); ++k)
     if (k < static_cast<int>(use.size()) && use[static_cast<std::size_t>(k)]) L.rows.push_back(k);
   L.quantities = presentQuantities(rec);
-  for (Quantity q : L.quantities)
-    L.components += q == Quantity::Twist ? static_cast<int>(rec.twist.cols()) : 3;
+  for (Quantity q : L.quantities) L.components += q == Quantity::Twist ? static_cast<int>(rec.twist.cols()) : 3;
   return L;
 }
 
 /// Evaluates the weighted residual vector for parameter vector x (scaled to [0, 1] per effect).
 class Model {
-public:
+ public:
   Model(const Robot& nominal, const io::Recording& rec, std::vector<Effect> effects, const std::vector<char>& use,
         const FitOptions& o, Workspace& ws)
-      : nominal_(nominal), rec_(rec), effects_(std::move(effects)), use_(intersect(use, o.rows)), o_(o), ws_(ws),
+      : nominal_(nominal),
+        rec_(rec),
+        effects_(std::move(effects)),
+        use_(intersect(use, o.rows)),
+        o_(o),
+        ws_(ws),
         layout_(makeLayout(rec, use_)) {
     for (int j = std::max(0, o.first_free); j < static_cast<int>(effects_.size()); ++j) {
       free_.push_back(j);
@@ -148,8 +152,9 @@ public:
       const bool failed = k < f.prediction.rows() && !f.prediction.ok[static_cast<std::size_t>(k)];
       for (Quantity q : layout_.quantities) {
         const Eigen::MatrixXd& R = f.residuals.of(q);
-        const Eigen::MatrixXd& M = q == Quantity::Twist ? rec_.twist : q == Quantity::TipPosition ? rec_.tip_position
-                                                                                                  : rec_.tip_tangent;
+        const Eigen::MatrixXd& M = q == Quantity::Twist         ? rec_.twist
+                                   : q == Quantity::TipPosition ? rec_.tip_position
+                                                                : rec_.tip_tangent;
         const double s = o_.noise.of(q) > 0 ? o_.noise.of(q) : 1.0;
         for (Eigen::Index c = 0; c < R.cols(); ++c) {
           const double v = R(k, c);
@@ -186,8 +191,10 @@ public:
       const double xj = x[j];
       double a = std::min(1.0, xj + h), b = std::max(0.0, xj - h);
       if (forward && r0) {
-        if (xj + h <= 1.0) b = xj;
-        else a = xj;
+        if (xj + h <= 1.0)
+          b = xj;
+        else
+          a = xj;
       }
       Eigen::VectorXd ra, rb;
       xp[static_cast<std::size_t>(j)] = a;
@@ -205,7 +212,7 @@ public:
   }
   int evaluations = 0;
 
-private:
+ private:
   const Robot& nominal_;
   const io::Recording& rec_;
   std::vector<Effect> effects_;
@@ -218,7 +225,7 @@ private:
 };
 
 class ReplayCost : public ceres::CostFunction {
-public:
+ public:
   explicit ReplayCost(Model& m) : m_(m) {
     set_num_residuals(m.residuals());
     mutable_parameter_block_sizes()->push_back(m.parameters());
@@ -231,12 +238,13 @@ public:
     Eigen::Map<Eigen::VectorXd>(residuals, num_residuals()) = r0;
     if (jacobians && jacobians[0]) {
       const Eigen::MatrixXd J = m_.jacobian(x.data(), &r0, m_.forwardDifferences());
-      Eigen::Map<Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>>(jacobians[0], num_residuals(), k) = J;
+      Eigen::Map<Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>>(jacobians[0], num_residuals(),
+                                                                                         k) = J;
     }
     return true;
   }
 
-private:
+ private:
   Model& m_;
 };
 
@@ -267,7 +275,7 @@ void addLinearisation(Model& m, const std::vector<double>& x, FitResult& f) {
     const double v = f.effects[static_cast<std::size_t>(m.effectIndex(j))].value;
     const double half = H(j, j) > 0 ? 1.96 * sd : std::numeric_limits<double>::infinity();
     f.interval95[static_cast<std::size_t>(m.effectIndex(j))] = {std::max(m.range(j).lo, v - half),
-                                                               std::min(m.range(j).hi, v + half)};
+                                                                std::min(m.range(j).hi, v + half)};
   }
 }
 
@@ -288,7 +296,8 @@ FitResult fitEffects(const Robot& nominal, const io::Recording& rec, const std::
   const int k = m.parameters();
   if (k == 0) return evaluateModel(nominal, rec, start, use, o, ws);
   std::vector<double> x(static_cast<std::size_t>(k));
-  for (int j = 0; j < k; ++j) x[static_cast<std::size_t>(j)] = m.toX(j, start[static_cast<std::size_t>(m.effectIndex(j))].value);
+  for (int j = 0; j < k; ++j)
+    x[static_cast<std::size_t>(j)] = m.toX(j, start[static_cast<std::size_t>(m.effectIndex(j))].value);
   // Coarse grid scan of the new effects (one at a time, others held), keeping the start value if best.
   if (o.grid_search) {
     for (int j = 0; j < k; ++j) {
@@ -387,13 +396,16 @@ CrossValidation crossValidate(const Robot& nominal, const io::Recording& rec, co
   o.intervals = false;
   o.max_iterations = max_iterations;
   for (Quantity q : presentQuantities(rec)) {
-    const Eigen::MatrixXd& M = q == Quantity::Twist ? rec.twist : q == Quantity::TipPosition ? rec.tip_position : rec.tip_tangent;
+    const Eigen::MatrixXd& M = q == Quantity::Twist         ? rec.twist
+                               : q == Quantity::TipPosition ? rec.tip_position
+                                                            : rec.tip_tangent;
     cv.heldout.of(q) = Eigen::MatrixXd::Constant(rows, M.cols(), std::numeric_limits<double>::quiet_NaN());
   }
   std::vector<FitResult> fits(static_cast<std::size_t>(nf));
-  const bool one_step = full && !start.empty() && full->jacobian.cols() == static_cast<Eigen::Index>(start.size()) &&
-                        full->x.size() == start.size() && full->components > 0 &&
-                        full->jacobian.rows() == static_cast<Eigen::Index>(full->jacobian_rows.size()) * full->components;
+  const bool one_step =
+      full && !start.empty() && full->jacobian.cols() == static_cast<Eigen::Index>(start.size()) &&
+      full->x.size() == start.size() && full->components > 0 &&
+      full->jacobian.rows() == static_cast<Eigen::Index>(full->jacobian_rows.size()) * full->components;
   auto fitFold = [&](int f, Workspace& w) {
     std::vector<char> train(static_cast<std::size_t>(rows));
     for (int k = 0; k < rows; ++k) train[static_cast<std::size_t>(k)] = fold[static_cast<std::size_t>(k)] != f;
@@ -414,8 +426,8 @@ CrossValidation crossValidate(const Robot& nominal, const io::Recording& rec, co
       const Eigen::VectorXd dx = -H.ldlt().solve(g);
       std::vector<Effect> e = start;
       for (int j = 0; j < k; ++j) {
-        const ParameterRange pr = parameterRange(nominal, rec, e[static_cast<std::size_t>(j)].kind,
-                                                 e[static_cast<std::size_t>(j)].tube);
+        const ParameterRange pr =
+            parameterRange(nominal, rec, e[static_cast<std::size_t>(j)].kind, e[static_cast<std::size_t>(j)].tube);
         const double xj = std::clamp(full->x[static_cast<std::size_t>(j)] + (dx.allFinite() ? dx[j] : 0.0), 0.0, 1.0);
         e[static_cast<std::size_t>(j)].value = pr.lo + xj * (pr.hi - pr.lo);
       }

@@ -13,8 +13,10 @@ Eigen::VectorXd playOperator(const Eigen::VectorXd& x, double width) {
   const double h = 0.5 * width;
   double state = x[0];
   for (Eigen::Index k = 0; k < x.size(); ++k) {
-    if (x[k] - state > h) state = x[k] - h;
-    else if (x[k] - state < -h) state = x[k] + h;
+    if (x[k] - state > h)
+      state = x[k] - h;
+    else if (x[k] - state < -h)
+      state = x[k] + h;
     y[k] = state;
   }
   return y;
@@ -61,7 +63,8 @@ std::vector<Configuration> transformActuation(const std::vector<Configuration>& 
       x[k] = rot ? c.alpha[e.tube - 1] : c.beta[e.tube - 1];
     }
     const Eigen::VectorXd y = playOperator(x, e.value);
-    for (int k = 0; k < rows; ++k) (rot ? q[static_cast<std::size_t>(k)].alpha : q[static_cast<std::size_t>(k)].beta)[e.tube - 1] = y[k];
+    for (int k = 0; k < rows; ++k)
+      (rot ? q[static_cast<std::size_t>(k)].alpha : q[static_cast<std::size_t>(k)].beta)[e.tube - 1] = y[k];
   }
   // 3. Constant offsets.
   for (const Effect& e : effects) {
@@ -116,8 +119,10 @@ Prediction predict(const Robot& nominal, const std::vector<Configuration>& comma
   };
   // A row is evaluated when its solution converged without a snap; failed rows keep NaN outputs.
   auto store = [&](int k, const Solution& s, bool snapped) {
-    if (!s.converged()) return fail(k, "did not converge" + (s.summary.message.empty() ? "" : ": " + s.summary.message));
-    if (snapped) return fail(k, "snapped (the equilibrium branch ended; the quasi-static model cannot follow the jump)");
+    if (!s.converged())
+      return fail(k, "did not converge" + (s.summary.message.empty() ? "" : ": " + s.summary.message));
+    if (snapped)
+      return fail(k, "snapped (the equilibrium branch ended; the quasi-static model cannot follow the jump)");
     p.ok[static_cast<std::size_t>(k)] = 1;
     if (s.twist.size() == n - 1) p.twist.row(k) = s.twist.transpose();
     p.tip_position.row(k) = s.tip_position.transpose();

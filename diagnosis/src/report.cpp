@@ -11,7 +11,9 @@ namespace ctr::diagnosis {
 namespace {
 using nlohmann::json;
 
-json num(double v) { return std::isfinite(v) ? json(v) : json(nullptr); }
+json num(double v) {
+  return std::isfinite(v) ? json(v) : json(nullptr);
+}
 
 json mapJson(const std::map<std::string, double>& m) {
   json j = json::object();
@@ -37,7 +39,7 @@ json scoreJson(const ModelScore& s) {
 }
 
 json mismatchJson(const MismatchFinding& f) {
-  return json{{"signature", f.signature}, {"variable", f.variable}, {"quantity", f.quantity},
+  return json{{"signature", f.signature},  {"variable", f.variable},        {"quantity", f.quantity},
               {"p_value", num(f.p_value)}, {"statistic", num(f.statistic)}, {"where", f.where}};
 }
 
@@ -60,8 +62,14 @@ json vectorJson(const Eigen::VectorXd& v) {
 json binsJson(const std::vector<BinSummary>& bins) {
   json a = json::array();
   for (const BinSummary& b : bins)
-    a.push_back(json{{"variable", b.variable}, {"quantity", b.quantity}, {"lo", num(b.lo)}, {"hi", num(b.hi)},
-                     {"direction", b.direction}, {"count", b.count}, {"mean", num(b.mean)}, {"rms", num(b.rms)}});
+    a.push_back(json{{"variable", b.variable},
+                     {"quantity", b.quantity},
+                     {"lo", num(b.lo)},
+                     {"hi", num(b.hi)},
+                     {"direction", b.direction},
+                     {"count", b.count},
+                     {"mean", num(b.mean)},
+                     {"rms", num(b.rms)}});
   return a;
 }
 
@@ -126,8 +134,8 @@ std::string reportToJson(const DiagnosisReport& r) {
       json a = json::array();
       for (const Rival& rv : f.ambiguous_with) {
         json y{{"effect", effectName(rv.effect.kind)}, {"parameters", mapJson(paramsOfEffect(rv.effect))},
-               {"delta_bic", num(rv.delta_bic)}, {"heldout_rmse", mapJson(rv.heldout_rmse)},
-               {"heldout_p", num(rv.heldout_p)}, {"why", rv.why}};
+               {"delta_bic", num(rv.delta_bic)},       {"heldout_rmse", mapJson(rv.heldout_rmse)},
+               {"heldout_p", num(rv.heldout_p)},       {"why", rv.why}};
         a.push_back(y);
       }
       x["ambiguous_with"] = a;
@@ -167,9 +175,12 @@ std::string reportToJson(const DiagnosisReport& r) {
   if (r.frame == FrameMode::Unknown) {
     json reg;
     json R = json::array();
-    for (int a = 0; a < 3; ++a) R.push_back(json::array({r.registration.rotation(a, 0), r.registration.rotation(a, 1), r.registration.rotation(a, 2)}));
+    for (int a = 0; a < 3; ++a)
+      R.push_back(
+          json::array({r.registration.rotation(a, 0), r.registration.rotation(a, 1), r.registration.rotation(a, 2)}));
     reg["rotation"] = R;
-    reg["translation"] = json::array({r.registration.translation.x(), r.registration.translation.y(), r.registration.translation.z()});
+    reg["translation"] =
+        json::array({r.registration.translation.x(), r.registration.translation.y(), r.registration.translation.z()});
     reg["tip_offset"] = r.registration.tip_offset;
     j["registration"] = reg;
   }
@@ -190,8 +201,10 @@ std::string reportToMarkdown(const DiagnosisReport& r, const io::Recording& full
   o << "# Diagnosis\n\n";
   o << "Recording: " << r.rows << " rows, " << rec.tubes << " tubes, measured:";
   for (Quantity q : presentQuantities(rec)) o << " " << quantityName(q);
-  o << (rec.hasTime() ? ", timed" : ", untimed") << "; frame: " << (r.frame == FrameMode::Unknown ? "unknown (registration estimated in every model)" : "base")
-    << ". Held-out scheme: " << r.folds << " contiguous blocks in time (stateful models replayed over the whole sequence).\n\n";
+  o << (rec.hasTime() ? ", timed" : ", untimed")
+    << "; frame: " << (r.frame == FrameMode::Unknown ? "unknown (registration estimated in every model)" : "base")
+    << ". Held-out scheme: " << r.folds
+    << " contiguous blocks in time (stateful models replayed over the whole sequence).\n\n";
   o << "**Verdict:** ";
   if (r.verdict.empty())
     o << (r.unexplained.present ? "not explained by any candidate (a mismatch remains that no effect in the library "
@@ -206,15 +219,15 @@ std::string reportToMarkdown(const DiagnosisReport& r, const io::Recording& full
     o << "## What is left unexplained\n\n";
     o << "The " << (r.final_effects.empty() ? "nominal model" : "final model (" + r.final.model + ")") << " explains "
       << f4(100 * u.fraction_explained) << " % of the baseline's excess held-out error; " << u.where
-      << ". Held-out chi-square against the noise: " << f4(u.heldout_ratio) << " x the noise variance (p = "
-      << f4(u.heldout_p) << ").\n\n";
+      << ". Held-out chi-square against the noise: " << f4(u.heldout_ratio)
+      << " x the noise variance (p = " << f4(u.heldout_p) << ").\n\n";
     if (!u.mismatch.empty()) {
       o << "| signature | variable | quantity | p-value | where |\n|---|---|---|---|---|\n";
       std::size_t shown = 0;
       for (const auto& f : u.mismatch)
         if (++shown <= 12)
           o << "| " << f.signature << " | " << f.variable << " | " << f.quantity << " | " << f4(f.p_value) << " | "
-          << f.where << " |\n";
+            << f.where << " |\n";
       o << "\n";
     }
   }
@@ -253,10 +266,12 @@ std::string reportToMarkdown(const DiagnosisReport& r, const io::Recording& full
   } else {
     o << "| signature | variable | quantity | p-value | where |\n|---|---|---|---|---|\n";
     for (const auto& f : r.mismatch.findings)
-      o << "| " << f.signature << " | " << f.variable << " | " << f.quantity << " | " << f4(f.p_value) << " | " << f.where << " |\n";
+      o << "| " << f.signature << " | " << f.variable << " | " << f.quantity << " | " << f4(f.p_value) << " | "
+        << f.where << " |\n";
     o << "\n";
   }
-  o << "## Candidates\n\n| effect | accepted | parameters | 95 % interval | delta BIC | held-out p | why |\n|---|---|---|---|---|---|---|\n";
+  o << "## Candidates\n\n| effect | accepted | parameters | 95 % interval | delta BIC | held-out p | why "
+       "|\n|---|---|---|---|---|---|---|\n";
   for (const Finding& f : r.findings) {
     o << "| " << f.effect.label() << " | " << (f.accepted ? "**yes**" : "no") << " | ";
     for (const auto& kv : f.parameters) o << kv.first << "=" << f4(kv.second) << " ";
@@ -276,7 +291,8 @@ std::string reportToMarkdown(const DiagnosisReport& r, const io::Recording& full
   if (!r.final_effects.empty()) {
     o << "## Fitted parameters (all rows)\n\n| effect | parameter | value | 95 % interval |\n|---|---|---|---|\n";
     for (const Effect& e : r.final_effects) {
-      o << "| " << e.label() << " | " << parameterName(e.kind) << " (" << parameterUnit(e.kind) << ") | " << f4(e.value) << " | ";
+      o << "| " << e.label() << " | " << parameterName(e.kind) << " (" << parameterUnit(e.kind) << ") | " << f4(e.value)
+        << " | ";
       if (r.final_intervals.count(e.label()))
         o << "[" << f4(r.final_intervals.at(e.label())[0]) << ", " << f4(r.final_intervals.at(e.label())[1]) << "]";
       o << " |\n";
@@ -298,8 +314,8 @@ std::string plotDataJson(const DiagnosisReport& r, const io::Recording& full) {
   if (rec.hasTime()) j["time"] = vectorJson(rec.time);
   json vars = json::array();
   for (const ConfigVariable& v : r.plot.variables)
-    vars.push_back(json{{"name", v.name}, {"angle", v.angle}, {"value", vectorJson(v.value)},
-                        {"direction", vectorJson(v.direction)}});
+    vars.push_back(json{
+        {"name", v.name}, {"angle", v.angle}, {"value", vectorJson(v.value)}, {"direction", vectorJson(v.direction)}});
   j["variables"] = vars;
   json meas, nom, fit;
   if (rec.hasTwist()) {

@@ -2,17 +2,20 @@
 #include "ctr/diagnosis/residuals.hpp"
 
 #include <algorithm>
-#include <cmath>
 #include <array>
+#include <cmath>
 #include <limits>
 
 namespace ctr::diagnosis {
 
 const char* quantityName(Quantity q) {
   switch (q) {
-    case Quantity::Twist: return "twist";
-    case Quantity::TipPosition: return "tip_position";
-    case Quantity::TipTangent: return "tip_tangent";
+    case Quantity::Twist:
+      return "twist";
+    case Quantity::TipPosition:
+      return "tip_position";
+    case Quantity::TipTangent:
+      return "tip_tangent";
   }
   return "?";
 }
@@ -27,9 +30,12 @@ std::vector<Quantity> presentQuantities(const io::Recording& rec) {
 
 double NoiseLevels::of(Quantity q) const {
   switch (q) {
-    case Quantity::Twist: return twist;
-    case Quantity::TipPosition: return tip_position;
-    case Quantity::TipTangent: return tip_tangent;
+    case Quantity::Twist:
+      return twist;
+    case Quantity::TipPosition:
+      return tip_position;
+    case Quantity::TipTangent:
+      return tip_tangent;
   }
   return 0.0;
 }
@@ -67,8 +73,9 @@ Registration mapToSensor(const io::Recording& rec, Prediction& p, FrameMode fram
     o.tangent_weight = 1.0 / (0.0175 * 0.0175);
   }
   static const Eigen::MatrixXd none;
-  const Registration reg = fitRegistration(p.tip_position, p.tip_tangent, rec.hasTipPosition() ? rec.tip_position : none,
-                                           rec.hasTipTangent() ? rec.tip_tangent : none, use, o);
+  const Registration reg =
+      fitRegistration(p.tip_position, p.tip_tangent, rec.hasTipPosition() ? rec.tip_position : none,
+                      rec.hasTipTangent() ? rec.tip_tangent : none, use, o);
   applyRegistration(reg, p.tip_position, p.tip_tangent);
   return reg;
 }

@@ -16,8 +16,8 @@ Admissibility checkAdmissible(const Robot& robot, const Configuration& q, double
   std::ostringstream os;
   auto fail = [&](const std::string& m) { return Admissibility{false, m}; };
   if (q.alpha.size() != n || q.beta.size() != n) {
-    os << "configuration has " << q.alpha.size() << " rotations and " << q.beta.size()
-       << " translations, robot '" << robot.name() << "' has " << n << " tubes";
+    os << "configuration has " << q.alpha.size() << " rotations and " << q.beta.size() << " translations, robot '"
+       << robot.name() << "' has " << n << " tubes";
     return fail(os.str());
   }
   for (int i = 0; i < n; ++i) {
@@ -102,8 +102,7 @@ Admissibility projectAdmissible(const Robot& robot, Configuration& q, double tol
         p.beta[i] = b;
       }
     }
-    if (t.translation_limits)
-      p.beta[i] = std::clamp(p.beta[i], (*t.translation_limits)[0], (*t.translation_limits)[1]);
+    if (t.translation_limits) p.beta[i] = std::clamp(p.beta[i], (*t.translation_limits)[0], (*t.translation_limits)[1]);
   }
   const double moved = std::max((p.alpha - q.alpha).cwiseAbs().maxCoeff(), (p.beta - q.beta).cwiseAbs().maxCoeff());
   // The projection may not fix every constraint (limits that contradict the nesting, an inner tube shorter than the

@@ -30,7 +30,9 @@ std::vector<Configuration> sweep(const Robot& r, Eigen::VectorXd& time) {
   return cmd;
 }
 
-bool contains(const std::string& s, const std::string& part) { return s.find(part) != std::string::npos; }
+bool contains(const std::string& s, const std::string& part) {
+  return s.find(part) != std::string::npos;
+}
 
 // Rows 1-based in the recording.
 std::vector<int> failedRows(const DiagnosisReport& rep) {
@@ -165,7 +167,7 @@ TEST(Actuation, TranslationBacklashAndOffsetStayAdmissible) {
   }
   const auto y = transformActuation(c, Eigen::VectorXd(), {{EffectKind::TranslationBacklash, 3, 0.004}}, &r);
   EXPECT_NEAR(y[10].beta[2] - c[10].beta[2], -0.002, 1e-12);  // lags by half the play at the turn
-  EXPECT_NEAR(y[12].beta[2], y[10].beta[2], 1e-12);            // and stays while the play is taken up
+  EXPECT_NEAR(y[12].beta[2], y[10].beta[2], 1e-12);           // and stays while the play is taken up
   const auto z = transformActuation(c, Eigen::VectorXd(), {{EffectKind::TranslationOffset, 2, -0.5}}, &r);
   for (const Configuration& x : z) EXPECT_TRUE(checkAdmissible(r, x)) << x.beta.transpose();
 }

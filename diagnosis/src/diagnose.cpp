@@ -440,8 +440,9 @@ DiagnosisReport diagnose(const Robot& nominal, const io::Recording& full, const 
     // latency absorbing one joint's backlash -- and the other then screens too small on top of it).
     std::map<int, std::string> rival_note;  // candidate index -> why it lost to (or ties with) the winner
     std::vector<Rival> ties;
-    int pair_with = -1;  // a look-alike accepted together with the winner (both add on top of each other)
-    Candidate pair;      // the model with both
+    std::vector<int> partners;  // look-alikes accepted together with the winner (each adds on top of it and it on
+                                // top of each)
+    Candidate pair;             // the model with the winner and its partners
     if (best >= 0 && isLookAlike(cands[static_cast<std::size_t>(best)].slot.kind)) {
       // Rivals: the best (by screening BIC) up to 4 candidates of the winner's group that lower BIC by more than
       // the threshold on their own, finalists or not.
@@ -486,7 +487,7 @@ DiagnosisReport diagnose(const Robot& nominal, const io::Recording& full, const 
         if (!R.cv_done && e.ok && e.add_winner <= o.bic_threshold) guarded(R, tws, refineCandidate);
       });
       rep.evaluations += evals;
-      int switch_to = -1, pair_index = -1;
+      int switch_to = -1;
       std::vector<int> both_add;  // rivals that each add on top of the winner and the winner on top of them
       for (std::size_t j = 0; j < rv.size(); ++j) {
         const int i = rv[j];
@@ -509,10 +510,6 @@ DiagnosisReport diagnose(const Robot& nominal, const io::Recording& full, const 
           rival_note[i] =
               "both it and " + wl + fmt(" add on top of each other (BIC %.1f and %.1f)", -e.add_rival, -e.add_winner);
           both_add.push_back(static_cast<int>(j));
-          if (pair_with < 0 || e.add_rival > enc[static_cast<std::size_t>(pair_index)].add_rival) {
-            pair_with = i;
-            pair_index = static_cast<int>(j);
-          }
         } else {
           Rival r;
           r.effect = R.fit.effects.back();
@@ -532,38 +529,57 @@ DiagnosisReport diagnose(const Robot& nominal, const io::Recording& full, const 
           }
         }
       }
-      // A partner is taken only when it is clearly the best one: when another rival that also adds fits the pair
-      // nearly as well (joint BIC within the threshold), the winner is accepted alone and the next round, which
-      // refits it with each of them, decides between them.
-      for (int j : both_add)
-        if (pair_index >= 0 && j != pair_index &&
-            enc[static_cast<std::size_t>(pair_index)].add_rival - enc[static_cast<std::size_t>(j)].add_rival <
-                o.bic_threshold) {
-          progress("look-alikes: " + cands[static_cast<std::size_t>(pair_with)].slot.label() + " and " +
-                   cands[static_cast<std::size_t>(rv[static_cast<std::size_t>(j)])].slot.label() + " both pair with " +
-                   W.slot.label() + " about equally well; " + W.slot.label() + " accepted alone");
-          pair_with = -1;
-          break;
+      // Partners: per kind, the rival that adds most. A kind whose second-best slot (another tube) adds nearly as
+      // much (within the threshold) is ambiguous between its slots: then no partner is taken, the winner is
+      // accepted alone and the next round, which refits it with each of them, decides.
+      bool ambiguous_slots = false;
+      for (int j : both_add) {
+        const EffectKind kind = cands[static_cast<std::size_t>(rv[static_cast<std::size_t>(j)])].slot.kind;
+        int top = -1;
+        for (int jj : both_add)
+          if (cands[static_cast<std::size_t>(rv[static_cast<std::size_t>(jj)])].slot.kind == kind &&
+              (top < 0 || enc[static_cast<std::size_t>(jj)].add_rival > enc[static_cast<std::size_t>(top)].add_rival))
+            top = jj;
+        if (top != j) {
+          if (enc[static_cast<std::size_t>(top)].add_rival - enc[static_cast<std::size_t>(j)].add_rival < o.bic_threshold) {
+            progress("look-alikes: " + cands[static_cast<std::size_t>(rv[static_cast<std::size_t>(top)])].slot.label() +
+                     " and " + cands[static_cast<std::size_t>(rv[static_cast<std::size_t>(j)])].slot.label() +
+                     " add on top of " + W.slot.label() + " about equally; " + W.slot.label() + " accepted alone");
+            ambiguous_slots = true;
+          }
+          continue;
         }
+        partners.push_back(rv[static_cast<std::size_t>(j)]);
+      }
+      if (ambiguous_slots) partners.clear();
+      // Strongest partners first, within the room left under max_effects.
+      std::stable_sort(partners.begin(), partners.end(), [&](int a, int b) {
+        auto add = [&](int i) {
+          for (std::size_t j = 0; j < rv.size(); ++j)
+            if (rv[j] == i) return enc[j].add_rival;
+          return 0.0;
+        };
+        return add(a) > add(b);
+      });
+      const int room = o.max_effects - static_cast<int>(cur.fit.effects.size()) - 1;
+      if (static_cast<int>(partners.size()) > room) partners.resize(static_cast<std::size_t>(std::max(0, room)));
       if (switch_to >= 0) {
         progress("look-alikes: " + cands[static_cast<std::size_t>(switch_to)].slot.label() + " explains what " +
                  W.slot.label() + " explains and more; accepted instead");
         best = switch_to;
         ties.clear();  // the rivals were compared with the former winner only
-        pair_with = -1;
-      } else if (pair_with >= 0 && static_cast<int>(cur.fit.effects.size()) + 2 <= o.max_effects) {
-        // Both present: the pair from its joint fit, with its own held-out test against the current model.
+        partners.clear();
+      } else if (!partners.empty()) {
+        // All present: the winner and its partners from their joint fit, with their own held-out test against the
+        // current model.
         Candidate P;
         P.slot = W.slot;
-        P.fit = enc[static_cast<std::size_t>(pair_index)].joint;
-        const int k = nparams(P.fit.effects);
-        FitResult refined = fitEffects(nominal, rec, P.fit.effects, all, fo, ws, k);  // + intervals, linearisation
-        rep.evaluations += refined.evaluations;
-        if (deltaBic(P.fit.residuals, k, refined.residuals, k) <= 1e-9)
-          P.fit = std::move(refined);
-        else
-          P.fit = linearizeModel(nominal, rec, P.fit.effects, all, fo, ws);
-        P.delta_bic = deltaBic(cur.fit.residuals, k - 2, P.fit.residuals, k);
+        std::vector<Effect> start = W.fit.effects;
+        for (int i : partners) start.push_back(cands[static_cast<std::size_t>(i)].fit.effects.back());
+        const int k = nparams(start);
+        P.fit = fitEffects(nominal, rec, start, all, fo, ws, k);  // + intervals, linearisation
+        rep.evaluations += P.fit.evaluations;
+        P.delta_bic = deltaBic(cur.fit.residuals, nparams(cur.fit.effects), P.fit.residuals, k);
         P.bic = cur.bic + P.delta_bic;
         P.cv = crossValidate(nominal, rec, P.fit.effects, o.folds, fo, ws, o.cv_iterations, o.threads,
                              o.one_step_cv ? &P.fit : nullptr);
@@ -572,37 +588,36 @@ DiagnosisReport diagnose(const Robot& nominal, const io::Recording& full, const 
         P.heldout_p = stats::chunkedBootstrapTest(cur.cv.row_score, P.cv.row_score, chunks);
         const auto means = commonMeans(cur.cv.row_score, P.cv.row_score);
         P.gain = means[0] > 0 ? 1.0 - means[1] / means[0] : 0.0;
-        P.pass = P.delta_bic < -2 * o.bic_threshold && P.heldout_p < o.heldout_p && P.gain > o.min_heldout_gain;
+        P.pass = P.delta_bic < -(1.0 + partners.size()) * o.bic_threshold && P.heldout_p < o.heldout_p &&
+                 P.gain > o.min_heldout_gain;
+        std::string names = W.slot.label();
+        for (int i : partners) names += " + " + cands[static_cast<std::size_t>(i)].slot.label();
         if (P.pass) {
-          progress("look-alikes: " + W.slot.label() + " and " +
-                   cands[static_cast<std::size_t>(pair_with)].slot.label() +
-                   " each add on top of the other; accepted together" +
+          progress("look-alikes: " + names + " each add on top of the other; accepted together" +
                    fmt(" (dBIC %+.1f, held-out gain %.1f %%)", P.delta_bic, 100 * P.gain));
           pair = std::move(P);
         } else {
-          pair_with = -1;
+          partners.clear();
         }
-      } else {
-        pair_with = -1;
       }
     }
-    if (best >= 0 && pair_with >= 0) {
-      // The pair's joint values for both findings; the model of the round is the pair.
-      Candidate& W = cands[static_cast<std::size_t>(best)];
-      Candidate& R = cands[static_cast<std::size_t>(pair_with)];
-      const std::size_t k = pair.fit.effects.size();
-      W.fit.effects.back() = pair.fit.effects[k - 2];
-      R.fit.effects.back() = pair.fit.effects[k - 1];
-      if (pair.fit.interval95.size() == k) {
-        W.fit.interval95.assign(k - 1, {0.0, 0.0});
-        W.fit.interval95.back() = pair.fit.interval95[k - 2];
-        R.fit.interval95.assign(k, {0.0, 0.0});
-        R.fit.interval95.back() = pair.fit.interval95[k - 1];
-      }
-      W.delta_bic = R.delta_bic = pair.delta_bic;
-      W.gain = R.gain = pair.gain;
-      W.heldout_p = R.heldout_p = pair.heldout_p;
-      W.cv = R.cv = pair.cv;
+    if (best >= 0 && !partners.empty()) {
+      // The joint values for the winner's and the partners' findings; the model of the round has them all.
+      const std::size_t k = pair.fit.effects.size(), m = partners.size();
+      auto take = [&](Candidate& c, std::size_t at) {
+        c.fit.effects.back() = pair.fit.effects[at];
+        if (pair.fit.interval95.size() == k) {
+          c.fit.interval95.assign(c.fit.effects.size(), {0.0, 0.0});
+          c.fit.interval95.back() = pair.fit.interval95[at];
+        }
+        c.delta_bic = pair.delta_bic;
+        c.gain = pair.gain;
+        c.heldout_p = pair.heldout_p;
+        c.cv = pair.cv;
+        c.cv_done = true;
+      };
+      take(cands[static_cast<std::size_t>(best)], k - m - 1);
+      for (std::size_t j = 0; j < m; ++j) take(cands[static_cast<std::size_t>(partners[j])], k - m + j);
     } else if (best >= 0) {
       // The winner's joint refinement of all parameters (from the screening optimum), its intervals and its
       // held-out scores at the refined values.
@@ -632,7 +647,8 @@ DiagnosisReport diagnose(const Robot& nominal, const io::Recording& full, const 
         f.model.push_back(c.slot);
       }
       f.round = round;
-      f.accepted = static_cast<int>(i) == best || static_cast<int>(i) == pair_with;
+      const bool partner = std::find(partners.begin(), partners.end(), static_cast<int>(i)) != partners.end();
+      f.accepted = static_cast<int>(i) == best || partner;
       f.parameters = paramsOf(f.effect);
       if (!c.fit.interval95.empty()) f.interval95[parameterName(c.slot.kind)] = c.fit.interval95.back();
       if (c.cv_done) {
@@ -642,11 +658,15 @@ DiagnosisReport diagnose(const Robot& nominal, const io::Recording& full, const 
       }
       f.delta_bic = c.delta_bic;
       const auto note = rival_note.find(static_cast<int>(i));
-      if (f.accepted && pair_with >= 0) {
-        const Candidate& other = cands[static_cast<std::size_t>(static_cast<int>(i) == best ? pair_with : best)];
-        f.explanation = "accepted together with its look-alike " + other.slot.label() + ": " + physics(c.slot.kind) +
+      if (f.accepted && !partners.empty()) {
+        std::string others;
+        for (int x : partners)
+          if (x != static_cast<int>(i)) others += (others.empty() ? "" : ", ") + cands[static_cast<std::size_t>(x)].slot.label();
+        if (static_cast<int>(i) != best)
+          others = cands[static_cast<std::size_t>(best)].slot.label() + (others.empty() ? "" : ", " + others);
+        f.explanation = "accepted together with its look-alike(s) " + others + ": " + physics(c.slot.kind) +
                         ". " + (note != rival_note.end() ? note->second + ". " : std::string()) +
-                        fmt("Both fitted together on top of the previous model lower BIC by %.1f and the held-out "
+                        fmt("Fitted together on top of the previous model they lower BIC by %.1f and the held-out "
                             "error by %.1f %% (one-sided p = %.2g).",
                             -c.delta_bic, 100 * c.gain, c.heldout_p);
       } else if (f.accepted) {
@@ -679,8 +699,8 @@ DiagnosisReport diagnose(const Robot& nominal, const io::Recording& full, const 
       progress("round " + std::to_string(round) + ": no candidate improves held-out error and BIC; stopping");
       break;
     }
-    if (pair_with >= 0) {
-      rivals_of[cands[static_cast<std::size_t>(pair_with)].slot.label()] = {};
+    if (!partners.empty()) {
+      for (int x : partners) rivals_of[cands[static_cast<std::size_t>(x)].slot.label()] = {};
       cur = std::move(pair);
     } else {
       cur = std::move(cands[static_cast<std::size_t>(best)]);

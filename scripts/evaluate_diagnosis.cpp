@@ -72,6 +72,8 @@ std::vector<Case> cases(bool quick) {
     add({"offset_random_A_noisy", "tube_pair_A", {{EffectKind::ActuatorOffset, 2, 8 * deg}}, ActuationPattern::Random, 80, false, false, 4, false, 22});
     add({"latency_walk_3tube_posonly", "three_tube_generic", {{EffectKind::SensorLatency, 0, 0.2}}, ActuationPattern::RandomWalk, 150, true, true, 1, true, 23});
     add({"latency+friction_walk_B", "tube_pair_B", {{EffectKind::SensorLatency, 0, 0.3}, {EffectKind::BoundaryFriction, 0, 0.05}}, ActuationPattern::RandomWalk, 120, false, true, 1, false, 24});
+    add({"toffset_walk_3tube", "three_tube_generic", {{EffectKind::TranslationOffset, 3, 0.004}}, ActuationPattern::RandomWalk, 120, true, false, 2, false, 25});
+    add({"tbacklash_walk_3tube_posonly", "three_tube_generic", {{EffectKind::TranslationBacklash, 3, 0.003}}, ActuationPattern::RandomWalk, 150, true, false, 1, true, 26});
   }
   return c;
 }

@@ -233,6 +233,13 @@ DiagnosisReport diagnose(const Robot& nominal, const io::Recording& full, const 
   FitOptions fo;
   fo.frame = o.frame;
   fo.predict = o.predict;
+  CommandHistory history;  // a decimated recording's actuation effects act on the full-rate log
+  if (stride > 1) {
+    history.commands = full.commands;
+    if (full.hasTime()) history.time = full.time;
+    for (int r = 0; r < full.rows(); r += stride) history.rows.push_back(r);
+    fo.predict.history = &history;
+  }
   fo.max_iterations = o.max_iterations;
   Workspace ws;
   // 1. Baseline: replay, failed rows, noise estimate (twice: the registration weights depend on it), residuals.

@@ -104,7 +104,18 @@ Prediction predict(const Robot& nominal, const std::vector<Configuration>& comma
     const Admissibility a = projectAdmissible(robot, commands[static_cast<std::size_t>(k)]);
     if (!a) inadmissible[static_cast<std::size_t>(k)] = "inadmissible command: " + a.message;
   }
-  p.actuation = transformActuation(commands, time, effects, &robot);
+  const CommandHistory* h = options.history;
+  if (h && static_cast<int>(h->rows.size()) == rows && !h->commands.empty()) {
+    // Decimated recording: the actuation effects act on the full-rate log (a latency interpolates between logged
+    // commands 0.1 s apart, not between the kept rows; a backlash sees every reversal), then each row takes its own.
+    std::vector<Configuration> full = h->commands;
+    for (Configuration& q : full) projectAdmissible(robot, q);
+    const std::vector<Configuration> t = transformActuation(full, h->time, effects, &robot);
+    p.actuation.resize(static_cast<std::size_t>(rows));
+    for (int k = 0; k < rows; ++k) p.actuation[static_cast<std::size_t>(k)] = t[static_cast<std::size_t>(h->rows[static_cast<std::size_t>(k)])];
+  } else {
+    p.actuation = transformActuation(commands, time, effects, &robot);
+  }
   p.twist.setConstant(rows, std::max(0, n - 1), nan);
   p.tip_position.setConstant(rows, 3, nan);
   p.tip_tangent.setConstant(rows, 3, nan);

@@ -15,8 +15,19 @@
 
 namespace ctr::diagnosis {
 
+/// @brief The full-rate command log behind a decimated recording: the actuation effects (latency, backlash,
+/// offsets) act on it, and each recording row takes the transformed command of its own log row.
+struct CommandHistory {
+  std::vector<Configuration> commands;  ///< Every logged command.
+  Eigen::VectorXd time;                 ///< Their times (may be empty: no latency).
+  std::vector<int> rows;                ///< Log row of each recording row.
+};
+
 /// @brief Options of a prediction.
 struct PredictOptions {
+  /// Full-rate commands of a decimated recording (nullptr: the recording's own rows are the whole log). Owned by
+  /// the caller and alive during the prediction.
+  const CommandHistory* history = nullptr;
   /// Fine sub-steps of the stateful replay (used for a row whenever the coarse step fails or flags a snap).
   FrictionOptions friction;
   KinematicsOptions kinematics;  ///< Used by the frictionless chain of warm-started solves.

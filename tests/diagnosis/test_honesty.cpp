@@ -30,6 +30,20 @@ std::vector<Configuration> sweep(const Robot& r, Eigen::VectorXd& time) {
   return cmd;
 }
 
+// Random-walk commands (and times when dt > 0).
+std::vector<Configuration> walk(const Robot& r, int rows, double dt, unsigned seed, bool translate,
+                                Eigen::VectorXd& time) {
+  ActuationOptions a;
+  a.pattern = ActuationPattern::RandomWalk;
+  a.rows = rows;
+  a.dt = dt;
+  a.seed = seed;
+  a.translate = translate;
+  std::vector<Configuration> cmd;
+  makeActuation(r, a, cmd, time);
+  return cmd;
+}
+
 bool contains(const std::string& s, const std::string& part) {
   return s.find(part) != std::string::npos;
 }
@@ -174,15 +188,8 @@ TEST(Actuation, TranslationBacklashAndOffsetStayAdmissible) {
 
 TEST(Diagnose, TranslationOffsetOfAStageIsNamed) {
   const Robot r = robot("three_tube_generic");
-  ActuationOptions a;
-  a.pattern = ActuationPattern::RandomWalk;
-  a.rows = 100;
-  a.translate = true;
-  a.dt = 0;
-  a.seed = 21;
-  std::vector<Configuration> cmd;
   Eigen::VectorXd time;
-  makeActuation(r, a, cmd, time);
+  const std::vector<Configuration> cmd = walk(r, 100, 0.0, 21, true, time);
   SimulationOptions s;
   s.seed = 22;
   const io::Recording rec = simulateRecording(r, cmd, time, {{EffectKind::TranslationOffset, 3, 0.004}}, s);
@@ -198,14 +205,8 @@ TEST(Diagnose, TranslationOffsetOfAStageIsNamed) {
 namespace {
 // Pair B random walk whose tube-2 drive really turned 8 % more than commanded (a gear-ratio error: no candidate).
 io::Recording gearRatioRecording(const Robot& r) {
-  ActuationOptions a;
-  a.pattern = ActuationPattern::RandomWalk;
-  a.rows = 150;
-  a.dt = 0.1;
-  a.seed = 5;
-  std::vector<Configuration> cmd;
   Eigen::VectorXd time;
-  makeActuation(r, a, cmd, time);
+  const std::vector<Configuration> cmd = walk(r, 150, 0.1, 5, false, time);
   std::vector<Configuration> truth = cmd;
   for (Configuration& q : truth) q.alpha[1] *= 1.08;
   SimulationOptions s;
@@ -241,14 +242,8 @@ TEST(Diagnose, EffectOutsideTheLibraryIsUnexplainedNotNamed) {
 
 TEST(Diagnose, TrackerDriftIsUnexplainedNotNamed) {
   const Robot r = robot("tube_pair_B");
-  ActuationOptions a;
-  a.pattern = ActuationPattern::RandomWalk;
-  a.rows = 150;
-  a.dt = 0.1;
-  a.seed = 6;
-  std::vector<Configuration> cmd;
   Eigen::VectorXd time;
-  makeActuation(r, a, cmd, time);
+  const std::vector<Configuration> cmd = walk(r, 150, 0.1, 6, false, time);
   SimulationOptions s;
   s.position_sd = 1e-4;
   s.seed = 6;

@@ -286,3 +286,32 @@ TEST(RealLog, AnOffsetWrittenIntoTheRealLogIsRecovered) {
   EXPECT_NE(std::find(rep.verdict.begin(), rep.verdict.end(), "actuator_offset"), rep.verdict.end()) << rep.summary;
   EXPECT_TRUE(rep.failed_rows.empty());
 }
+
+// A twist-only recording sees only relative rotations: an offset of tube 2 by +8 deg and of tube 1 by -8 deg fit it
+// equally well, and neither adds on top of the other. The tool must not pick one as the answer: the accepted finding
+// carries the other in `ambiguous_with` and the summary says the recording cannot tell them apart.
+TEST(Diagnose, LookAlikesTheRecordingCannotSeparateAreReportedAsAmbiguous) {
+  const Robot r = robot("tube_pair_B");
+  Eigen::VectorXd time;
+  const std::vector<Configuration> cmd = sweep(r, time);
+  SimulationOptions s;
+  s.tip_position = s.tip_tangent = false;
+  s.seed = 3;
+  const io::Recording rec = simulateRecording(r, cmd, time, {{EffectKind::ActuatorOffset, 2, 8 * M_PI / 180}}, s);
+  const DiagnosisReport rep = diagnose(r, rec);
+  ASSERT_EQ(rep.verdict, std::vector<std::string>{"actuator_offset"}) << rep.summary;
+  const Finding* accepted = nullptr;
+  for (const Finding& f : rep.findings)
+    if (f.accepted) accepted = &f;
+  ASSERT_NE(accepted, nullptr);
+  ASSERT_EQ(accepted->ambiguous_with.size(), 1u) << rep.summary;
+  const Effect& a = accepted->effect;
+  const Effect& b = accepted->ambiguous_with[0].effect;
+  EXPECT_EQ(b.kind, EffectKind::ActuatorOffset);
+  EXPECT_NE(a.tube, b.tube);
+  // tube 2 at +8 deg or tube 1 at -8 deg: the same relative rotation.
+  EXPECT_NEAR((a.tube == 2 ? a.value : b.value), 8 * M_PI / 180, 0.2 * 8 * M_PI / 180);
+  EXPECT_NEAR((a.tube == 1 ? a.value : b.value), -8 * M_PI / 180, 0.2 * 8 * M_PI / 180);
+  EXPECT_TRUE(contains(rep.summary, "cannot tell them apart")) << rep.summary;
+  EXPECT_TRUE(contains(reportToJson(rep), "\"ambiguous_with\""));
+}

@@ -94,11 +94,6 @@ bool isStateful(EffectKind k) {
          k == EffectKind::ActuatorBacklash || k == EffectKind::TranslationBacklash;
 }
 
-bool isActuation(EffectKind k) {
-  return k == EffectKind::ActuatorBacklash || k == EffectKind::ActuatorOffset || k == EffectKind::SensorLatency ||
-         k == EffectKind::TranslationBacklash || k == EffectKind::TranslationOffset;
-}
-
 int lookAlikeGroup(EffectKind k) {
   switch (k) {
     case EffectKind::BoundaryFriction:

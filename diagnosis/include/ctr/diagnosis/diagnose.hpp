@@ -32,8 +32,9 @@ struct DiagnoseOptions {
   int cv_iterations = 3;               ///< Ceres iterations of a fold refit when no linearisation is available
                                        ///< (otherwise one Gauss-Newton step from the full-data fit, fit.hpp).
   bool one_step_cv = true;             ///< Fold refits by one Gauss-Newton step (see crossValidate).
-  int finalists = 4;                   ///< Candidates per round refined jointly and cross-validated: the best by
-                                       ///< screening BIC (plus all within twice bic_threshold of the best).
+  int finalists = 4;                   ///< Candidates per round linearised and cross-validated: the best by
+                                       ///< screening BIC (plus all within twice bic_threshold of the best); the
+                                       ///< round's winner alone is then refitted jointly.
   double unreliable_fraction = 0.05;   ///< More failed rows than this fraction make the verdict unreliable.
   int max_rows = 300;                  ///< Longer recordings are decimated uniformly (every k-th row, history kept
                                        ///< by the quasi-static sub-stepping) to bound the run time; 0 = never.

@@ -36,8 +36,6 @@ const char* parameterUnit(EffectKind k);
 bool isPerTube(EffectKind k);
 /// @brief True for kinds whose output depends on the history of the actuation (friction, backlash).
 bool isStateful(EffectKind k);
-/// @brief True for kinds acting on the actuation (latency, backlash, offsets) rather than on the robot.
-bool isActuation(EffectKind k);
 /// @brief Look-alike group of a kind: 1 = "lag" (the shape lags the command and depends on the direction of
 /// motion: boundary/distributed friction, sensor latency, rotary/linear backlash), 2 = "shift" (the shape is that of
 /// a shifted configuration: rotary/linear offsets, torsional stiffness), 0 = none. A recording may not tell the

@@ -169,7 +169,8 @@ namespace {
 
 /// The significant locate tests of a residual, in plain words (for `unexplained.where`).
 std::string describeRemainder(const MismatchReport& m, double ratio) {
-  std::vector<std::string> parts;
+  // Up to three located bins (one phrase) and the first three other signatures, in order of significance.
+  std::vector<std::string> parts, bins;
   std::set<std::string> seen;
   for (const MismatchFinding& f : m.findings) {
     std::string p;
@@ -183,17 +184,23 @@ std::string describeRemainder(const MismatchReport& m, double ratio) {
       p = "depends on the direction of approach of " + f.variable;
     else if (f.signature == "constant")
       p = "is spread over all configurations (no direction, moment, speed or time dependence)";
-    else if (f.signature == "exceeds_noise" && f.variable != "all")
-      p = "is largest at " + f.where.substr(0, f.where.find(':'));
-    if (p.empty() || !seen.insert(p).second) continue;
+    else if (f.signature == "exceeds_noise" && f.variable != "all") {
+      const std::string b = f.where.substr(0, f.where.find(':'));
+      if (bins.size() < 3 && seen.insert(b).second) bins.push_back(b);
+      continue;
+    }
+    if (p.empty() || parts.size() >= 3 || !seen.insert(p).second) continue;
     parts.push_back(p);
-    if (parts.size() >= 3) break;
   }
+  auto join = [](const std::vector<std::string>& v) {
+    std::string t;
+    for (std::size_t k = 0; k < v.size(); ++k) t += (k ? (k + 1 == v.size() ? " and " : ", ") : "") + v[k];
+    return t;
+  };
+  if (!bins.empty()) parts.insert(parts.begin(), "is largest at " + join(bins));
   std::string s = fmt("the held-out residuals are %.2f x the noise variance", ratio);
   if (parts.empty()) return s + " without a located structure";
-  s += " and the remainder ";
-  for (std::size_t k = 0; k < parts.size(); ++k) s += (k ? (k + 1 == parts.size() ? " and " : ", ") : "") + parts[k];
-  return s;
+  return s + " and the remainder " + join(parts);
 }
 
 }  // namespace
@@ -548,7 +555,8 @@ DiagnosisReport diagnose(const Robot& nominal, const io::Recording& full, const 
               (top < 0 || enc[static_cast<std::size_t>(jj)].add_rival > enc[static_cast<std::size_t>(top)].add_rival))
             top = jj;
         if (top != j) {
-          if (enc[static_cast<std::size_t>(top)].add_rival - enc[static_cast<std::size_t>(j)].add_rival < o.bic_threshold) {
+          if (enc[static_cast<std::size_t>(top)].add_rival - enc[static_cast<std::size_t>(j)].add_rival <
+              o.bic_threshold) {
             progress("look-alikes: " + cands[static_cast<std::size_t>(rv[static_cast<std::size_t>(top)])].slot.label() +
                      " and " + cands[static_cast<std::size_t>(rv[static_cast<std::size_t>(j)])].slot.label() +
                      " add on top of " + W.slot.label() + " about equally; " + W.slot.label() + " accepted alone");
@@ -668,11 +676,12 @@ DiagnosisReport diagnose(const Robot& nominal, const io::Recording& full, const 
       if (f.accepted && !partners.empty()) {
         std::string others;
         for (int x : partners)
-          if (x != static_cast<int>(i)) others += (others.empty() ? "" : ", ") + cands[static_cast<std::size_t>(x)].slot.label();
+          if (x != static_cast<int>(i))
+            others += (others.empty() ? "" : ", ") + cands[static_cast<std::size_t>(x)].slot.label();
         if (static_cast<int>(i) != best)
           others = cands[static_cast<std::size_t>(best)].slot.label() + (others.empty() ? "" : ", " + others);
-        f.explanation = "accepted together with its look-alike(s) " + others + ": " + physics(c.slot.kind) +
-                        ". " + (note != rival_note.end() ? note->second + ". " : std::string()) +
+        f.explanation = "accepted together with its look-alike(s) " + others + ": " + physics(c.slot.kind) + ". " +
+                        (note != rival_note.end() ? note->second + ". " : std::string()) +
                         fmt("Fitted together on top of the previous model they lower BIC by %.1f and the held-out "
                             "error by %.1f %% (one-sided p = %.2g).",
                             -c.delta_bic, 100 * c.gain, c.heldout_p);

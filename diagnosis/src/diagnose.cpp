@@ -104,14 +104,17 @@ std::vector<Effect> candidateSlots(const Robot& nominal, const io::Recording& re
     e.value = nominalValue(nominal, k, tube);
     s.push_back(e);
   };
-  auto rotates = [&](int i) {  // does tube i (0-based) rotate (absolute) in the recording?
+  // Does tube i (0-based) rotate (absolute) or translate in the recording?
+  auto varies = [&](Eigen::VectorXd Configuration::*joint, int i) {
     double lo = 1e300, hi = -1e300;
     for (const auto& q : rec.commands) {
-      lo = std::min(lo, q.alpha[i]);
-      hi = std::max(hi, q.alpha[i]);
+      lo = std::min(lo, (q.*joint)[i]);
+      hi = std::max(hi, (q.*joint)[i]);
     }
     return hi - lo > 1e-6;
   };
+  auto rotates = [&](int i) { return varies(&Configuration::alpha, i); };
+  auto translates = [&](int i) { return varies(&Configuration::beta, i); };
   if (n >= 2) {
     add(EffectKind::BoundaryFriction, 0);
     add(EffectKind::DistributedFriction, 0);
@@ -123,14 +126,6 @@ std::vector<Effect> candidateSlots(const Robot& nominal, const io::Recording& re
   for (int i = 1; i <= n; ++i)
     if (rotates(i - 1)) add(EffectKind::ActuatorBacklash, i);
   for (int i = (o.frame == FrameMode::Base ? 1 : 2); i <= n; ++i) add(EffectKind::ActuatorOffset, i);
-  auto translates = [&](int i) {  // does tube i (0-based) translate in the recording?
-    double lo = 1e300, hi = -1e300;
-    for (const auto& q : rec.commands) {
-      lo = std::min(lo, q.beta[i]);
-      hi = std::max(hi, q.beta[i]);
-    }
-    return hi - lo > 1e-6;
-  };
   bool any_translation = false;
   for (int i = 1; i <= n; ++i) {
     if (!translates(i - 1)) continue;
@@ -270,8 +265,7 @@ DiagnosisReport diagnose(const Robot& nominal, const io::Recording& full, const 
                            "fit, noise estimate and score (failed_rows)");
     progress(rep.warnings.back());
   }
-  fo.rows = evaluable;
-  if (nfailed > 0 && o.frame == FrameMode::Unknown) base = evaluateModel(nominal, rec, {}, all, fo, ws);
+  fo.rows = evaluable;  // (the registration already skipped them: their predictions are NaN)
   fo.noise = estimateNoise(rec, base.residuals);
   if (o.frame == FrameMode::Unknown) {
     base = evaluateModel(nominal, rec, {}, all, fo, ws);
@@ -323,6 +317,17 @@ DiagnosisReport diagnose(const Robot& nominal, const io::Recording& full, const 
              modelName(cur.fit.effects));
     std::vector<Candidate> cands(todo.size());
     std::atomic<int> evals{0};
+    // Held-out test of a candidate's model against the current one, on the rows both evaluated: cross-validation
+    // (one-step from its linearisation when asked and available), bootstrap p and gain. Returns the replays used.
+    auto heldOut = [&](Candidate& c, Workspace& tws, int threads, bool one_step) {
+      c.cv = crossValidate(nominal, rec, c.fit.effects, o.folds, fo, tws, o.cv_iterations, threads,
+                           one_step ? &c.fit : nullptr);
+      c.cv_done = true;
+      c.heldout_p = stats::chunkedBootstrapTest(cur.cv.row_score, c.cv.row_score, chunks);
+      const auto means = commonMeans(cur.cv.row_score, c.cv.row_score);
+      c.gain = means[0] > 0 ? 1.0 - means[1] / means[0] : 0.0;
+      return c.cv.evaluations;
+    };
     // Phase 1 (every candidate): screening -- only the new effect is fitted (grid + a few iterations), the accepted
     // ones held.
     auto screenCandidate = [&](Candidate& c, Workspace& tws) {
@@ -379,19 +384,11 @@ DiagnosisReport diagnose(const Robot& nominal, const io::Recording& full, const 
     auto refineCandidate = [&](Candidate& c, Workspace& tws) {
       c.fit = linearizeModel(nominal, rec, c.fit.effects, all, fo, tws);
       evals += c.fit.evaluations;
-      auto heldOut = [&](const FitResult* linearisation) {
-        c.cv = crossValidate(nominal, rec, c.fit.effects, o.folds, fo, tws, o.cv_iterations, 1, linearisation);
-        c.cv_done = true;
-        evals += c.cv.evaluations;
-        c.heldout_p = stats::chunkedBootstrapTest(cur.cv.row_score, c.cv.row_score, chunks);
-        const auto means = commonMeans(cur.cv.row_score, c.cv.row_score);  // same rows for both
-        c.gain = means[0] > 0 ? 1.0 - means[1] / means[0] : 0.0;
-        c.pass = c.heldout_p < o.heldout_p && c.gain > o.min_heldout_gain;
-      };
-      heldOut(o.one_step_cv ? &c.fit : nullptr);
+      evals += heldOut(c, tws, 1, o.one_step_cv);
       // Near the decision the one-step folds (a linearisation) are not trusted: the folds are refitted iteratively.
       if (o.one_step_cv && c.gain > 0 && c.heldout_p > 0.2 * o.heldout_p && c.heldout_p < 5 * o.heldout_p)
-        heldOut(nullptr);
+        evals += heldOut(c, tws, 1, false);
+      c.pass = c.heldout_p < o.heldout_p && c.gain > o.min_heldout_gain;
       if (!c.pass)
         c.reason = fmt("it lowers BIC by %.1f but does not improve the held-out error enough (%.1f %% lower, p = %.2g)",
                        -c.delta_bic, 100 * c.gain, c.heldout_p);
@@ -447,8 +444,8 @@ DiagnosisReport diagnose(const Robot& nominal, const io::Recording& full, const 
     for (std::size_t i = 0; i < cands.size(); ++i)
       if (cands[i].pass && (best < 0 || cands[i].bic < cands[static_cast<std::size_t>(best)].bic))
         best = static_cast<int>(i);
-    // Look-alikes: before accepting the best of the group, test it against every rival of the group among the
-    // finalists with encompassing fits: both together, then does each add on top of the other? Only the one that
+    // Look-alikes: before accepting the best of the group, test it against the best screened rivals of its group
+    // with encompassing fits: both together, then does each add on top of the other? Only the one that
     // adds is named; when neither adds, the recording cannot tell them apart; when both add, both are present and
     // are accepted together from their joint fit (a look-alike accepted alone absorbs part of the other -- e.g.
     // latency absorbing one joint's backlash -- and the other then screens too small on top of it).
@@ -596,13 +593,7 @@ DiagnosisReport diagnose(const Robot& nominal, const io::Recording& full, const 
         rep.evaluations += P.fit.evaluations;
         P.delta_bic = deltaBic(cur.fit.residuals, nparams(cur.fit.effects), P.fit.residuals, k);
         P.bic = cur.bic + P.delta_bic;
-        P.cv = crossValidate(nominal, rec, P.fit.effects, o.folds, fo, ws, o.cv_iterations, o.threads,
-                             o.one_step_cv ? &P.fit : nullptr);
-        P.cv_done = true;
-        rep.evaluations += P.cv.evaluations;
-        P.heldout_p = stats::chunkedBootstrapTest(cur.cv.row_score, P.cv.row_score, chunks);
-        const auto means = commonMeans(cur.cv.row_score, P.cv.row_score);
-        P.gain = means[0] > 0 ? 1.0 - means[1] / means[0] : 0.0;
+        rep.evaluations += heldOut(P, ws, o.threads, o.one_step_cv);
         P.pass = P.delta_bic < -(1.0 + partners.size()) * o.bic_threshold && P.heldout_p < o.heldout_p &&
                  P.gain > o.min_heldout_gain;
         std::string names = W.slot.label();
@@ -644,12 +635,7 @@ DiagnosisReport diagnose(const Robot& nominal, const io::Recording& full, const 
         W.fit = std::move(joint);
         W.delta_bic = deltaBic(cur.fit.residuals, k - 1, W.fit.residuals, k);
         W.bic = cur.bic + W.delta_bic;
-        W.cv = crossValidate(nominal, rec, W.fit.effects, o.folds, fo, ws, o.cv_iterations, o.threads,
-                             o.one_step_cv ? &W.fit : nullptr);
-        rep.evaluations += W.cv.evaluations;
-        W.heldout_p = stats::chunkedBootstrapTest(cur.cv.row_score, W.cv.row_score, chunks);
-        const auto means = commonMeans(cur.cv.row_score, W.cv.row_score);
-        W.gain = means[0] > 0 ? 1.0 - means[1] / means[0] : 0.0;
+        rep.evaluations += heldOut(W, ws, o.threads, o.one_step_cv);
       }
     }
     for (std::size_t i = 0; i < cands.size(); ++i) {
@@ -728,10 +714,14 @@ DiagnosisReport diagnose(const Robot& nominal, const io::Recording& full, const 
   // 2b. Backward elimination: greedy forward steps can accept an effect that later ones make redundant.
   std::map<std::string, std::string> removed;
   std::map<std::string, std::string> removed_partial;  // accepted, kept in the final model, not named
-  auto refitWithout = [&](const std::vector<std::size_t>& drop) {
+  auto without_effects = [&](const std::vector<std::size_t>& drop) {
     std::vector<Effect> reduced;
     for (std::size_t j = 0; j < cur.fit.effects.size(); ++j)
       if (std::find(drop.begin(), drop.end(), j) == drop.end()) reduced.push_back(cur.fit.effects[j]);
+    return reduced;
+  };
+  auto refitWithout = [&](const std::vector<std::size_t>& drop) {
+    const std::vector<Effect> reduced = without_effects(drop);
     return fitEffects(nominal, rec, reduced, all, fo, ws, nparams(reduced));
   };
   // Refits of the current model without each of its effects (in parallel); kept for the confounding test (3c)
@@ -740,8 +730,7 @@ DiagnosisReport diagnose(const Robot& nominal, const io::Recording& full, const 
   auto refitEachWithout = [&]() {
     without.assign(cur.fit.effects.size(), FitResult{});
     detail::parallelFor(static_cast<int>(without.size()), o.threads, ws, [&](int j, Workspace& tws) {
-      std::vector<Effect> reduced = cur.fit.effects;
-      reduced.erase(reduced.begin() + j);
+      const std::vector<Effect> reduced = without_effects({static_cast<std::size_t>(j)});
       FitOptions bo = fo;  // warm start: a few iterations, no intervals (recomputed if the reduced model is kept)
       bo.intervals = false;
       bo.max_iterations = 4;

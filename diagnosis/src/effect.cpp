@@ -7,110 +7,70 @@
 
 namespace ctr::diagnosis {
 
+namespace {
+
+/// The facts of one kind: JSON name, parameter name and unit, per tube, stateful, look-alike group.
+struct KindFacts {
+  EffectKind kind;
+  const char* name;
+  const char* parameter;
+  const char* unit;
+  bool per_tube;
+  bool stateful;
+  int group;  // 1 = lag, 2 = shift, 0 = none (lookAlikeGroup)
+};
+
+// One row per kind, in the order of formats.md.
+constexpr KindFacts kFacts[] = {
+    {EffectKind::BoundaryFriction, "boundary_friction", "mu", "", false, true, 1},
+    {EffectKind::DistributedFriction, "distributed_friction", "mu", "", false, true, 1},
+    {EffectKind::TorsionalStiffness, "torsional_stiffness", "poisson_ratio", "", false, false, 2},
+    {EffectKind::Precurvature, "precurvature", "curvature", "1/m", true, false, 0},
+    {EffectKind::BendingStiffness, "bending_stiffness", "bending_stiffness", "N m^2", true, false, 0},
+    {EffectKind::ActuatorBacklash, "actuator_backlash", "width", "rad", true, true, 1},
+    {EffectKind::ActuatorOffset, "actuator_offset", "offset", "rad", true, false, 2},
+    {EffectKind::TranslationBacklash, "translation_backlash", "width", "m", true, true, 1},
+    {EffectKind::TranslationOffset, "translation_offset", "offset", "m", true, false, 2},
+    {EffectKind::SensorLatency, "sensor_latency", "delay", "s", false, false, 1},
+};
+static_assert(sizeof(kFacts) / sizeof(kFacts[0]) == static_cast<std::size_t>(EffectKind::TranslationOffset) + 1,
+              "one row of facts per EffectKind");
+
+const KindFacts& facts(EffectKind k) {
+  for (const KindFacts& f : kFacts)
+    if (f.kind == k) return f;
+  throw std::logic_error("EffectKind without facts");
+}
+
+}  // namespace
+
 const std::vector<EffectKind>& allEffectKinds() {
-  static const std::vector<EffectKind> k{EffectKind::BoundaryFriction,   EffectKind::DistributedFriction,
-                                         EffectKind::TorsionalStiffness, EffectKind::Precurvature,
-                                         EffectKind::BendingStiffness,   EffectKind::ActuatorBacklash,
-                                         EffectKind::ActuatorOffset,     EffectKind::TranslationBacklash,
-                                         EffectKind::TranslationOffset,  EffectKind::SensorLatency};
+  static const std::vector<EffectKind> k = [] {
+    std::vector<EffectKind> v;
+    for (const KindFacts& f : kFacts) v.push_back(f.kind);
+    return v;
+  }();
   return k;
 }
 
 const char* effectName(EffectKind k) {
-  switch (k) {
-    case EffectKind::BoundaryFriction:
-      return "boundary_friction";
-    case EffectKind::DistributedFriction:
-      return "distributed_friction";
-    case EffectKind::TorsionalStiffness:
-      return "torsional_stiffness";
-    case EffectKind::Precurvature:
-      return "precurvature";
-    case EffectKind::BendingStiffness:
-      return "bending_stiffness";
-    case EffectKind::ActuatorBacklash:
-      return "actuator_backlash";
-    case EffectKind::ActuatorOffset:
-      return "actuator_offset";
-    case EffectKind::SensorLatency:
-      return "sensor_latency";
-    case EffectKind::TranslationBacklash:
-      return "translation_backlash";
-    case EffectKind::TranslationOffset:
-      return "translation_offset";
-  }
-  return "?";
+  return facts(k).name;
 }
-
 const char* parameterName(EffectKind k) {
-  switch (k) {
-    case EffectKind::BoundaryFriction:
-    case EffectKind::DistributedFriction:
-      return "mu";
-    case EffectKind::TorsionalStiffness:
-      return "poisson_ratio";
-    case EffectKind::Precurvature:
-      return "curvature";
-    case EffectKind::BendingStiffness:
-      return "bending_stiffness";
-    case EffectKind::ActuatorBacklash:
-    case EffectKind::TranslationBacklash:
-      return "width";
-    case EffectKind::ActuatorOffset:
-    case EffectKind::TranslationOffset:
-      return "offset";
-    case EffectKind::SensorLatency:
-      return "delay";
-  }
-  return "?";
+  return facts(k).parameter;
 }
-
 const char* parameterUnit(EffectKind k) {
-  switch (k) {
-    case EffectKind::Precurvature:
-      return "1/m";
-    case EffectKind::BendingStiffness:
-      return "N m^2";
-    case EffectKind::ActuatorBacklash:
-    case EffectKind::ActuatorOffset:
-      return "rad";
-    case EffectKind::SensorLatency:
-      return "s";
-    case EffectKind::TranslationBacklash:
-    case EffectKind::TranslationOffset:
-      return "m";
-    default:
-      return "";
-  }
+  return facts(k).unit;
 }
-
 bool isPerTube(EffectKind k) {
-  return k == EffectKind::Precurvature || k == EffectKind::BendingStiffness || k == EffectKind::ActuatorBacklash ||
-         k == EffectKind::ActuatorOffset || k == EffectKind::TranslationBacklash || k == EffectKind::TranslationOffset;
+  return facts(k).per_tube;
 }
-
 bool isStateful(EffectKind k) {
-  return k == EffectKind::BoundaryFriction || k == EffectKind::DistributedFriction ||
-         k == EffectKind::ActuatorBacklash || k == EffectKind::TranslationBacklash;
+  return facts(k).stateful;
 }
-
 int lookAlikeGroup(EffectKind k) {
-  switch (k) {
-    case EffectKind::BoundaryFriction:
-    case EffectKind::DistributedFriction:
-    case EffectKind::SensorLatency:
-    case EffectKind::ActuatorBacklash:
-    case EffectKind::TranslationBacklash:
-      return 1;
-    case EffectKind::ActuatorOffset:
-    case EffectKind::TranslationOffset:
-    case EffectKind::TorsionalStiffness:
-      return 2;
-    default:
-      return 0;
-  }
+  return facts(k).group;
 }
-
 bool isLookAlike(EffectKind k) {
   return lookAlikeGroup(k) != 0;
 }

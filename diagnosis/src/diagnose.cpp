@@ -473,12 +473,18 @@ DiagnosisReport diagnose(const Robot& nominal, const io::Recording& full, const 
       std::vector<Encompassing> enc(rv.size());
       evals = 0;
       const Candidate& W = cands[static_cast<std::size_t>(best)];
+      // W's screening model lists the accepted effects outside its group first (screenCandidate).
+      int group_start = 0;
+      for (const Effect& e : cur.fit.effects) group_start += lookAlikeGroup(e.kind) != lookAlikeGroup(W.slot.kind);
       detail::parallelFor(static_cast<int>(rv.size()), o.threads, ws, [&](int j, Workspace& tws) {
         const Candidate& R = cands[static_cast<std::size_t>(rv[static_cast<std::size_t>(j)])];
         std::vector<Effect> both = W.fit.effects;
         both.push_back(R.fit.effects.back());
         FitOptions jo = fo;
         jo.intervals = false;
+        // As in screening: the accepted effects outside the group are held (W's and R's screening fits held them
+        // too, so the BIC comparisons are like for like); the group's accepted members, W and R are fitted.
+        jo.first_free = group_start;
         try {
           const FitResult J = fitEffects(nominal, rec, both, all, jo, tws, nparams(both));
           evals += J.evaluations;
@@ -586,10 +592,16 @@ DiagnosisReport diagnose(const Robot& nominal, const io::Recording& full, const 
         // current model.
         Candidate P;
         P.slot = W.slot;
-        std::vector<Effect> start = W.fit.effects;
-        for (int i : partners) start.push_back(cands[static_cast<std::size_t>(i)].fit.effects.back());
+        // Started from the encompassing fit with the strongest partner (converged in the group's parameters).
+        std::vector<Effect> start;
+        for (std::size_t j = 0; j < rv.size(); ++j)
+          if (rv[j] == partners.front()) start = enc[j].joint.effects;
+        for (std::size_t i = 1; i < partners.size(); ++i)
+          start.push_back(cands[static_cast<std::size_t>(partners[i])].fit.effects.back());
         const int k = nparams(start);
-        P.fit = fitEffects(nominal, rec, start, all, fo, ws, k);  // + intervals, linearisation
+        FitOptions po = fo;  // a single fit: its difference points are replayed concurrently
+        po.threads = o.threads;
+        P.fit = fitEffects(nominal, rec, start, all, po, ws, k);  // + intervals, linearisation
         rep.evaluations += P.fit.evaluations;
         P.delta_bic = deltaBic(cur.fit.residuals, nparams(cur.fit.effects), P.fit.residuals, k);
         P.bic = cur.bic + P.delta_bic;
@@ -629,7 +641,9 @@ DiagnosisReport diagnose(const Robot& nominal, const io::Recording& full, const 
       // held-out scores at the refined values.
       Candidate& W = cands[static_cast<std::size_t>(best)];
       const int k = nparams(W.fit.effects);
-      FitResult joint = fitEffects(nominal, rec, W.fit.effects, all, fo, ws, k);
+      FitOptions jo = fo;
+      jo.threads = o.threads;
+      FitResult joint = fitEffects(nominal, rec, W.fit.effects, all, jo, ws, k);
       rep.evaluations += joint.evaluations;
       if (deltaBic(W.fit.residuals, k, joint.residuals, k) <= 1e-9) {
         W.fit = std::move(joint);
@@ -722,7 +736,9 @@ DiagnosisReport diagnose(const Robot& nominal, const io::Recording& full, const 
   };
   auto refitWithout = [&](const std::vector<std::size_t>& drop) {
     const std::vector<Effect> reduced = without_effects(drop);
-    return fitEffects(nominal, rec, reduced, all, fo, ws, nparams(reduced));
+    FitOptions ro = fo;
+    ro.threads = o.threads;
+    return fitEffects(nominal, rec, reduced, all, ro, ws, nparams(reduced));
   };
   // Refits of the current model without each of its effects (in parallel); kept for the confounding test (3c)
   // while the current model does not change.
@@ -758,7 +774,9 @@ DiagnosisReport diagnose(const Robot& nominal, const io::Recording& full, const 
             best_d);
     progress("backward elimination: removed " + lab);
     cur.bic += best_d;
-    cur.fit = fitEffects(nominal, rec, without[static_cast<std::size_t>(drop)].effects, all, fo, ws,
+    FitOptions ro = fo;
+    ro.threads = o.threads;
+    cur.fit = fitEffects(nominal, rec, without[static_cast<std::size_t>(drop)].effects, all, ro, ws,
                          nparams(without[static_cast<std::size_t>(drop)].effects));
     rep.evaluations += cur.fit.evaluations;
     without.clear();

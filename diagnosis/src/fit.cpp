@@ -6,6 +6,8 @@
 #include "ctr/diagnosis/statistics.hpp"
 
 #include <algorithm>
+#include <array>
+#include <atomic>
 #include <cmath>
 #include <limits>
 
@@ -133,15 +135,37 @@ class Model {
     for (int j = 0; j < parameters(); ++j) e[static_cast<std::size_t>(effectIndex(j))].value = toValue(j, x[j]);
     return e;
   }
-  /// Full evaluation (prediction, registration, residuals).
-  FitResult evaluate(const std::vector<Effect>& e) {
+  /// Full evaluation (prediction, registration, residuals), with the caller's workspace.
+  FitResult evaluate(const std::vector<Effect>& e) { return evaluate(e, ws_); }
+  FitResult evaluate(const std::vector<Effect>& e, Workspace& w) {
     ++evaluations;
     FitResult f;
     f.effects = e;
-    f.prediction = predict(nominal_, rec_.commands, rec_.time, e, ws_, o_.predict);
+    f.prediction = predict(nominal_, rec_.commands, rec_.time, e, w, o_.predict);
     f.registration = mapToSensor(rec_, f.prediction, o_.frame, use_, o_.noise);
     f.residuals = computeResiduals(rec_, f.prediction);
     return f;
+  }
+  /// Evaluations of several parameter points, on FitOptions::threads threads (in order of `xs`).
+  std::vector<FitResult> evaluateAll(const std::vector<std::vector<double>>& xs) {
+    std::vector<FitResult> out(xs.size());
+    detail::parallelFor(static_cast<int>(xs.size()), o_.threads, ws_, [&](int i, Workspace& w) {
+      out[static_cast<std::size_t>(i)] = evaluate(effectsAt(xs[static_cast<std::size_t>(i)].data()), w);
+    });
+    return out;
+  }
+  /// The evaluation at x: from the last few evaluations of the optimiser when x is one of them (the optimiser's
+  /// final point was always evaluated), else a new replay.
+  FitResult evaluateAt(const std::vector<double>& x) {
+    for (const auto& [cx, cf] : recent_)
+      if (cx == x) return cf;
+    return evaluate(effectsAt(x.data()));
+  }
+  void remember(const std::vector<double>& x, const FitResult& f) {
+    for (const auto& r : recent_)
+      if (r.first == x) return;
+    if (recent_.size() >= 3) recent_.erase(recent_.begin());
+    recent_.emplace_back(x, f);
   }
   /// Noise-normalised residuals of the fit rows. A fit row the model could not evaluate at these parameter values
   /// costs a fixed penalty per component (kFailedRowPenalty noise units), so that no optimiser can lower its cost
@@ -173,6 +197,16 @@ class Model {
     weighted(evaluate(effectsAt(x)), v.data());
     return v;
   }
+  /// As residualAt, keeping the evaluation for evaluateAt (and taking it from there when x was evaluated last: the
+  /// optimiser evaluates the cost at a trial point, then its Jacobian there when the step is accepted).
+  Eigen::VectorXd residualAtRemembered(const double* x) {
+    std::vector<double> xv(x, x + parameters());
+    FitResult f = evaluateAt(xv);
+    Eigen::VectorXd v(residuals());
+    weighted(f, v.data());
+    remember(xv, f);
+    return v;
+  }
   int finiteCount(const Residuals& r) const {
     int c = 0;
     for (int k : layout_.rows)
@@ -182,10 +216,13 @@ class Model {
   }
   /// Central-difference Jacobian in x units (one-sided at the bounds); with `forward` (and r0 given) a one-sided
   /// difference away from the nearer bound (one replay per parameter instead of two).
+  /// The difference points are replayed concurrently (FitOptions::threads).
   Eigen::MatrixXd jacobian(const double* x, const Eigen::VectorXd* r0, bool forward = false) {
     const int k = parameters();
     Eigen::MatrixXd J(residuals(), k);
-    std::vector<double> xp(x, x + k);
+    std::vector<double> lo(static_cast<std::size_t>(k)), hi(static_cast<std::size_t>(k));
+    std::vector<std::vector<double>> points;     // distinct points to replay
+    std::vector<std::array<int, 2>> at(static_cast<std::size_t>(k));  // index into points (-1 = r0) of a, b
     for (int j = 0; j < k; ++j) {
       const double h = o_.difference_step;
       const double xj = x[j];
@@ -196,21 +233,32 @@ class Model {
         else
           a = xj;
       }
-      Eigen::VectorXd ra, rb;
-      xp[static_cast<std::size_t>(j)] = a;
-      ra = a == xj && r0 ? *r0 : residualAt(xp.data());
-      if (r0 && (b == xj)) {
-        rb = *r0;
-      } else {
-        xp[static_cast<std::size_t>(j)] = b;
-        rb = residualAt(xp.data());
+      hi[static_cast<std::size_t>(j)] = a;
+      lo[static_cast<std::size_t>(j)] = b;
+      for (int side = 0; side < 2; ++side) {
+        const double v = side == 0 ? a : b;
+        if (r0 && v == xj) {
+          at[static_cast<std::size_t>(j)][static_cast<std::size_t>(side)] = -1;
+          continue;
+        }
+        std::vector<double> xp(x, x + k);
+        xp[static_cast<std::size_t>(j)] = v;
+        at[static_cast<std::size_t>(j)][static_cast<std::size_t>(side)] = static_cast<int>(points.size());
+        points.push_back(std::move(xp));
       }
-      xp[static_cast<std::size_t>(j)] = xj;
-      J.col(j) = (ra - rb) / std::max(1e-12, a - b);
+    }
+    const std::vector<FitResult> fr = evaluateAll(points);
+    std::vector<Eigen::VectorXd> r(fr.size(), Eigen::VectorXd(residuals()));
+    for (std::size_t i = 0; i < fr.size(); ++i) weighted(fr[i], r[i].data());
+    for (int j = 0; j < k; ++j) {
+      const auto& ab = at[static_cast<std::size_t>(j)];
+      const Eigen::VectorXd& ra = ab[0] < 0 ? *r0 : r[static_cast<std::size_t>(ab[0])];
+      const Eigen::VectorXd& rb = ab[1] < 0 ? *r0 : r[static_cast<std::size_t>(ab[1])];
+      J.col(j) = (ra - rb) / std::max(1e-12, hi[static_cast<std::size_t>(j)] - lo[static_cast<std::size_t>(j)]);
     }
     return J;
   }
-  int evaluations = 0;
+  std::atomic<int> evaluations{0};
 
  private:
   const Robot& nominal_;
@@ -222,6 +270,7 @@ class Model {
   Layout layout_;
   std::vector<ParameterRange> ranges_;
   std::vector<int> free_;
+  std::vector<std::pair<std::vector<double>, FitResult>> recent_;
 };
 
 class ReplayCost : public ceres::CostFunction {
@@ -233,7 +282,7 @@ class ReplayCost : public ceres::CostFunction {
   bool Evaluate(double const* const* p, double* residuals, double** jacobians) const override {
     const int k = m_.parameters();
     std::vector<double> x(p[0], p[0] + k);
-    Eigen::VectorXd r0 = m_.residualAt(x.data());
+    Eigen::VectorXd r0 = m_.residualAtRemembered(x.data());
     if (!r0.allFinite()) return false;
     Eigen::Map<Eigen::VectorXd>(residuals, num_residuals()) = r0;
     if (jacobians && jacobians[0]) {
@@ -286,7 +335,7 @@ FitResult evaluateModel(const Robot& nominal, const io::Recording& rec, const st
   Model m(nominal, rec, effects, use, options, ws);
   FitResult f = m.evaluate(effects);
   f.cost = m.cost(f);
-  f.evaluations = m.evaluations;
+  f.evaluations = m.evaluations.load();
   return f;
 }
 
@@ -302,17 +351,22 @@ FitResult fitEffects(const Robot& nominal, const io::Recording& rec, const std::
   if (o.grid_search) {
     for (int j = 0; j < k; ++j) {
       if (m.effectIndex(j) < grid_from) continue;
-      double best = m.cost(m.evaluate(m.effectsAt(x.data())));
-      double bx = x[static_cast<std::size_t>(j)];
+      std::vector<std::vector<double>> pts(1, x);  // the start, then the grid (replayed concurrently)
       for (double v : m.range(j).grid) {
-        x[static_cast<std::size_t>(j)] = m.toX(j, v);
-        const double c = m.cost(m.evaluate(m.effectsAt(x.data())));
+        pts.push_back(x);
+        pts.back()[static_cast<std::size_t>(j)] = m.toX(j, v);
+      }
+      const std::vector<FitResult> fr = m.evaluateAll(pts);
+      std::size_t bi = 0;
+      double best = m.cost(fr[0]);
+      for (std::size_t i = 1; i < fr.size(); ++i) {
+        const double c = m.cost(fr[i]);
         if (c < best) {
           best = c;
-          bx = x[static_cast<std::size_t>(j)];
+          bi = i;
         }
       }
-      x[static_cast<std::size_t>(j)] = bx;
+      x = pts[bi];
     }
   }
   // Gate: the Gauss-Newton model at the grid's best point predicts the largest cost drop the optimiser can reach;
@@ -332,7 +386,7 @@ FitResult fitEffects(const Robot& nominal, const io::Recording& rec, const std::
       f.cost = m.cost(f);
       f.converged = true;
       f.message = "gated: the linearised optimum cannot lower BIC enough";
-      f.evaluations = m.evaluations;
+      f.evaluations = m.evaluations.load();
       return f;
     }
   }
@@ -350,17 +404,20 @@ FitResult fitEffects(const Robot& nominal, const io::Recording& rec, const std::
   so.function_tolerance = o.function_tolerance;
   so.parameter_tolerance = 1e-4;
   so.gradient_tolerance = 1e-8;
+  // No projected line search at the bounds: it evaluates the Jacobian (k replays) at every trial step (Ceres
+  // issue 187); a step that leaves the box is projected onto it and judged by the trust region as any other.
+  so.max_num_line_search_step_size_iterations = 0;
   so.num_threads = 1;
   so.logging_type = ceres::SILENT;
   so.minimizer_progress_to_stdout = false;
   ceres::Solver::Summary summary;
   ceres::Solve(so, &problem, &summary);
-  FitResult f = m.evaluate(m.effectsAt(x.data()));
+  FitResult f = m.evaluateAt(x);
   f.cost = m.cost(f);
   f.converged = summary.IsSolutionUsable();
   f.message = summary.BriefReport();
   if (o.intervals) addLinearisation(m, x, f);
-  f.evaluations = m.evaluations;
+  f.evaluations = m.evaluations.load();
   return f;
 }
 
@@ -373,7 +430,7 @@ FitResult linearizeModel(const Robot& nominal, const io::Recording& rec, const s
   FitResult f = m.evaluate(m.effectsAt(x.data()));
   f.cost = m.cost(f);
   if (m.parameters() > 0) addLinearisation(m, x, f);
-  f.evaluations = m.evaluations;
+  f.evaluations = m.evaluations.load();
   return f;
 }
 

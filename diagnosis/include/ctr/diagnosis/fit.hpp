@@ -40,6 +40,9 @@ struct FitOptions {
   double gate_bic = 0.0;
   double function_tolerance = 1e-5;  ///< Ceres relative cost-change tolerance.
   int first_free = 0;             ///< Effects before this index keep their start values (not fitted).
+  /// Threads replaying the difference points of a Jacobian and the grid points concurrently (the result does not
+  /// depend on it). Leave 1 when fits already run in parallel.
+  int threads = 1;
   /// Rows any fit or registration may use (empty = all): the diagnosis leaves out the rows the nominal model could
   /// not evaluate (failed rows). Intersected with the `use` / training rows of each call.
   std::vector<char> rows;

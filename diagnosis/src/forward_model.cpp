@@ -105,6 +105,11 @@ Prediction predict(const Robot& nominal, const std::vector<Configuration>& comma
     if (!a) inadmissible[static_cast<std::size_t>(k)] = "inadmissible command: " + a.message;
   }
   const CommandHistory* h = options.history;
+  // Of a decimated recording's stateful replay: for each row, the full-rate commands between the previous kept row
+  // and it where a joint reverses (the friction memory is set at reversals; a straight move between kept rows would
+  // miss a reversal in between and look like play).
+  std::vector<std::vector<Configuration>> via;
+  const bool friction = robot.friction().boundary > 0.0 || robot.friction().distributed > 0.0;
   if (h && static_cast<int>(h->rows.size()) == rows && !h->commands.empty()) {
     // Decimated recording: the actuation effects act on the full-rate log (a latency interpolates between logged
     // commands 0.1 s apart, not between the kept rows; a backlash sees every reversal), then each row takes its own.
@@ -113,6 +118,28 @@ Prediction predict(const Robot& nominal, const std::vector<Configuration>& comma
     const std::vector<Configuration> t = transformActuation(full, h->time, effects, &robot);
     p.actuation.resize(static_cast<std::size_t>(rows));
     for (int k = 0; k < rows; ++k) p.actuation[static_cast<std::size_t>(k)] = t[static_cast<std::size_t>(h->rows[static_cast<std::size_t>(k)])];
+    if (friction && !t.empty()) {
+      const int m = static_cast<int>(t.size());
+      std::vector<char> turn(static_cast<std::size_t>(m), 0);
+      for (int j = 0; j < 2 * n; ++j) {
+        auto x = [&](int i) {
+          const Configuration& c = t[static_cast<std::size_t>(i)];
+          return j < n ? c.alpha[j] : c.beta[j - n];
+        };
+        int dir = 0;  // last non-zero direction of motion of joint j
+        for (int i = 1; i < m; ++i) {
+          const double d = x(i) - x(i - 1);
+          const int di = d > 1e-12 ? 1 : (d < -1e-12 ? -1 : 0);
+          if (di != 0 && dir != 0 && di != dir) turn[static_cast<std::size_t>(i - 1)] = 1;
+          if (di != 0) dir = di;
+        }
+      }
+      via.resize(static_cast<std::size_t>(rows));
+      for (int k = 1; k < rows; ++k)
+        for (int i = h->rows[static_cast<std::size_t>(k - 1)] + 1; i < h->rows[static_cast<std::size_t>(k)]; ++i)
+          if (i >= 0 && i < m && turn[static_cast<std::size_t>(i)])
+            via[static_cast<std::size_t>(k)].push_back(t[static_cast<std::size_t>(i)]);
+    }
   } else {
     p.actuation = transformActuation(commands, time, effects, &robot);
   }
@@ -123,7 +150,6 @@ Prediction predict(const Robot& nominal, const std::vector<Configuration>& comma
   p.ok.assign(static_cast<std::size_t>(rows), 0);
   p.reason.assign(static_cast<std::size_t>(rows), std::string());
   if (rows == 0) return p;
-  const bool friction = robot.friction().boundary > 0.0 || robot.friction().distributed > 0.0;
   auto fail = [&](int k, const std::string& why) {
     ++p.failures;
     p.reason[static_cast<std::size_t>(k)] = why.empty() ? "did not converge" : why;
@@ -162,6 +188,12 @@ Prediction predict(const Robot& nominal, const std::vector<Configuration>& comma
       if (!good.valid) {
         r = initialState(robot, q, ws, options.friction);
       } else {
+        // Through the reversals since the previous kept row (outputs not kept; a failed one is skipped).
+        if (!via.empty())
+          for (const Configuration& v : via[static_cast<std::size_t>(k)]) {
+            StepResult rv = step(robot, good, v, ws, options.friction);
+            if (rv.summary.converged && rv.state.valid && !rv.summary.snapped) good = std::move(rv.state);
+          }
         bool done = false;
         // Coarse sub-steps reproduce the fine replay exactly only for a rotation-only move with at most one
         // friction site (the end state is then slip at the target or stick from the start); with several sites

@@ -260,6 +260,61 @@ TEST(ForwardModel, CoarsePassEqualsFineReplay) {
   }
 }
 
+// A decimated recording (every k-th row kept, the full-rate log as CommandHistory) is replayed through the joint
+// reversals between kept rows: the stick-slip memory set at a reversal that falls between two kept rows is kept.
+// Rotation-only moves of a pair with one friction site, so the end state of every move depends only on its end
+// points and the reversals: the kept rows must equal the full-rate replay (a straight move between kept rows
+// missed the reversal and looked like play: up to the whole friction band).
+TEST(ForwardModel, DecimatedReplayPassesTheReversalsBetweenKeptRows) {
+  const Robot r = pairB();
+  const double deg = M_PI / 180;
+  std::vector<Configuration> full;
+  std::vector<double> a2;
+  for (double a = 0; a <= 100; a += 1) a2.push_back(a);     // up to 100 deg
+  for (double a = 99; a >= 37; a -= 1) a2.push_back(a);     // reversal at 100, down to 37
+  for (double a = 38; a <= 150; a += 1) a2.push_back(a);    // reversal at 37, up to 150
+  Eigen::VectorXd time(static_cast<Eigen::Index>(a2.size()));
+  for (std::size_t i = 0; i < a2.size(); ++i) {
+    Configuration q = Configuration::zeros(2);
+    q.beta << -r.tube(0).straight_length, -r.tube(1).straight_length;
+    q.alpha[1] = a2[i] * deg;
+    full.push_back(q);
+    time[static_cast<Eigen::Index>(i)] = 0.1 * static_cast<double>(i);
+  }
+  ASSERT_LE(contactSites(r, full[0]).size(), 1u);
+  const std::vector<Effect> eff = {{EffectKind::BoundaryFriction, 0, 0.12}};
+  Workspace ws;
+  PredictOptions po;
+  const Prediction ref = predict(r, full, time, eff, ws, po);
+  // Keep every 7th row: the reversal rows (100 and 101 + 63 = 164) are not kept.
+  CommandHistory h;
+  h.commands = full;
+  h.time = time;
+  std::vector<Configuration> kept;
+  Eigen::VectorXd kt((static_cast<Eigen::Index>(full.size()) + 6) / 7);
+  for (int i = 0, j = 0; i < static_cast<int>(full.size()); i += 7, ++j) {
+    ASSERT_NE(i, 100);
+    ASSERT_NE(i, 164);
+    h.rows.push_back(i);
+    kept.push_back(full[static_cast<std::size_t>(i)]);
+    kt[j] = time[i];
+  }
+  PredictOptions dec = po;
+  dec.history = &h;
+  const Prediction p = predict(r, kept, kt, eff, ws, dec);
+  double worst = 0, straight_worst = 0;
+  PredictOptions straight = po;  // the same rows without the history: straight moves between kept rows
+  const Prediction s = predict(r, kept, kt, eff, ws, straight);
+  for (std::size_t k = 0; k < h.rows.size(); ++k) {
+    const int i = h.rows[k];
+    ASSERT_TRUE(p.ok[k] && ref.ok[static_cast<std::size_t>(i)]) << "row " << k;
+    worst = std::max(worst, std::abs(p.twist(static_cast<Eigen::Index>(k), 0) - ref.twist(i, 0)));
+    straight_worst = std::max(straight_worst, std::abs(s.twist(static_cast<Eigen::Index>(k), 0) - ref.twist(i, 0)));
+  }
+  EXPECT_LT(worst, 1e-8);
+  EXPECT_GT(straight_worst, 1e-2);  // the case separates: without the reversals the kept rows are wrong
+}
+
 // Found by fuzz_import: a mapping named alpha_<not a number> escaped from importTableText as std::invalid_argument
 // (std::stoi) when the tube count is inferred.
 TEST(Import, BadAlphaMappingNamesAreInputErrors) {

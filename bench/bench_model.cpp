@@ -50,9 +50,42 @@ void BM_SolveCold(benchmark::State& st) {
   int k = 0;
   for (auto _ : st) {
     const double a = 0.3 + 0.01 * (k++ % 200);
-    ctr::Solution s = kThree ? ctr::solve(robot, dupontConfig(a, -a), ws, opt) : ctr::solve(robot, pairConfig(a), ws, opt);
+    ctr::Solution s =
+        kThree ? ctr::solve(robot, dupontConfig(a, -a), ws, opt) : ctr::solve(robot, pairConfig(a), ws, opt);
     if (kShape) benchmark::DoNotOptimize(ctr::resampleBackbone(s, s.tipArcLength() / 99.0));
     benchmark::DoNotOptimize(s.tip_position);
+  }
+}
+
+// Warm start that advances with a sweep (0.5 deg per solve of tubes 2 and 3 of the Dupont-lab robot, tip only): a
+// controller or a planner's motion check. BM_SolveWarm above alternates between two fixed configurations, so its warm
+// start never moves (1 Newton iteration instead of 2). kPlanning: the planner's integration settings
+// (docs/planning.md: 40 mm / 0.3 rad steps) instead of the library default (10 mm / 0.12 rad).
+template <bool kPlanning>
+void BM_SolveSweep(benchmark::State& st) {
+  const ctr::Robot robot = loadExample("dupont_lab_3tube.yaml");
+  ctr::Workspace ws;
+  ctr::KinematicsOptions opt;
+  if (kPlanning) {
+    opt.max_step = 0.04;
+    opt.max_bending_per_step = 0.3;
+  }
+  opt.record_backbone = false;
+  const double d = 0.5 * M_PI / 180.0;
+  auto cfg = [&](int k) { return dupontConfig(d * k, -2.0 + 1.3 * d * k); };
+  int k = 0;
+  ctr::Solution prev = ctr::solve(robot, cfg(k), ws, opt);
+  for (auto _ : st) {
+    if (++k == 720) {  // a full turn; restart from a cold solve (not timed)
+      st.PauseTiming();
+      k = 0;
+      prev = ctr::solve(robot, cfg(k), ws, opt);
+      st.ResumeTiming();
+      continue;
+    }
+    ctr::Solution s = ctr::solve(robot, cfg(k), ws, opt, &prev);
+    benchmark::DoNotOptimize(s.tip_position);
+    prev = std::move(s);
   }
 }
 
@@ -82,3 +115,5 @@ BENCHMARK(BM_SolveWarm<true, true>)->Name("solve_warm/dupont3/shape100");
 BENCHMARK(BM_SolveCold<true, false>)->Name("solve_cold/dupont3/tip");
 BENCHMARK(BM_SolveCold<true, true>)->Name("solve_cold/dupont3/shape100");
 BENCHMARK(BM_StickSlipStep3)->Name("stick_slip_step/dupont3/1deg");
+BENCHMARK(BM_SolveSweep<false>)->Name("solve_sweep/dupont3/tip/default");
+BENCHMARK(BM_SolveSweep<true>)->Name("solve_sweep/dupont3/tip/planning");

@@ -221,7 +221,7 @@ class Model {
     const int k = parameters();
     Eigen::MatrixXd J(residuals(), k);
     std::vector<double> lo(static_cast<std::size_t>(k)), hi(static_cast<std::size_t>(k));
-    std::vector<std::vector<double>> points;     // distinct points to replay
+    std::vector<std::vector<double>> points;                          // distinct points to replay
     std::vector<std::array<int, 2>> at(static_cast<std::size_t>(k));  // index into points (-1 = r0) of a, b
     for (int j = 0; j < k; ++j) {
       const double h = o_.difference_step;

@@ -117,7 +117,8 @@ Prediction predict(const Robot& nominal, const std::vector<Configuration>& comma
     for (Configuration& q : full) projectAdmissible(robot, q);
     const std::vector<Configuration> t = transformActuation(full, h->time, effects, &robot);
     p.actuation.resize(static_cast<std::size_t>(rows));
-    for (int k = 0; k < rows; ++k) p.actuation[static_cast<std::size_t>(k)] = t[static_cast<std::size_t>(h->rows[static_cast<std::size_t>(k)])];
+    for (int k = 0; k < rows; ++k)
+      p.actuation[static_cast<std::size_t>(k)] = t[static_cast<std::size_t>(h->rows[static_cast<std::size_t>(k)])];
     if (friction && !t.empty()) {
       const int m = static_cast<int>(t.size());
       std::vector<char> turn(static_cast<std::size_t>(m), 0);

@@ -7,9 +7,12 @@ namespace ctr::plan {
 
 const char* toString(Mode m) {
   switch (m) {
-    case Mode::Exact: return "exact";
-    case Mode::Robust: return "robust";
-    case Mode::Frictionless: return "frictionless";
+    case Mode::Exact:
+      return "exact";
+    case Mode::Robust:
+      return "robust";
+    case Mode::Frictionless:
+      return "frictionless";
   }
   return "?";
 }
@@ -19,6 +22,19 @@ Mode parseMode(const std::string& s) {
   if (s == "robust") return Mode::Robust;
   if (s == "frictionless") return Mode::Frictionless;
   throw std::invalid_argument("unknown mode '" + s + "' (exact, robust, frictionless)");
+}
+
+KinematicsOptions planningKinematicsOptions() {
+  KinematicsOptions o;
+  o.max_step = 0.04;
+  o.max_bending_per_step = 0.3;
+  return o;
+}
+
+FrictionOptions planningFrictionOptions() {
+  FrictionOptions f;
+  f.kinematics = planningKinematicsOptions();
+  return f;
 }
 
 Context::Context(Robot robot, std::shared_ptr<const env::Environment> env, ContextOptions options,
@@ -42,7 +58,7 @@ ShapeCheck checkShape(const Context& ctx, const Solution& sol, ThreadScratch& t)
   ShapeCheck c;
   if (!sol.converged()) {
     c.reason = sol.summary.status == SolveStatus::Inadmissible ? "inadmissible: " + sol.summary.message
-                                                                : "model not converged: " + sol.summary.message;
+                                                               : "model not converged: " + sol.summary.message;
     return c;
   }
   if (!sol.summary.stable) {

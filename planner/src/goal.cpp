@@ -37,7 +37,7 @@ void projectTranslations(const Context& ctx, Configuration& q) {
 
 double inverseKinematics(const Context& ctx, const Eigen::Vector3d& target, Configuration& q, int iterations) {
   Workspace& ws = scratch().ws;
-  KinematicsOptions o;
+  KinematicsOptions o = ctx.options().friction.kinematics;
   o.record_backbone = false;
   const Robot& r = ctx.frictionlessRobot();
   const Eigen::Vector3d tb = ctx.basePose().inverse() * target;
@@ -116,6 +116,7 @@ double TipGoal::goalDistance(const Eigen::Vector3d& tip, const Eigen::Vector3d& 
 double TipGoal::bandDistance(const Configuration& q, Eigen::Vector3d* center) const {
   FrictionBandOptions o;
   o.interior_samples = 0;
+  o.kinematics = ctx_->options().friction.kinematics;
   o.kinematics.record_backbone = false;
   const FrictionBand band = frictionBand(ctx_->robot(), q, scratch().ws, o);
   if (!band.converged) return std::numeric_limits<double>::infinity();

@@ -139,7 +139,9 @@ void CtrStateSampler::sampleGaussian(ob::State* state, const ob::State* mean, do
 TipProjection::TipProjection(const CtrStateSpace* space, std::shared_ptr<const Context> ctx, double cell_size)
     : ob::ProjectionEvaluator(space), ctr_(space), ctx_(std::move(ctx)), cell_(cell_size) {}
 
-void TipProjection::defaultCellSizes() { cellSizes_.assign(3, cell_); }
+void TipProjection::defaultCellSizes() {
+  cellSizes_.assign(3, cell_);
+}
 
 void TipProjection::project(const ob::State* state, Eigen::Ref<Eigen::VectorXd> projection) const {
   Eigen::Vector3d tip;
@@ -155,7 +157,7 @@ bool tipOf(const Context& ctx, const CtrStateSpace& space, const ob::State* s, E
     if (tangent) *tangent = ctx.basePose().linear() * st->cache->solution.tipTangent();
     return true;
   }
-  KinematicsOptions o;
+  KinematicsOptions o = ctx.options().friction.kinematics;
   o.record_backbone = false;
   const Solution sol = solve(ctx.modelRobot(), space.configuration(s), scratch().ws, o);
   if (!sol.converged()) return false;

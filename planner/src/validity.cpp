@@ -11,22 +11,21 @@ namespace ob = ompl::base;
 namespace ctr::plan {
 namespace {
 
-// Shapes for collision checking: the backbone geometry only (no per-tube theta / u_z at the nodes).
-const KinematicsOptions& shapeOptions() {
-  static const KinematicsOptions o = [] {
-    KinematicsOptions k;
-    k.record_backbone = true;
-    k.record_tube_states = false;
-    return k;
-  }();
-  return o;
+// Shapes for collision checking: the backbone geometry only (no per-tube theta / u_z at the nodes), integrated as
+// every solve of the planner.
+KinematicsOptions shapeOptions(const Context& ctx) {
+  KinematicsOptions k = ctx.options().friction.kinematics;
+  k.record_backbone = true;
+  k.record_tube_states = false;
+  return k;
 }
 
 int stepsFor(const Context& ctx, const Configuration& d) {
   const double a = d.alpha.size() ? d.alpha.cwiseAbs().maxCoeff() : 0.0;
   const double b = d.beta.size() ? d.beta.cwiseAbs().maxCoeff() : 0.0;
-  return std::max(1, static_cast<int>(std::ceil(std::max(a / ctx.options().rotation_resolution,
-                                                          b / ctx.options().translation_resolution) - 1e-9)));
+  return std::max(
+      1, static_cast<int>(std::ceil(
+             std::max(a / ctx.options().rotation_resolution, b / ctx.options().translation_resolution) - 1e-9)));
 }
 
 bool jumped(const Solution& a, const Solution& b, double threshold) {
@@ -59,10 +58,11 @@ bool bandAt(const Context& ctx, const Configuration& q, ThreadScratch& t, const 
   out.shapes.clear();
   const Robot& robot = ctx.robot();
   const double thr = ctx.options().friction.snap_threshold;
-  Solution base =
-      solve(ctx.frictionlessRobot(), q, t.ws, shapeOptions(), prev && !prev->shapes.empty() ? &prev->shapes[0] : nullptr);
+  Solution base = solve(ctx.frictionlessRobot(), q, t.ws, shapeOptions(ctx),
+                        prev && !prev->shapes.empty() ? &prev->shapes[0] : nullptr);
   if (prev && !prev->shapes.empty() &&
-      (!base.converged() || (prev->shapes[0].summary.stable && !base.summary.stable) || jumped(prev->shapes[0], base, thr))) {
+      (!base.converged() || (prev->shapes[0].summary.stable && !base.summary.stable) ||
+       jumped(prev->shapes[0], base, thr))) {
     why = "frictionless branch snaps";
     return false;
   }
@@ -78,14 +78,13 @@ bool bandAt(const Context& ctx, const Configuration& q, ThreadScratch& t, const 
   const std::size_t k = sites.size();
   std::vector<ContactCondition> cond(k);
   for (std::size_t code = 0; code < (std::size_t(1) << k); ++code) {
-    for (std::size_t c = 0; c < k; ++c)
-      cond[c] = {ContactCondition::Law::Torque, (code >> c) & 1u ? 1.0 : -1.0};
+    for (std::size_t c = 0; c < k; ++c) cond[c] = {ContactCondition::Law::Torque, (code >> c) & 1u ? 1.0 : -1.0};
     // Followed from the same vertex of the previous step; when a site appears or disappears the band changes
     // discontinuously (a new contact enters with its full bound): no branch to follow, warm start from the
     // frictionless shape.
     const long pv = prev ? alignedVertex(*prev, sites, code) : -1;
     const Solution* warm = pv > 0 ? &prev->shapes[static_cast<std::size_t>(pv)] : &out.shapes[0];
-    Solution s = solveWithContacts(robot, q, cond, t.ws, shapeOptions(), warm);
+    Solution s = solveWithContacts(robot, q, cond, t.ws, shapeOptions(ctx), warm);
     if (!s.converged()) {
       why = "friction band vertex not converged: " + s.summary.message;
       return false;
@@ -109,7 +108,7 @@ bool bandAt(const Context& ctx, const Configuration& q, ThreadScratch& t, const 
 ConfigurationCheck checkFrictionless(const Context& ctx, const Configuration& q, ThreadScratch& t,
                                      const Solution* warm) {
   ConfigurationCheck r;
-  r.shape = solve(ctx.frictionlessRobot(), q, t.ws, shapeOptions(), warm);
+  r.shape = solve(ctx.frictionlessRobot(), q, t.ws, shapeOptions(ctx), warm);
   const ShapeCheck c = checkShape(ctx, r.shape, t);
   r.ok = c.ok;
   r.reason = c.reason;
@@ -154,7 +153,7 @@ double checkMotionForward(const Context& ctx, const Configuration& q0, const Con
   for (int k = 1; k <= steps; ++k) {
     const double s = static_cast<double>(k) / steps;
     const Configuration qk(q0.alpha + s * d.alpha, q0.beta + s * d.beta);
-    Solution next = solve(ctx.frictionlessRobot(), qk, t.ws, shapeOptions(), &cur);
+    Solution next = solve(ctx.frictionlessRobot(), qk, t.ws, shapeOptions(ctx), &cur);
     if (!next.converged() || (cur.summary.stable && !next.summary.stable) || jumped(cur, next, thr)) {
       why = "the equilibrium branch snaps";
       return fail(k - 1);
@@ -182,8 +181,10 @@ bool ValidityChecker::isValid(const ob::State* state) const {
     case Mode::Exact:
       if (st->cache) return st->cache->physics_ok && checkShape(*ctx_, st->cache->solution, t).ok;
       return checkFrictionless(*ctx_, space_->configuration(state), t).ok;
-    case Mode::Robust: return checkRobust(*ctx_, space_->configuration(state), t).ok;
-    case Mode::Frictionless: return checkFrictionless(*ctx_, space_->configuration(state), t).ok;
+    case Mode::Robust:
+      return checkRobust(*ctx_, space_->configuration(state), t).ok;
+    case Mode::Frictionless:
+      return checkFrictionless(*ctx_, space_->configuration(state), t).ok;
   }
   return false;
 }
@@ -195,7 +196,7 @@ double ValidityChecker::clearance(const ob::State* state) const {
   if (st->cache && st->cache->solution.converged()) {
     shape = st->cache->solution;
   } else {
-    shape = solve(ctx_->frictionlessRobot(), space_->configuration(state), t.ws, shapeOptions());
+    shape = solve(ctx_->frictionlessRobot(), space_->configuration(state), t.ws, shapeOptions(*ctx_));
     if (!shape.converged()) return 0.0;
   }
   if (!ctx_->checker().distanceField()) return 0.0;

@@ -19,7 +19,9 @@ using namespace ctr;
 using namespace ctr::diagnosis;
 
 namespace {
-Robot pairB() { return io::loadRobot(std::string(CTR_SOURCE_DIR) + "/examples/robots/tube_pair_B.yaml"); }
+Robot pairB() {
+  return io::loadRobot(std::string(CTR_SOURCE_DIR) + "/examples/robots/tube_pair_B.yaml");
+}
 }  // namespace
 
 TEST(Effect, ParseAndNames) {
@@ -99,7 +101,8 @@ TEST(Import, MappingUnwrapAndDupontFormat) {
   unwrapAngles(a);
   EXPECT_NEAR(a[1], 2 * M_PI - 3.0, 1e-12);
   EXPECT_NEAR(a[3], 3.1, 1e-12);
-  const std::string path = std::string(CTR_SHARED_DIR) + "/data/dupont-lab-ctr-trajectory-hjhdog1/jointTipTrajectory_measured_short.txt";
+  const std::string path =
+      std::string(CTR_SHARED_DIR) + "/data/dupont-lab-ctr-trajectory-hjhdog1/jointTipTrajectory_measured_short.txt";
   std::ifstream f(path);
   if (!f) GTEST_SKIP() << "no " << path;
   const io::Recording rec = importTable(path, dupontLabImportOptions());
@@ -217,8 +220,11 @@ TEST(ForwardModel, CoarsePassEqualsFineReplay) {
       {"dupont_lab_3tube", ActuationPattern::Random, true, {{EffectKind::BoundaryFriction, 0, 0.1}}, 60},
       {"three_tube_generic", ActuationPattern::RandomWalk, true, {{EffectKind::BoundaryFriction, 0, 0.15}}, 60},
       {"tube_pair_B", ActuationPattern::Random, false, {{EffectKind::DistributedFriction, 0, 0.3}}, 12},
-      {"tube_pair_B", ActuationPattern::Random, false,
-       {{EffectKind::BoundaryFriction, 0, 0.12}, {EffectKind::DistributedFriction, 0, 0.3}}, 8},
+      {"tube_pair_B",
+       ActuationPattern::Random,
+       false,
+       {{EffectKind::BoundaryFriction, 0, 0.12}, {EffectKind::DistributedFriction, 0, 0.3}},
+       8},
   };
 #ifdef CTR_SANITIZED
   const int divide = 4;  // the fine reference replays are slow under ASan
@@ -252,7 +258,8 @@ TEST(ForwardModel, CoarsePassEqualsFineReplay) {
           EXPECT_LT((a.twist.row(k) - b.twist.row(k)).cwiseAbs().maxCoeff(), 1e-8) << "row " << k;
         }
       } else {
-        EXPECT_EQ(a.reason[static_cast<std::size_t>(k)].rfind("snapped", 0), 0u) << a.reason[static_cast<std::size_t>(k)];
+        EXPECT_EQ(a.reason[static_cast<std::size_t>(k)].rfind("snapped", 0), 0u)
+            << a.reason[static_cast<std::size_t>(k)];
         EXPECT_TRUE(a.tip_position.row(k).array().isNaN().all()) << "row " << k;
       }
     }
@@ -270,9 +277,9 @@ TEST(ForwardModel, DecimatedReplayPassesTheReversalsBetweenKeptRows) {
   const double deg = M_PI / 180;
   std::vector<Configuration> full;
   std::vector<double> a2;
-  for (double a = 0; a <= 100; a += 1) a2.push_back(a);     // up to 100 deg
-  for (double a = 99; a >= 37; a -= 1) a2.push_back(a);     // reversal at 100, down to 37
-  for (double a = 38; a <= 150; a += 1) a2.push_back(a);    // reversal at 37, up to 150
+  for (double a = 0; a <= 100; a += 1) a2.push_back(a);   // up to 100 deg
+  for (double a = 99; a >= 37; a -= 1) a2.push_back(a);   // reversal at 100, down to 37
+  for (double a = 38; a <= 150; a += 1) a2.push_back(a);  // reversal at 37, up to 150
   Eigen::VectorXd time(static_cast<Eigen::Index>(a2.size()));
   for (std::size_t i = 0; i < a2.size(); ++i) {
     Configuration q = Configuration::zeros(2);

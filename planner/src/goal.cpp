@@ -3,6 +3,7 @@
 #include <ompl/base/SpaceInformation.h>
 
 #include "ctr/planner/stopwatch.hpp"
+#include "ctr/planner/validity.hpp"
 
 #include <Eigen/Cholesky>
 #include <algorithm>
@@ -193,9 +194,23 @@ bool TipGoal::tryCandidate() const {
   }
   ob::State* st = si_->allocState();
   space_->setConfiguration(st, q);
-  const bool ok = (robust ? band <= spec_.tolerance : distanceGoal(st) <= spec_.tolerance) && si_->isValid(st);
+  const bool on_target = robust ? band <= spec_.tolerance : distanceGoal(st) <= spec_.tolerance;
+  const bool ok = on_target && si_->isValid(st);
   if (ok) q = space_->configuration(st);
   si_->freeState(st);
+  if (!on_target && !robust) {
+    std::lock_guard<std::mutex> lock(mutex_);
+    ++rejected_goal_;
+  }
+  if (!ok && on_target && !robust) {
+    // Why the goal configuration was rejected (for the one-line reason of an empty pool).
+    const ConfigurationCheck c = checkFrictionless(*ctx_, q, scratch());
+    std::lock_guard<std::mutex> lock(mutex_);
+    if (c.reason.rfind("collision", 0) == 0)
+      ++rejected_collision_;
+    else if (c.reason.rfind("elastically unstable", 0) == 0)
+      ++rejected_unstable_;
+  }
   if (!ok) return false;
   std::lock_guard<std::mutex> lock(mutex_);
   if (pool_.size() >= target_) return false;
@@ -235,8 +250,15 @@ std::string TipGoal::emptyPoolReason() const {
     return "robust mode: " + std::to_string(band_reached_) + " of " + n +
            " reach the target with their whole "
            "friction band, but none is valid (a band shape collides, is unstable or does not converge)";
-  return n + " reach the target, but none is valid in " + toString(ctx_->options().mode) +
-         " mode (collision, unstable or not converged)";
+  const std::size_t in_goal = ik_reached_ - std::min(ik_reached_, rejected_goal_);
+  const std::size_t other = in_goal - std::min(in_goal, rejected_collision_ + rejected_unstable_);
+  std::string why = "no valid goal configuration for this design: " + n + " put the tip on the target";
+  if (rejected_goal_ > 0) why += ", " + std::to_string(rejected_goal_) + " of them outside the goal's direction cone";
+  why += "; of the " + std::to_string(in_goal) + " in the goal region " + std::to_string(rejected_collision_) +
+         " collide with the anatomy";
+  if (rejected_unstable_ > 0) why += ", " + std::to_string(rejected_unstable_) + " are elastically unstable";
+  if (other > 0) why += ", " + std::to_string(other) + " are invalid otherwise (not converged)";
+  return why;
 }
 
 }  // namespace ctr::plan

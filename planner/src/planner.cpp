@@ -1,5 +1,6 @@
 #include "ctr/planner/planner.hpp"
 
+#include "ctr/planner/portfolio.hpp"
 #include "ctr/planner/stopwatch.hpp"
 
 #include <ompl/base/ScopedState.h>
@@ -88,9 +89,12 @@ void CtrPlanner::init(Robot robot, env::Environment e) {
   if (!adm) throw io::InputError(query.file, query.lineOf("start"), "start", "not admissible: " + adm.message);
   if (query.goal_configuration) {
     if (query.goal_configuration->size() != n)
-      throw io::InputError(query.file, query.lineOf("goal.configuration"), "goal.configuration", "wrong number of tubes");
+      throw io::InputError(query.file, query.lineOf("goal.configuration"), "goal.configuration",
+                           "wrong number of tubes");
     const Admissibility ga = projectAdmissible(robot, *query_.goal_configuration);
-    if (!ga) throw io::InputError(query.file, query.lineOf("goal.configuration"), "goal.configuration", "not admissible: " + ga.message);
+    if (!ga)
+      throw io::InputError(query.file, query.lineOf("goal.configuration"), "goal.configuration",
+                           "not admissible: " + ga.message);
   }
   if (!query.base_start.empty()) {
     try {
@@ -201,6 +205,8 @@ ob::PlannerPtr CtrPlanner::makePlanner(const std::string& name0) const {
     }
     if (name == "est") return std::make_shared<oc::EST>(si);
     if (name == "pdst") return std::make_shared<oc::PDST>(si);
+    if (name == "portfolio")  // RRT and KPIECE solve different queries (docs/planning.md): both, on two threads
+      return std::make_shared<Portfolio>(si, std::vector<ob::PlannerPtr>{makePlanner("rrt"), makePlanner("kpiece")});
   } else {
     const ob::SpaceInformationPtr& si = gss_->getSpaceInformation();
     if (name == "rrtconnect") return std::make_shared<og::RRTConnect>(si);
@@ -218,13 +224,18 @@ ob::PlannerPtr CtrPlanner::makePlanner(const std::string& name0) const {
     if (name == "bkpiece") return std::make_shared<og::BKPIECE1>(si);
     if (name == "est") return std::make_shared<og::EST>(si);
     if (name == "sbl") return std::make_shared<og::SBL>(si);
+    if (name == "portfolio")
+      return std::make_shared<Portfolio>(si,
+                                         std::vector<ob::PlannerPtr>{makePlanner("rrtconnect"), makePlanner("kpiece")});
   }
   std::string known;
   for (const auto& x : plannerNames(query_.mode)) known += (known.empty() ? "" : ", ") + x;
   throw std::invalid_argument("unknown planner '" + name0 + "' for mode " + toString(query_.mode) + " (" + known + ")");
 }
 
-PlanResult CtrPlanner::solve() { return solve(query_.planner, query_.time_limit); }
+PlanResult CtrPlanner::solve() {
+  return solve(query_.planner, query_.time_limit);
+}
 
 std::size_t CtrPlanner::prepareGoal(double time_limit) {
   if (!goal_) return 0;
@@ -268,8 +279,14 @@ PlanResult CtrPlanner::solve(const std::string& planner_name, double time_limit)
     r.mode = query_.mode;
     r.planner = p->getName();
     r.planning_time = planning_time;
-    r.message = std::string("planner: ") + status.asString();
-    if (goal_ && goal_->maxSampleCount() == 0) r.message += " (" + goal_->emptyPoolReason() + ")";
+    // One line saying why: no goal configuration at all, or the planner's status (the time limit ran out).
+    if (goal_ && goal_->maxSampleCount() == 0)
+      r.message = goal_->emptyPoolReason();
+    else
+      r.message = std::string("planner: ") + status.asString() +
+                  (status == ob::PlannerStatus::APPROXIMATE_SOLUTION || status == ob::PlannerStatus::TIMEOUT
+                       ? " (no path to a goal configuration within the time limit)"
+                       : "");
   }
   r.planning_wall_time = planning_wall_time;
   r.goal_pool = goal_ ? goal_->maxSampleCount() : 0;
@@ -327,7 +344,8 @@ PlanResult CtrPlanner::replaySolution(const std::string& planner, double plannin
       return std::make_tuple(d, 0.0, d <= tol);
     };
   }
-  r.replay = replayPath(*ctx_, r.path, query_.history, test, query_.replay_rotation_step, query_.replay_translation_step);
+  r.replay =
+      replayPath(*ctx_, r.path, query_.history, test, query_.replay_rotation_step, query_.replay_translation_step);
   r.replay_time = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   r.solved = exact && r.replay.ok();
   if (!r.solved) r.message = "replay: " + (r.replay.first_failure.empty() ? "failed" : r.replay.first_failure);

@@ -77,8 +77,8 @@ Configuration configuration(const Ctx& c, const YAML::Node& n, const std::string
 }  // namespace
 
 std::vector<std::string> plannerNames(Mode mode) {
-  if (mode == Mode::Exact) return {"rrt", "kpiece", "sst", "est", "pdst"};
-  return {"rrtconnect", "rrt", "rrtstar", "bitstar", "prm", "prmstar", "lazyprm", "kpiece", "bkpiece", "est", "sbl"};
+  if (mode == Mode::Exact) return {"rrt", "kpiece", "sst", "est", "pdst", "portfolio"};
+  return {"rrtconnect", "portfolio", "rrt", "rrtstar", "bitstar", "prm", "prmstar", "lazyprm", "kpiece", "bkpiece", "est", "sbl"};
 }
 
 namespace {

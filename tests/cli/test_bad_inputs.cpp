@@ -311,7 +311,7 @@ const std::vector<Case> kCases = {
   {"PlanTimeOptionNegative", "plan", "--time -1", "plan", [](Dir& d) { d.write("q.yaml", heartQuery()); },
    "plan {d}/q.yaml --time -1 --json {d}/r.json", 2, {"--time", "-1", "must be > 0"}},
   {"PlanUnknownPlannerInQuery", "plan", "unknown planner in the query", "plan", [](Dir& d) {
-     const std::string t = edit(heartQuery(), "planner: rrt", "planner: teleport");
+     const std::string t = edit(heartQuery(), "planner: portfolio", "planner: teleport");
      d.write("q.yaml", t); d.expect["line"] = std::to_string(lineOf(t, "teleport")); },
    "plan {d}/q.yaml --json {d}/r.json", 2, {"q.yaml:{line}", "planner", "teleport"}},
   {"PlanUnknownPlannerOption", "plan", "unknown --planner", "plan", [](Dir& d) { d.write("q.yaml", heartQuery()); },

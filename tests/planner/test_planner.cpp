@@ -402,3 +402,32 @@ TEST(Planning, RobustModeSaysWhenTheBandCannotReachTheGoal) {
   EXPECT_EQ(r.goal_pool, 0u);
   EXPECT_NE(r.message.find("friction band"), std::string::npos) << r.message;
 }
+
+TEST(Planning, InfeasibleLungExampleSaysWhyInOneLine) {
+  // Lung patient 1 with its design: every inverse-kinematics solution on the nodule collides (docs/planning.md).
+  // The result must say so in one line, not "approximate solution".
+  Query q = loadQuery(src("examples/queries/medmpd_lung_patient1.yaml"));
+  q.time_limit = 3;
+  q.cpu_time_limit = true;
+  q.env_resolution = 0.002;  // a coarser map: quicker set-up, the same verdict
+  CtrPlanner p(q);
+  const PlanResult r = p.solve();
+  EXPECT_FALSE(r.solved);
+  EXPECT_EQ(r.goal_pool, 0u);
+  EXPECT_EQ(r.message.rfind("no valid goal configuration for this design", 0), 0u) << r.message;
+  EXPECT_NE(r.message.find("collide with the anatomy"), std::string::npos) << r.message;
+  EXPECT_EQ(r.message.find('\n'), std::string::npos) << r.message;
+}
+
+TEST(Planning, PortfolioRunsItsMembersAndSolvesTheIntracardiacQuery) {
+  Query q = loadQuery(src("examples/queries/proc_intracardiac.yaml"));
+  q.planner = "portfolio";
+  q.time_limit = 20;
+  CtrPlanner p(q);
+  PlanResult r = p.solve();
+  if (!r.solved) r = p.solve();  // OMPL's process-wide seed (see ExactModeSolves...)
+  ASSERT_TRUE(r.solved) << r.message;
+  EXPECT_NE(r.planner.find("Portfolio(RRT+KPIECE1)"), std::string::npos) << r.planner;
+  EXPECT_TRUE(r.replay.collision_free);
+  EXPECT_LE(r.replay.tip_error, q.tip_goal->tolerance);
+}

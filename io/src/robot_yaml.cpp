@@ -24,12 +24,14 @@ namespace {
 
 using detail::formatNumber;
 
-const std::vector<std::string> kTopKeys = {"name", "tubes", "friction"};
+const std::vector<std::string> kTopKeys = {"name", "tubes", "friction", "loads"};
 const std::vector<std::string> kTubeKeys = {
     "name",           "straight_length", "curved_length",   "curvature",
     "bending_stiffness", "poisson_ratio", "torsional_stiffness", "youngs_modulus",
-    "outer_diameter", "inner_diameter", "rotation_limits", "translation_limits"};
+    "outer_diameter", "inner_diameter", "rotation_limits", "translation_limits",
+    "linear_density",    "density"};
 const std::vector<std::string> kFrictionKeys = {"boundary", "distributed"};
+const std::vector<std::string> kLoadsKeys = {"gravity", "tip_force", "tip_moment"};
 constexpr double kPi = 3.14159265358979323846;
 
 // 1-based line of a node, 0 when unknown. Never throws (Mark() throws on invalid nodes).
@@ -100,6 +102,8 @@ private:
   std::array<double, 2> range(const Entry& e, const std::string& where) const;
   Tube tube(const YAML::Node& node, int k);
   FrictionCoefficients friction(const Entry& e);
+  Loads loads(const Entry& e);
+  Eigen::Vector3d vector3(const Entry& e, const std::string& where) const;
   InputError fromModel(const std::string& what) const;
   std::string defaultName() const;
 
@@ -109,6 +113,7 @@ private:
   std::vector<int> tube_item_lines_;
   std::vector<std::string> tube_names_;
   std::map<std::string, int> friction_lines_;
+  std::map<std::string, int> loads_lines_;
   int tubes_line_ = 0;
 };
 
@@ -267,6 +272,20 @@ Tube RobotParser::tube(const YAML::Node& node, int k) {
                  "outer_diameter and inner_diameter");
   }
 
+  // Mass per unit length (gravity): given directly (overrides), or density * pi (od^2 - id^2) / 4.
+  atLeast("linear_density", 0.0, false, " kg/m");
+  atLeast("density", 0.0, false, " kg/m^3");
+  if (has("linear_density")) {
+    t.linear_density = v["linear_density"];
+  } else if (has("density")) {
+    if (t.outer_diameter <= 0.0)
+      fail(lineAt("density"), "density",
+           where + "density needs outer_diameter (and inner_diameter, 0 for a solid wire) to give the linear "
+                   "density rho*pi*(od^2 - id^2)/4; or give linear_density (kg/m)");
+    const double od = t.outer_diameter, id = t.inner_diameter;
+    t.linear_density = v["density"] * kPi * (od * od - id * id) / 4.0;
+  }
+
   // Torsional stiffness G*J: given directly (overrides), or E*I / (1 + poisson_ratio).
   if (has("poisson_ratio")) {
     const double nu = v["poisson_ratio"];
@@ -300,6 +319,34 @@ FrictionCoefficients RobotParser::friction(const Entry& e) {
   return f;
 }
 
+Eigen::Vector3d RobotParser::vector3(const Entry& e, const std::string& where) const {
+  if (!e.value.IsSequence() || e.value.size() != 3)
+    fail(e.line, e.key, where + "expected a list [x, y, z] of three numbers (base frame), got " +
+                            (e.value.IsSequence() ? "a list of " + std::to_string(e.value.size()) + " items"
+                                                  : describe(e.value)));
+  Eigen::Vector3d r;
+  for (std::size_t i = 0; i < 3; ++i) {
+    const YAML::Node item = e.value[i];
+    const int line = lineOf(item) > 0 ? lineOf(item) : e.line;
+    r[static_cast<int>(i)] = number(item, line, e.key, where);
+  }
+  return r;
+}
+
+Loads RobotParser::loads(const Entry& e) {
+  Loads l;
+  if (!e.value.IsDefined() || e.value.IsNull()) return l;  // "loads:" alone: no external load
+  if (!e.value.IsMap())
+    fail(e.line, "loads", "expected a map with keys gravity, tip_force, tip_moment, got " + describe(e.value));
+  for (const Entry& c : entries(e.value, kLoadsKeys, "loads: ")) {
+    loads_lines_[c.key] = c.line;
+    const std::string unit = c.key == "gravity" ? "m/s^2" : (c.key == "tip_force" ? "N" : "N m");
+    const Eigen::Vector3d v = vector3(c, "loads: " + c.key + " (" + unit + "): ");
+    (c.key == "gravity" ? l.gravity : (c.key == "tip_force" ? l.tip_force : l.tip_moment)) = v;
+  }
+  return l;
+}
+
 // Robot's std::invalid_argument ("tube 'x' (k): key 'y': what") as an InputError at the key's line.
 InputError RobotParser::fromModel(const std::string& what) const {
   auto split = [&](const std::string& prefix, std::string& key, std::string& rest) {
@@ -321,6 +368,8 @@ InputError RobotParser::fromModel(const std::string& what) const {
   }
   if (split("friction: key '", key, rest))
     return InputError(src_, friction_lines_.count(key) ? friction_lines_.at(key) : 0, key, "friction: " + rest);
+  if (split("loads: key '", key, rest))
+    return InputError(src_, loads_lines_.count(key) ? loads_lines_.at(key) : 0, key, "loads: " + rest);
   if (split("key '", key, rest)) return InputError(src_, key == "tubes" ? tubes_line_ : 0, key, rest);
   return InputError(src_, 0, "", what);
 }
@@ -388,11 +437,12 @@ Robot RobotParser::parse(const std::string& text) {
   if (const int second = secondDocumentLine(text))
     fail(second, "", "more than one YAML document ('---'): a robot file holds one robot");
   if (!root.IsMap())
-    fail(lineOf(root), "", "the top level must be a map with keys name, tubes, friction; got " + describe(root));
+    fail(lineOf(root), "", "the top level must be a map with keys name, tubes, friction, loads; got " + describe(root));
 
   std::string name = defaultName();
   std::optional<Entry> tubes_entry;
   FrictionCoefficients fr;
+  Loads ld;
   for (const Entry& e : entries(root, kTopKeys, "")) {
     if (e.key == "name") {
       if (!e.value.IsScalar()) fail(e.line, "name", "expected a text, got " + describe(e.value));
@@ -400,6 +450,8 @@ Robot RobotParser::parse(const std::string& text) {
       if (!n.empty()) name = std::string(n);
     } else if (e.key == "tubes") {
       tubes_entry = e;
+    } else if (e.key == "loads") {
+      ld = loads(e);
     } else {
       fr = friction(e);
     }
@@ -414,7 +466,7 @@ Robot RobotParser::parse(const std::string& text) {
   std::vector<Tube> tubes;
   for (std::size_t i = 0; i < list.size(); ++i) tubes.push_back(tube(list[i], static_cast<int>(i) + 1));
   try {
-    return Robot(name, std::move(tubes), fr);
+    return Robot(name, std::move(tubes), fr, ld);
   } catch (const std::invalid_argument& e) {
     throw fromModel(e.what());
   }
@@ -458,6 +510,7 @@ std::string robotToYaml(const Robot& robot) {
       os << "    torsional_stiffness: " << formatNumber(t.torsional_stiffness) << "\n";
     if (t.outer_diameter > 0.0) os << "    outer_diameter: " << formatNumber(t.outer_diameter) << "\n";
     if (t.inner_diameter > 0.0) os << "    inner_diameter: " << formatNumber(t.inner_diameter) << "\n";
+    if (t.linear_density > 0.0) os << "    linear_density: " << formatNumber(t.linear_density) << "\n";
     if (t.rotation_limits)
       os << "    rotation_limits: [" << formatNumber((*t.rotation_limits)[0]) << ", "
          << formatNumber((*t.rotation_limits)[1]) << "]\n";
@@ -470,6 +523,16 @@ std::string robotToYaml(const Robot& robot) {
     os << "friction:\n";
     os << "  boundary: " << formatNumber(f.boundary) << "\n";
     os << "  distributed: " << formatNumber(f.distributed) << "\n";
+  }
+  const Loads& l = robot.loads();
+  if (!l.empty()) {
+    auto vec = [&](const Eigen::Vector3d& v) {
+      return "[" + formatNumber(v.x()) + ", " + formatNumber(v.y()) + ", " + formatNumber(v.z()) + "]";
+    };
+    os << "loads:  # base frame\n";
+    os << "  gravity: " << vec(l.gravity) << "\n";
+    os << "  tip_force: " << vec(l.tip_force) << "\n";
+    os << "  tip_moment: " << vec(l.tip_moment) << "\n";
   }
   return os.str();
 }

@@ -38,6 +38,7 @@ std::string validateTube(const Tube& t, int index) {
     return bad("inner_diameter", "must be >= 0 m");
   if (t.outer_diameter > 0.0 && t.inner_diameter >= t.outer_diameter)
     return bad("inner_diameter", "must be smaller than outer_diameter");
+  if (!finite(t.linear_density) || t.linear_density < 0.0) return bad("linear_density", "must be finite and >= 0 kg/m");
   if (t.rotation_limits) {
     auto [lo, hi] = *t.rotation_limits;
     if (!finite(lo) || !finite(hi) || lo > hi) return bad("rotation_limits", "must be finite [min, max] with min <= max");
@@ -51,8 +52,8 @@ std::string validateTube(const Tube& t, int index) {
   return {};
 }
 
-Robot::Robot(std::string name, std::vector<Tube> tubes, FrictionCoefficients friction)
-    : name_(std::move(name)), tubes_(std::move(tubes)), friction_(friction) {
+Robot::Robot(std::string name, std::vector<Tube> tubes, FrictionCoefficients friction, Loads loads)
+    : name_(std::move(name)), tubes_(std::move(tubes)), friction_(friction), loads_(loads) {
   if (tubes_.empty()) throw std::invalid_argument("key 'tubes': a robot needs at least one tube");
   for (int i = 0; i < size(); ++i) {
     const std::string err = validateTube(tubes_[static_cast<std::size_t>(i)], i);
@@ -80,14 +81,19 @@ Robot::Robot(std::string name, std::vector<Tube> tubes, FrictionCoefficients fri
     throw std::invalid_argument("friction: key 'boundary': must be finite and >= 0");
   if (!std::isfinite(friction_.distributed) || friction_.distributed < 0.0)
     throw std::invalid_argument("friction: key 'distributed': must be finite and >= 0");
+  if (!loads_.gravity.allFinite()) throw std::invalid_argument("loads: key 'gravity': must be finite");
+  if (!loads_.tip_force.allFinite()) throw std::invalid_argument("loads: key 'tip_force': must be finite");
+  if (!loads_.tip_moment.allFinite()) throw std::invalid_argument("loads: key 'tip_moment': must be finite");
 }
 
-Robot Robot::withFriction(FrictionCoefficients f) const { return Robot(name_, tubes_, f); }
+Robot Robot::withFriction(FrictionCoefficients f) const { return Robot(name_, tubes_, f, loads_); }
+
+Robot Robot::withLoads(const Loads& loads) const { return Robot(name_, tubes_, friction_, loads); }
 
 Robot Robot::withTube(int i, const Tube& t) const {
   std::vector<Tube> tubes = tubes_;
   tubes.at(static_cast<std::size_t>(i)) = t;
-  return Robot(name_, std::move(tubes), friction_);
+  return Robot(name_, std::move(tubes), friction_, loads_);
 }
 
 }  // namespace ctr

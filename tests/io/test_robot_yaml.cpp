@@ -155,6 +155,22 @@ std::vector<BadRobot> badRobots() {
        "tube2", 11, "missing required key"},
       {"two_documents", base({}, "---\nname: other\n"), "", "", 20, "more than one YAML document"},
       {"non_scalar_key", base({{14, "    [curvature]: 4.1"}}), "", "inner", 14, "plain names"},
+      // External loads (issue #15).
+      {"loads_not_map", base({}, "loads: 9.81\n"), "loads", "", 19, "expected a map"},
+      {"loads_unknown_key", base({}, "loads:\n  gravty: [0, 0, -9.81]\n"), "gravty", "", 20,
+       "did you mean 'gravity'?"},
+      {"loads_two_items", base({}, "loads:\n  tip_force: [0.1, 0]\n"), "tip_force", "", 20, "[x, y, z]"},
+      {"loads_scalar", base({}, "loads:\n  tip_moment: 0.1\n"), "tip_moment", "", 20, "[x, y, z]"},
+      {"loads_not_number", base({}, "loads:\n  gravity: [0, a, -9.81]\n"), "gravity", "", 20, "expected a number"},
+      {"loads_nan", base({}, "loads:\n  gravity: [0, .nan, -9.81]\n"), "gravity", "", 20, "finite"},
+      {"loads_duplicate", base({}, "loads:\n  gravity: [0, 0, 1]\n  gravity: [0, 0, 2]\n"), "gravity", "", 21,
+       "duplicate key"},
+      {"negative_linear_density", base({{16, "    poisson_ratio: 0.6\n    linear_density: -0.01"}}),
+       "linear_density", "inner", 17, ">= 0"},
+      {"negative_density", base({{16, "    poisson_ratio: 0.6\n    density: -6450"}}), "density", "inner", 17,
+       ">= 0"},
+      {"density_without_diameters", base({{16, "    poisson_ratio: 0.6\n    density: 6450"}, {17, ""}, {18, ""}}),
+       "density", "inner", 17, "density needs outer_diameter"},
   };
 }
 
@@ -189,6 +205,39 @@ TEST_P(BadRobotYaml, ClearInputError) {
 
 INSTANTIATE_TEST_SUITE_P(Io, BadRobotYaml, ::testing::ValuesIn(badRobots()),
                          [](const ::testing::TestParamInfo<BadRobot>& info) { return info.param.label; });
+
+TEST(RobotYaml, LoadsAndLinearDensity) {
+  // No loads key: no external load (the torsion-only model).
+  EXPECT_TRUE(parseRobot(base(), "a.yaml").loads().empty());
+  EXPECT_TRUE(parseRobot(base({}, "loads:\n"), "a.yaml").loads().empty());
+  const Robot r = parseRobot(base({{8, "    poisson_ratio: 0.6\n    density: 6450"},
+                                   {16, "    poisson_ratio: 0.6\n    linear_density: 0.0123\n    density: 1"}},
+                                  "loads:\n  gravity: [0, -9.81, 0]\n  tip_force: [0.1, 0.2, -0.3]\n"),
+                             "a.yaml");
+  EXPECT_FALSE(r.loads().empty());
+  EXPECT_EQ(r.loads().gravity, Eigen::Vector3d(0, -9.81, 0));
+  EXPECT_EQ(r.loads().tip_force, Eigen::Vector3d(0.1, 0.2, -0.3));
+  EXPECT_EQ(r.loads().tip_moment, Eigen::Vector3d::Zero());
+  // From density and diameters: rho pi (od^2 - id^2) / 4.
+  const double od = 2.77e-3, id = 2.55e-3;
+  EXPECT_NEAR(r.tube(0).linear_density, 6450 * M_PI * (od * od - id * id) / 4.0, 1e-15);
+  EXPECT_EQ(r.tube(1).linear_density, 0.0123);  // linear_density given: density ignored
+  // Round trip (linear_density and loads written back).
+  const Robot back = parseRobot(ctr::io::robotToYaml(r), "back.yaml");
+  EXPECT_EQ(back.tube(0).linear_density, r.tube(0).linear_density);
+  EXPECT_EQ(back.tube(1).linear_density, r.tube(1).linear_density);
+  EXPECT_EQ(back.loads().gravity, r.loads().gravity);
+  EXPECT_EQ(back.loads().tip_force, r.loads().tip_force);
+  EXPECT_EQ(back.loads().tip_moment, r.loads().tip_moment);
+  // withLoads / withFriction keep each other.
+  ctr::Loads l;
+  l.tip_moment = Eigen::Vector3d(0, 0, 1e-3);
+  const Robot r2 = r.withLoads(l).withFriction({0.1, 0.0});
+  EXPECT_EQ(r2.loads().tip_moment, l.tip_moment);
+  EXPECT_EQ(r2.friction().boundary, 0.1);
+  l.gravity.x() = std::nan("");
+  EXPECT_THROW(r.withLoads(l), std::invalid_argument);
+}
 
 TEST(RobotYaml, MissingFile) {
   TempDir dir;

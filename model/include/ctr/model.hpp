@@ -5,6 +5,7 @@
 #include "ctr/model/backbone.hpp"
 #include "ctr/model/configuration.hpp"
 #include "ctr/model/kinematics.hpp"
+#include "ctr/model/loads.hpp"
 #include "ctr/model/robot.hpp"
 #include "ctr/model/friction.hpp"
 #include "ctr/model/distributed_friction.hpp"

@@ -7,6 +7,8 @@
 #include <string>
 #include <vector>
 
+#include "ctr/model/loads.hpp"
+
 namespace ctr {
 
 /// @brief One precurved tube: a straight proximal part followed by a constant-curvature distal part.
@@ -22,6 +24,7 @@ struct Tube {
   std::optional<double> poisson_ratio;  ///< Kept when the description gave it (G*J = E*I / (1 + nu)).
   double outer_diameter = 0.0;       ///< Outer diameter (m); 0 if unknown.
   double inner_diameter = 0.0;       ///< Inner diameter (m); 0 if unknown.
+  double linear_density = 0.0;       ///< Mass per unit length (kg/m) for gravity; 0 if unknown (weightless).
   std::optional<std::array<double, 2>> rotation_limits;     ///< [min, max] of alpha (rad).
   std::optional<std::array<double, 2>> translation_limits;  ///< [min, max] of beta (m).
 
@@ -39,7 +42,7 @@ struct FrictionCoefficients {
 class Robot {
 public:
   /// @brief Builds and validates a robot. Throws std::invalid_argument naming the tube and key on bad values.
-  Robot(std::string name, std::vector<Tube> tubes, FrictionCoefficients friction = {});
+  Robot(std::string name, std::vector<Tube> tubes, FrictionCoefficients friction = {}, Loads loads = {});
 
   const std::string& name() const { return name_; }
   /// @brief Number of tubes n.
@@ -48,9 +51,13 @@ public:
   const Tube& tube(int i) const { return tubes_.at(static_cast<std::size_t>(i)); }
   const std::vector<Tube>& tubes() const { return tubes_; }
   const FrictionCoefficients& friction() const { return friction_; }
+  /// @brief External loads (base frame); empty() for the load-free (torsion-only) model.
+  const Loads& loads() const { return loads_; }
 
   /// @brief A copy with other friction coefficients.
   Robot withFriction(FrictionCoefficients f) const;
+  /// @brief A copy with other external loads (validated again).
+  Robot withLoads(const Loads& loads) const;
   /// @brief A copy with one tube replaced (validated again).
   Robot withTube(int i, const Tube& t) const;
 
@@ -58,6 +65,7 @@ private:
   std::string name_;
   std::vector<Tube> tubes_;
   FrictionCoefficients friction_;
+  Loads loads_;
 };
 
 /// @brief Validates a tube; returns an empty string or "tube 'name' (k): key 'x': what is wrong".

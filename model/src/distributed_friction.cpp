@@ -301,6 +301,16 @@ DistributedFrictionSolution solveDistributedFriction(const Robot& robot, const C
     res.solution.summary.message = adm.message;
     return res;
   }
+  if (!robot.loads().empty()) {
+    // Not modelled: the distributed-contact forces of this solver come from the load-free rod equations.
+    res.solution.summary.status = SolveStatus::NotConverged;
+    res.solution.summary.message =
+        "distributed friction with external loads (gravity, tip wrench) is not implemented; use boundary friction";
+    res.solution.base_twist_rate = Eigen::VectorXd::Zero(n);
+    res.solution.theta0 = Eigen::VectorXd::Zero(n);
+    res.solution.twist = Eigen::VectorXd::Zero(std::max(0, n - 1));
+    return res;
+  }
   Problem P;
   if (!opt.contacts.empty() && opt.contacts.size() != contactSites(robot, q).size())
     throw std::invalid_argument("solveDistributedFriction: contacts needs one condition per contact site (" +

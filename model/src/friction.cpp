@@ -33,6 +33,8 @@ ContactCondition conditionFor(ContactMode mode, double stick_twist) {
 Solution warmFrom(const HysteresisState& s) {
   Solution w;
   w.base_twist_rate = s.base_twist_rate;
+  w.base_moment = s.base_moment;
+  w.loaded = !s.base_moment.isZero(0.0);
   w.summary.status = SolveStatus::Converged;
   for (const ContactMemory& m : s.contacts) {
     ContactResult cr;
@@ -54,6 +56,7 @@ HysteresisState stateFrom(const Solution& sol, const std::vector<ContactMode>& m
   HysteresisState st;
   st.q = q;
   st.base_twist_rate = sol.base_twist_rate;
+  st.base_moment = sol.base_moment;
   st.direction = direction;
   st.twist = sol.twist;
   st.valid = sol.converged();

@@ -15,6 +15,7 @@
 #include <sstream>
 #include <stdexcept>
 
+#include "loaded_impl.hpp"
 #include "se3_step.hpp"
 #include "workspace_impl.hpp"
 
@@ -779,8 +780,15 @@ Solution solveImpl(const Robot& robot, const Configuration& q, const std::vector
 
 }  // namespace
 
+Solution detail::solveTorsionOnly(const Robot& robot, const Configuration& q,
+                                  const std::vector<ContactCondition>* conditions, Workspace& ws,
+                                  const KinematicsOptions& opt, const Solution* warm) {
+  return solveImpl(robot, q, conditions, ws, opt, warm);
+}
+
 Solution solve(const Robot& robot, const Configuration& q, Workspace& ws, const KinematicsOptions& options,
                const Solution* warm) {
+  if (detail::useLoadedModel(robot, options)) return detail::solveLoaded(robot, q, nullptr, ws, options, warm);
   return solveImpl(robot, q, nullptr, ws, options, warm);
 }
 
@@ -791,6 +799,8 @@ Solution solveWithContacts(const Robot& robot, const Configuration& q,
   if (conditions.size() != k && checkAdmissible(robot, q))
     throw std::invalid_argument("solveWithContacts: " + std::to_string(conditions.size()) + " conditions for " +
                                 std::to_string(k) + " contact sites");
+  if (detail::useLoadedModel(robot, options))
+    return detail::solveLoaded(robot, q, &conditions, ws, options, warm);
   return solveImpl(robot, q, &conditions, ws, options, warm);
 }
 

@@ -83,12 +83,46 @@ private:
   Eigen::VectorXd sn, cs;
 };
 
+/// The loaded (Cosserat-rod) problem: the segments of a Problem plus the loads (loaded_kinematics.cpp).
+struct LoadedProblem {
+  Problem P;
+  Eigen::VectorXd rho;                                 // linear density per tube (kg/m)
+  Eigen::VectorXd length, straight;                    // tube lengths L_i and straight lengths (m)
+  Eigen::Vector3d g = Eigen::Vector3d::Zero();         // gravity (scaled by the load parameter)
+  Eigen::Vector3d F = Eigen::Vector3d::Zero();         // tip force (scaled)
+  Eigen::Vector3d M = Eigen::Vector3d::Zero();         // tip moment (scaled)
+  double K0 = 1.0;                                     // scale of the base-moment unknowns (N m^2)
+  int m = 0;                                           // unknowns: n - 1 twist rates, 3 base moments, contacts
+  std::vector<int> bp_tube, bp_kind;                   // source of each segment boundary: kind 0 s=0, 1 end, 2 disc
+  std::vector<double> seg_rho;                         // sum of linear densities of the tubes on each segment
+};
+
+/// Recorded outputs of a loaded evaluation (double only).
+struct LoadedOutputs {
+  Eigen::VectorXd twist;
+  std::vector<ConcentratedMoment> moments;
+  std::vector<double> contacts_relative_twist, contacts_moment;
+  std::vector<BackbonePoint> backbone;
+  std::size_t nodes = 0;
+};
+
+struct LoadedWork {
+  LoadedProblem L;
+  LoadedOutputs out;
+  Eigen::VectorXd r;       // residual at the last evaluation
+  Eigen::MatrixXd J;       // its Jacobian w.r.t. the unknowns (when asked)
+  Eigen::Vector3d tip_p = Eigen::Vector3d::Zero();
+  Eigen::Matrix3d tip_R = Eigen::Matrix3d::Identity();
+  Eigen::MatrixXd D;       // derivatives of (r, tip p, tip R) w.r.t. chosen inputs (tipJacobian)
+};
+
 }  // namespace detail
 
 struct Workspace::Impl {
   detail::Problem problem;
   detail::Evaluator eval;
   detail::Outputs out;
+  detail::LoadedWork loaded;
 };
 
 }  // namespace ctr

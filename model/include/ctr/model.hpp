@@ -4,6 +4,7 @@
 
 #include "ctr/model/backbone.hpp"
 #include "ctr/model/configuration.hpp"
+#include "ctr/model/jacobian.hpp"
 #include "ctr/model/kinematics.hpp"
 #include "ctr/model/loads.hpp"
 #include "ctr/model/robot.hpp"

@@ -33,6 +33,7 @@ struct ContactMemory {
 struct HysteresisState {
   Configuration q;                      ///< Last commanded configuration.
   Eigen::VectorXd base_twist_rate;      ///< Equilibrium branch: u_iz(0) at the last step (warm start).
+  Eigen::Vector3d base_moment = Eigen::Vector3d::Zero();  ///< With external loads: m(0) at the last step (warm start).
   std::vector<ContactMemory> contacts;  ///< One per contact site at the last step.
   Eigen::VectorXd direction;            ///< Last commanded rotation direction per tube (-1, 0, +1).
   Eigen::VectorXd twist;                ///< Tip twist at the last step (snap detection).

@@ -59,6 +59,9 @@ struct KinematicsOptions {
   /// Near a fold the twist is ill-conditioned (error ~ discretisation / stability): when |stability| is below this,
   /// the converged solution is re-solved with a quarter of the step (0 disables).
   double refine_below_stability = 0.1;
+  /// Use the loaded (Cosserat-rod) solver even when the robot has no external load (docs/model.md "External
+  /// loads"). It is used anyway whenever robot.loads() is not empty; without load it gives the torsion-only result.
+  bool loaded_model = false;
 };
 
 /// @brief Outcome of a solve.
@@ -96,6 +99,10 @@ struct BackbonePoint {
   Eigen::Vector2d u0 = Eigen::Vector2d::Zero();  ///< Bending curvature of the backbone (x, y) (1/m).
   int outermost = 0;      ///< Outermost tube present at s (0-based).
   bool segment_start = false;  ///< Recorded after the events of a segment boundary (s+ side), else s- side.
+  /// Internal force n(s) and moment m(s) of the whole cross-section (base frame, N and N m): what the distal part
+  /// exerts on the proximal part. Set by the loaded solver only (zero in load-free solutions, where they vanish).
+  Eigen::Vector3d force = Eigen::Vector3d::Zero();
+  Eigen::Vector3d moment = Eigen::Vector3d::Zero();
 };
 
 /// @brief A concentrated bending moment: jump of a tube's bending moment at its end or curvature discontinuity.
@@ -130,6 +137,11 @@ struct Solution {
   std::vector<ConcentratedMoment> moments;   ///< Every tube end and curvature discontinuity at s > 0.
   std::vector<ContactResult> contacts;       ///< Contact sites with friction unknowns (empty if frictionless).
   Eigen::VectorXd contact_unknowns;          ///< Internal: scaled torques of the contacts (warm start).
+  bool loaded = false;  ///< Solved by the loaded (Cosserat-rod) solver (external loads, or loaded_model).
+  /// Internal force and moment at s = 0 (base frame): the reaction the actuation unit must supply (with opposite
+  /// sign). Zero for load-free solutions. base_moment.z() = sum_i k_it u_iz(0).
+  Eigen::Vector3d base_force = Eigen::Vector3d::Zero();
+  Eigen::Vector3d base_moment = Eigen::Vector3d::Zero();
 
   bool converged() const { return summary.converged(); }
   /// @brief Unit tangent at the tip.

@@ -1,0 +1,155 @@
+// Internal: forward-mode dual numbers with N derivative directions, for the exact derivative of the discrete
+// loaded-kinematics map (the integrator is templated on its scalar; with Dual<N> it carries N directional
+// derivatives through every stage, so the result is the derivative of exactly what is computed).
+#pragma once
+
+#include <cmath>
+
+namespace ctr::detail {
+
+template <int N>
+struct Dual {
+  double v = 0.0;
+  double d[N] = {};
+  Dual() = default;
+  Dual(double x) : v(x) {}  // NOLINT: constants convert implicitly
+  Dual& operator+=(const Dual& o) {
+    v += o.v;
+    for (int k = 0; k < N; ++k) d[k] += o.d[k];
+    return *this;
+  }
+  Dual& operator-=(const Dual& o) {
+    v -= o.v;
+    for (int k = 0; k < N; ++k) d[k] -= o.d[k];
+    return *this;
+  }
+  Dual& operator*=(double c) {
+    v *= c;
+    for (int k = 0; k < N; ++k) d[k] *= c;
+    return *this;
+  }
+};
+
+template <int N>
+inline Dual<N> operator-(const Dual<N>& a) {
+  Dual<N> r;
+  r.v = -a.v;
+  for (int k = 0; k < N; ++k) r.d[k] = -a.d[k];
+  return r;
+}
+template <int N>
+inline Dual<N> operator+(const Dual<N>& a, const Dual<N>& b) {
+  Dual<N> r;
+  r.v = a.v + b.v;
+  for (int k = 0; k < N; ++k) r.d[k] = a.d[k] + b.d[k];
+  return r;
+}
+template <int N>
+inline Dual<N> operator-(const Dual<N>& a, const Dual<N>& b) {
+  Dual<N> r;
+  r.v = a.v - b.v;
+  for (int k = 0; k < N; ++k) r.d[k] = a.d[k] - b.d[k];
+  return r;
+}
+template <int N>
+inline Dual<N> operator*(const Dual<N>& a, const Dual<N>& b) {
+  Dual<N> r;
+  r.v = a.v * b.v;
+  for (int k = 0; k < N; ++k) r.d[k] = a.d[k] * b.v + a.v * b.d[k];
+  return r;
+}
+template <int N>
+inline Dual<N> operator/(const Dual<N>& a, const Dual<N>& b) {
+  Dual<N> r;
+  const double ib = 1.0 / b.v;
+  r.v = a.v * ib;
+  for (int k = 0; k < N; ++k) r.d[k] = (a.d[k] - r.v * b.d[k]) * ib;
+  return r;
+}
+template <int N>
+inline Dual<N> operator+(const Dual<N>& a, double c) {
+  Dual<N> r = a;
+  r.v += c;
+  return r;
+}
+template <int N>
+inline Dual<N> operator+(double c, const Dual<N>& a) {
+  return a + c;
+}
+template <int N>
+inline Dual<N> operator-(const Dual<N>& a, double c) {
+  Dual<N> r = a;
+  r.v -= c;
+  return r;
+}
+template <int N>
+inline Dual<N> operator-(double c, const Dual<N>& a) {
+  Dual<N> r = -a;
+  r.v += c;
+  return r;
+}
+template <int N>
+inline Dual<N> operator*(const Dual<N>& a, double c) {
+  Dual<N> r;
+  r.v = a.v * c;
+  for (int k = 0; k < N; ++k) r.d[k] = a.d[k] * c;
+  return r;
+}
+template <int N>
+inline Dual<N> operator*(double c, const Dual<N>& a) {
+  return a * c;
+}
+template <int N>
+inline Dual<N> operator/(const Dual<N>& a, double c) {
+  return a * (1.0 / c);
+}
+template <int N>
+inline Dual<N> operator/(double c, const Dual<N>& b) {
+  Dual<N> r;
+  const double ib = 1.0 / b.v;
+  r.v = c * ib;
+  const double f = -r.v * ib;
+  for (int k = 0; k < N; ++k) r.d[k] = f * b.d[k];
+  return r;
+}
+template <int N>
+inline Dual<N> chain(const Dual<N>& a, double value, double slope) {
+  Dual<N> r;
+  r.v = value;
+  for (int k = 0; k < N; ++k) r.d[k] = slope * a.d[k];
+  return r;
+}
+template <int N>
+inline Dual<N> sin(const Dual<N>& a) {
+  return chain(a, std::sin(a.v), std::cos(a.v));
+}
+template <int N>
+inline Dual<N> cos(const Dual<N>& a) {
+  return chain(a, std::cos(a.v), -std::sin(a.v));
+}
+template <int N>
+inline Dual<N> sqrt(const Dual<N>& a) {
+  const double s = std::sqrt(a.v);
+  return chain(a, s, s > 0.0 ? 0.5 / s : 0.0);
+}
+/// sin and cos of one argument (one sincos for the value).
+template <int N>
+inline void sinCos(const Dual<N>& a, Dual<N>& s, Dual<N>& c) {
+  double sv, cv;
+  ::sincos(a.v, &sv, &cv);
+  s = chain(a, sv, cv);
+  c = chain(a, cv, -sv);
+}
+inline void sinCos(double a, double& s, double& c) {
+  ::sincos(a, &s, &c);
+}
+
+inline double value(double x) {
+  return x;
+}
+template <int N>
+inline double value(const Dual<N>& x) {
+  return x.v;
+}
+
+}  // namespace ctr::detail

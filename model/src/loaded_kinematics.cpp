@@ -1,0 +1,855 @@
+// Loaded equilibrium of concentric tubes (Rucker, Jones & Webster 2010 style Cosserat-rod model): internal force
+// n(s) and moment m(s) of the whole cross-section in the base frame, dead loads (gravity over the tubes' linear
+// densities, tip force and moment in the base frame), shooting on the base twist rates and the base moment.
+//
+// Equations as implemented (docs/model.md "External loads"), on each segment of constant tube set:
+//   theta_i' = u_iz,   u_iz' = (k_ib / k_it) kappa_i u_ix        (curved present tubes; u_i,xy = R_z(theta_i)^T u0)
+//   u0_xy    = K^-1 [ sum_j k_jb R_z(theta_j) (0, kappa_j) + (R^T m)_xy ]
+//   R' = R [u0]x,  p' = R e3,  m' = -p' x n,  n(s) = F + g sum_i rho_i max(0, end_i - s)  (closed form: n' = -rho g)
+// The Euclidean states (theta, u_z, m) are integrated by classical RK4 and the pose by the matching 4th-order
+// commutator-free Lie-group method (CF4) whose stages are evaluated at the stage rotations; with m = 0 it reduces
+// exactly to the load-free integrator of kinematics.cpp (same stages, same pose update).
+//
+// Derivatives: the integrator is templated on its scalar. With Dual<N> it carries N directional derivatives through
+// every stage and every segment boundary (the boundaries are functions of beta with a fixed number of steps per
+// segment), so Jacobians are the exact derivatives of the discrete map (no finite differences).
+#include <Eigen/Geometry>
+#include <Eigen/LU>
+#include <algorithm>
+#include <cmath>
+#include <sstream>
+#include <stdexcept>
+#include <type_traits>
+
+#include "ctr/model/jacobian.hpp"
+#include "dual.hpp"
+#include "loaded_impl.hpp"
+#include "workspace_impl.hpp"
+
+namespace ctr {
+namespace detail {
+namespace {
+
+constexpr double kSameS = 1e-12;  // as kinematics.cpp
+
+// ---------------------------------------------------------------------------------------------------------------
+// Set-up
+// ---------------------------------------------------------------------------------------------------------------
+void setLoadScale(LoadedProblem& L, const Robot& robot, double scale) {
+  L.g = scale * robot.loads().gravity;
+  L.F = scale * robot.loads().tip_force;
+  L.M = scale * robot.loads().tip_moment;
+}
+
+void setupLoaded(LoadedProblem& L, const Robot& robot, const Configuration& q,
+                 const std::vector<ContactCondition>* conditions, const KinematicsOptions& opt, double step_factor) {
+  Problem& P = L.P;
+  P.setup(robot, q, conditions, step_factor * opt.max_step, 1.0, step_factor * opt.max_bending_per_step);
+  const int n = P.n;
+  L.rho.resize(n);
+  L.length.resize(n);
+  L.straight.resize(n);
+  for (int i = 0; i < n; ++i) {
+    const Tube& t = robot.tube(i);
+    L.rho[i] = t.linear_density;
+    L.length[i] = t.length();
+    L.straight[i] = t.straight_length;
+  }
+  setLoadScale(L, robot, 1.0);
+  L.m = n + 2 + static_cast<int>(P.contacts.size());
+  L.K0 = P.kb.sum();
+  const std::size_t count = P.segments.size();
+  L.bp_tube.assign(count + 1, -1);
+  L.bp_kind.assign(count + 1, 0);
+  for (std::size_t b = 1; b <= count; ++b) {
+    const double v = P.segments[b - 1].s1;
+    int kind = 3, tube = -1;
+    for (int i = 0; i < n && kind == 3; ++i)
+      if (std::abs(P.end[i] - v) <= 2 * kSameS) kind = 1, tube = i;
+    for (int i = 0; i < n && kind == 3; ++i)
+      if (std::abs(P.disc[i] - v) <= 2 * kSameS) kind = 2, tube = i;
+    L.bp_kind[b] = kind;
+    L.bp_tube[b] = tube;
+  }
+  L.seg_rho.assign(count, 0.0);
+  for (std::size_t si = 0; si < count; ++si)
+    for (int i = 0; i < n; ++i)
+      if (P.segments[si].present[static_cast<std::size_t>(i)]) L.seg_rho[si] += L.rho[i];
+}
+
+// ---------------------------------------------------------------------------------------------------------------
+// Templated pieces of the integrator
+// ---------------------------------------------------------------------------------------------------------------
+template <class T>
+struct Exp {
+  T A, B, C;  // sin(t)/t, (1-cos t)/t^2, (t - sin t)/t^3
+};
+
+template <class T>
+Exp<T> expCoefficients(const T& wx, const T& wy) {
+  const T th2 = wx * wx + wy * wy;
+  Exp<T> e;
+  if (value(th2) < 1e-8) {
+    e.A = 1.0 - th2 / 6.0 * (1.0 - th2 / 20.0);
+    e.B = 0.5 - th2 / 24.0 * (1.0 - th2 / 30.0);
+    e.C = 1.0 / 6.0 - th2 / 120.0 * (1.0 - th2 / 42.0);
+  } else {
+    using std::sqrt;
+    const T th = sqrt(th2);
+    T sn, cs;
+    sinCos(th, sn, cs);
+    e.A = sn / th;
+    e.B = (1.0 - cs) / th2;
+    e.C = (th - sn) / (th2 * th);
+  }
+  return e;
+}
+
+// R <- R exp([w]x) with w = (wx, wy, 0); R row-major. Optionally p <- p + R V(w) e3 a (SE(3) step).
+template <class T>
+void expStep(T* R, T* p, const T& wx, const T& wy, const T* a) {
+  const Exp<T> c = expCoefficients(wx, wy);
+  const T Bwxwy = c.B * wx * wy;
+  const T E[9] = {1.0 - c.B * wy * wy,
+                  Bwxwy,
+                  c.A * wy,  //
+                  Bwxwy,
+                  1.0 - c.B * wx * wx,
+                  -(c.A * wx),  //
+                  -(c.A * wy),
+                  c.A * wx,
+                  1.0 - c.B * (wx * wx + wy * wy)};
+  if (p) {
+    const T tx = *a * c.B * wy, ty = -(*a * c.B * wx), tz = *a * (1.0 - c.C * (wx * wx + wy * wy));
+    for (int r = 0; r < 3; ++r) p[r] += R[3 * r] * tx + R[3 * r + 1] * ty + R[3 * r + 2] * tz;
+  }
+  T out[9];
+  for (int r = 0; r < 3; ++r)
+    for (int col = 0; col < 3; ++col)
+      out[3 * r + col] = R[3 * r] * E[col] + R[3 * r + 1] * E[3 + col] + R[3 * r + 2] * E[6 + col];
+  for (int k = 0; k < 9; ++k) R[k] = out[k];
+}
+
+template <class T>
+void orthonormalizeT(T* R) {
+  using std::sqrt;
+  T z[3] = {R[2], R[5], R[8]};
+  const T nz = sqrt(z[0] * z[0] + z[1] * z[1] + z[2] * z[2]);
+  for (auto& v : z) v = v / nz;
+  const T d = R[0] * z[0] + R[3] * z[1] + R[6] * z[2];
+  T x[3] = {R[0] - z[0] * d, R[3] - z[1] * d, R[6] - z[2] * d};
+  const T nx = sqrt(x[0] * x[0] + x[1] * x[1] + x[2] * x[2]);
+  for (auto& v : x) v = v / nx;
+  const T y[3] = {z[1] * x[2] - z[2] * x[1], z[2] * x[0] - z[0] * x[2], z[0] * x[1] - z[1] * x[0]};
+  for (int r = 0; r < 3; ++r) {
+    R[3 * r] = x[r];
+    R[3 * r + 1] = y[r];
+    R[3 * r + 2] = z[r];
+  }
+}
+
+// Bending moment magnitude of tube i just before the end of segment sg (loaded curvature), nesting-order rule for
+// coincident ends as in kinematics.cpp (endMoment).
+template <class T>
+T loadedEndMoment(const Problem& P, const Segment& sg, const T* th, const T& mbx, const T& mby, int i,
+                  const std::vector<int>* ending) {
+  auto excluded = [&](int j) {
+    return ending && j < i && std::find(ending->begin(), ending->end(), j) != ending->end();
+  };
+  T A = 0.0, B = 0.0;
+  double K = sg.K;
+  for (int j = 0; j < P.n; ++j) {
+    if (excluded(j)) {
+      if (sg.present[static_cast<std::size_t>(j)]) K -= P.kb[j];
+      continue;
+    }
+    if (sg.w[j] != 0.0) {
+      T sn, cs;
+      sinCos(th[j], sn, cs);
+      A += sg.w[j] * cs;
+      B += sg.w[j] * sn;
+    }
+  }
+  const double chi_kappa = sg.w[i] != 0.0 ? P.kappa[i] : 0.0;
+  T si, ci;
+  sinCos(th[i], si, ci);
+  const T vx = (mbx - B) / K + chi_kappa * si;
+  const T vy = (A + mby) / K - chi_kappa * ci;
+  const T nv2 = vx * vx + vy * vy;
+  if (!(value(nv2) > 0.0)) return T(0.0);
+  using std::sqrt;
+  return P.kb[i] * sqrt(nv2);
+}
+
+/// The discrete loaded map. Inputs z (m unknowns), alpha, beta (n), F, M (3). Outputs the residual r (m), the tip
+/// position p (3) and frame R (9, row-major). With `rec` (double only) also twist, moments, contacts, backbone.
+template <class T>
+void runLoaded(const LoadedProblem& L, const T* z, const T* alpha, const T* beta, const T* F, const T* M, T* r, T* tipP,
+               T* tipR, T* tipTheta, LoadedOutputs* rec, bool record_nodes, bool record_tubes) {
+  const Problem& P = L.P;
+  const int n = P.n, m = L.m;
+  const int dim = 2 * n + 3;  // theta, u_z, m
+  std::vector<T> buf(static_cast<std::size_t>(7 * dim + 2 * n));
+  T* y = buf.data();
+  T* yt = y + dim;
+  T* k[4] = {yt + dim, yt + 2 * dim, yt + 3 * dim, yt + 4 * dim};
+  T* sn = yt + 5 * dim;
+  T* cs = sn + n;
+  T* th = y;
+  T* uz = y + n;
+  T* mm = y + 2 * n;
+
+  // Base values from the unknowns: u_iz(0) for i < n-1, m(0) = K0 z[n-1..n+1], u_nz(0) from m_z(0).
+  T msum = 0.0;
+  for (int i = 0; i + 1 < n; ++i) {
+    uz[i] = z[i];
+    msum += P.kt[i] * z[i];
+  }
+  for (int c = 0; c < 3; ++c) mm[c] = L.K0 * z[n - 1 + c];
+  uz[n - 1] = (mm[2] - msum) / P.kt[n - 1];
+  for (int i = 0; i < n; ++i) th[i] = alpha[i] - beta[i] * uz[i];
+  for (int i = 0; i < m; ++i) r[i] = 0.0;
+  for (int i = 0; i + 1 < n; ++i)
+    if (P.end[i] <= kSameS) r[i] = z[i];  // tubes that never leave the actuation unit: u_iz = 0 there
+  if (rec) {
+    rec->moments.clear();
+    rec->contacts_relative_twist.assign(P.contacts.size(), 0.0);
+    rec->contacts_moment.assign(P.contacts.size(), 0.0);
+    rec->nodes = 0;
+    rec->twist.setZero(std::max(0, n - 1));
+    if (P.s_twist <= kSameS) {
+      for (int kk = 1; kk < n; ++kk) {
+        const double th_k = value(alpha[kk]) + (P.s_twist - value(beta[kk])) * value(uz[kk]);
+        const double th_1 = value(alpha[0]) + (P.s_twist - value(beta[0])) * value(uz[0]);
+        rec->twist[kk - 1] = th_k - th_1;
+      }
+    }
+  }
+  T R[9] = {1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0};
+  T p[3] = {0.0, 0.0, 0.0};
+
+  // Segment boundaries as functions of beta (fixed number of steps per segment).
+  auto boundary = [&](std::size_t b) -> T {
+    switch (L.bp_kind[b]) {
+      case 1:
+        return beta[L.bp_tube[b]] + L.length[L.bp_tube[b]];
+      case 2:
+        return beta[L.bp_tube[b]] + L.straight[L.bp_tube[b]];
+      case 3:
+        return T(P.segments[b - 1].s1);
+      default:
+        return T(0.0);
+    }
+  };
+
+  // Curvature and derivative of (theta, u_z, m) at arc length s with rotation Rs; force n(s) = F + g (C - rho s).
+  auto deriv = [&](const Segment& sg, double rho, const T& C, const T& s, const T* ys, const T* Rs, T* dy, T& u0x,
+                   T& u0y) {
+    const T* ths = ys;
+    const T* uzs = ys + n;
+    const T* ms = ys + 2 * n;
+    T A = 0.0, B = 0.0;
+    for (int j = 0; j < n; ++j) {
+      if (sg.w[j] != 0.0) {
+        sinCos(ths[j], sn[j], cs[j]);
+        A += sg.w[j] * cs[j];
+        B += sg.w[j] * sn[j];
+      }
+    }
+    const T mbx = Rs[0] * ms[0] + Rs[3] * ms[1] + Rs[6] * ms[2];
+    const T mby = Rs[1] * ms[0] + Rs[4] * ms[1] + Rs[7] * ms[2];
+    u0x = (mbx - B) / sg.K;
+    u0y = (A + mby) / sg.K;
+    for (int i = 0; i < n; ++i) {
+      dy[i] = sg.present[static_cast<std::size_t>(i)] ? uzs[i] : T(0.0);
+      dy[n + i] = sg.a[i] != 0.0 ? (sg.a[i] * sg.K) * (cs[i] * u0x + sn[i] * u0y) : T(0.0);
+    }
+    const T load = C - rho * s;
+    T nv[3];
+    for (int c = 0; c < 3; ++c) nv[c] = F[c] + L.g[c] * load;
+    const T& tx = Rs[2];
+    const T& ty = Rs[5];
+    const T& tz = Rs[8];
+    dy[2 * n] = -(ty * nv[2] - tz * nv[1]);
+    dy[2 * n + 1] = -(tz * nv[0] - tx * nv[2]);
+    dy[2 * n + 2] = -(tx * nv[1] - ty * nv[0]);
+  };
+
+  auto pushNode = [&](double s, const Segment& sg, double u0x, double u0y, bool segment_start, const double* force) {
+    if (!rec || !record_nodes) return;
+    if (rec->nodes == rec->backbone.size()) rec->backbone.emplace_back();
+    BackbonePoint& bp = rec->backbone[rec->nodes++];
+    bp.s = s;
+    bp.segment_start = segment_start;
+    for (int a = 0; a < 3; ++a) {
+      bp.position[a] = value(p[a]);
+      bp.force[a] = force[a];
+      bp.moment[a] = value(mm[a]);
+      for (int b = 0; b < 3; ++b) bp.frame(a, b) = value(R[3 * a + b]);
+    }
+    if (record_tubes) {
+      bp.theta.resize(n);
+      bp.uz.resize(n);
+      for (int i = 0; i < n; ++i) {
+        bp.theta[i] = value(th[i]);
+        bp.uz[i] = value(uz[i]);
+      }
+    } else {
+      bp.theta.resize(0);
+      bp.uz.resize(0);
+    }
+    bp.u0 = Eigen::Vector2d(u0x, u0y);
+    bp.outermost = sg.outermost;
+  };
+
+  T s_start = boundary(0);
+  T R2[9], Rst[9];
+  for (std::size_t si = 0; si < P.segments.size(); ++si) {
+    const Segment& sg = P.segments[si];
+    const T s_end = boundary(si + 1);
+    const T h = (s_end - s_start) / static_cast<double>(sg.steps);
+    const double rho = L.seg_rho[si];
+    T C = 0.0;  // sum of rho_i end_i over the tubes present on the segment
+    for (int i = 0; i < n; ++i)
+      if (sg.present[static_cast<std::size_t>(i)] && L.rho[i] != 0.0) C += L.rho[i] * (beta[i] + L.length[i]);
+    const T hh = 0.5 * h;
+    for (int st = 0; st < sg.steps; ++st) {
+      const T s = s_start + static_cast<double>(st) * h;
+      T u01x, u01y, u02x, u02y, u03x, u03y, u04x, u04y;
+      deriv(sg, rho, C, s, y, R, k[0], u01x, u01y);
+      if (rec && record_nodes) {
+        double f[3];
+        for (int c = 0; c < 3; ++c) f[c] = value(F[c]) + L.g[c] * (value(C) - rho * value(s));
+        pushNode(value(s), sg, value(u01x), value(u01y), st == 0, f);
+      }
+      // Stage 2: y + h/2 k1, R exp(h/2 u01).
+      for (int d = 0; d < dim; ++d) yt[d] = y[d] + hh * k[0][d];
+      for (int c = 0; c < 9; ++c) R2[c] = R[c];
+      expStep<T>(R2, nullptr, hh * u01x, hh * u01y, nullptr);
+      deriv(sg, rho, C, s + hh, yt, R2, k[1], u02x, u02y);
+      // Stage 3: y + h/2 k2, R exp(h/2 u02).
+      for (int d = 0; d < dim; ++d) yt[d] = y[d] + hh * k[1][d];
+      for (int c = 0; c < 9; ++c) Rst[c] = R[c];
+      expStep<T>(Rst, nullptr, hh * u02x, hh * u02y, nullptr);
+      deriv(sg, rho, C, s + hh, yt, Rst, k[2], u03x, u03y);
+      // Stage 4: y + h k3, R exp(h/2 u01) exp(h u03 - h/2 u01).
+      for (int d = 0; d < dim; ++d) yt[d] = y[d] + h * k[2][d];
+      expStep<T>(R2, nullptr, h * u03x - hh * u01x, h * u03y - hh * u01y, nullptr);
+      deriv(sg, rho, C, s + h, yt, R2, k[3], u04x, u04y);
+      const T h6 = h / 6.0;
+      for (int d = 0; d < dim; ++d) y[d] += h6 * (k[0][d] + 2.0 * k[1][d] + 2.0 * k[2][d] + k[3][d]);
+      const T h12 = h / 12.0;
+      const T w1x = h12 * (3.0 * u01x + 2.0 * u02x + 2.0 * u03x - u04x);
+      const T w1y = h12 * (3.0 * u01y + 2.0 * u02y + 2.0 * u03y - u04y);
+      const T w2x = h12 * (-u01x + 2.0 * u02x + 2.0 * u03x + 3.0 * u04x);
+      const T w2y = h12 * (-u01y + 2.0 * u02y + 2.0 * u03y + 3.0 * u04y);
+      expStep<T>(R, p, w1x, w1y, &hh);
+      expStep<T>(R, p, w2x, w2y, &hh);
+    }
+    orthonormalizeT(R);
+    s_start = s_end;
+
+    // Events at the end of the segment.
+    const Breakpoint& bp = P.breakpoints[si];
+    const T mbx = R[0] * mm[0] + R[3] * mm[1] + R[6] * mm[2];
+    const T mby = R[1] * mm[0] + R[4] * mm[1] + R[7] * mm[2];
+    if (rec) {
+      if (record_nodes) {
+        double A = 0, B = 0;
+        for (int j = 0; j < n; ++j)
+          if (sg.w[j] != 0.0) {
+            A += sg.w[j] * std::cos(value(th[j]));
+            B += sg.w[j] * std::sin(value(th[j]));
+          }
+        double f[3];
+        for (int c = 0; c < 3; ++c) f[c] = value(F[c]) + L.g[c] * (value(C) - rho * value(s_end));
+        pushNode(value(s_end), sg, (value(mbx) - B) / sg.K, (A + value(mby)) / sg.K, false, f);
+      }
+      if (bp.twist_point)
+        for (int kk = 1; kk < n; ++kk) rec->twist[kk - 1] = value(th[kk]) - value(th[0]);
+      for (int i : bp.ending)
+        rec->moments.push_back(
+            {MomentKind::TubeEnd, i, bp.s, value(loadedEndMoment<T>(P, sg, th, mbx, mby, i, &bp.ending))});
+      if (si + 1 < P.segments.size())
+        for (int j : bp.discontinuities)
+          rec->moments.push_back(
+              {MomentKind::CurvatureDiscontinuity, j, bp.s, discontinuityMoment(P, P.segments[si + 1], j)});
+    }
+    // Contact residual rows (before the point-torque jumps; theta is continuous).
+    for (int c : bp.contacts) {
+      const ActiveContact& ac = P.contacts[static_cast<std::size_t>(c)];
+      const int row = n + 2 + c;
+      const int a = ac.site.outer, b = ac.site.inner;
+      T mom = 0.0;
+      if (ac.site.kind == MomentKind::TubeEnd)
+        mom = loadedEndMoment<T>(P, sg, th, mbx, mby, ac.site.tube, &bp.ending);
+      else
+        mom = discontinuityMoment(P, P.segments[si + 1], ac.site.tube);
+      if (rec) {
+        rec->contacts_relative_twist[static_cast<std::size_t>(c)] = value(th[b]) - value(th[a]);
+        rec->contacts_moment[static_cast<std::size_t>(c)] = value(mom);
+      }
+      if (ac.condition.law == ContactCondition::Law::Free) {
+        r[row] = z[row];
+      } else if (ac.condition.law == ContactCondition::Law::Stick) {
+        r[row] = th[b] - th[a] - ac.condition.value;
+      } else {
+        const double f = ac.condition.value * P.mu_boundary / P.kt[b];
+        r[row] = z[row] - f * mom;
+      }
+    }
+    // Distal conditions: k_i u_iz(s-) = point torque; the innermost tube carries the tip moment's tangent part.
+    for (int i : bp.ending) {
+      r[i] = uz[i];
+      if (i == n - 1) r[i] -= (R[2] * M[0] + R[5] * M[1] + R[8] * M[2]) / P.kt[n - 1];
+    }
+    for (int c : bp.contacts) {
+      const ActiveContact& ac = P.contacts[static_cast<std::size_t>(c)];
+      const int col = n + 2 + c;
+      const int a = ac.site.outer, b = ac.site.inner;
+      const double pa = -P.kt[b] / P.kt[a];
+      const bool a_ends = std::find(bp.ending.begin(), bp.ending.end(), a) != bp.ending.end();
+      const bool b_ends = std::find(bp.ending.begin(), bp.ending.end(), b) != bp.ending.end();
+      if (a_ends)
+        r[a] -= pa * z[col];
+      else
+        uz[a] -= pa * z[col];
+      if (b_ends)
+        r[b] -= z[col];
+      else
+        uz[b] -= z[col];
+    }
+  }
+  // Bending part of the tip moment condition (tip frame): (R^T (m - M))_xy = 0, scaled by the tip stiffness.
+  const double Ktip = P.segments.empty() ? L.K0 : P.segments.back().K;
+  const T d[3] = {mm[0] - M[0], mm[1] - M[1], mm[2] - M[2]};
+  r[n] = (R[0] * d[0] + R[3] * d[1] + R[6] * d[2]) / Ktip;
+  r[n + 1] = (R[1] * d[0] + R[4] * d[1] + R[7] * d[2]) / Ktip;
+  for (int c = 0; c < 3; ++c) tipP[c] = p[c];
+  for (int c = 0; c < 9; ++c) tipR[c] = R[c];
+  *tipTheta = th[n - 1];
+  if (rec && record_nodes) {
+    rec->backbone.resize(rec->nodes);
+    if (!rec->backbone.empty() && record_tubes) {
+      for (int i = 0; i < n; ++i) {
+        rec->backbone.back().theta[i] = value(th[i]);
+        rec->backbone.back().uz[i] = value(uz[i]);
+      }
+    }
+  }
+}
+
+// Inputs of the map as one vector: [z (m) | alpha (n) | beta (n) | F (3) | M (3)].
+Eigen::VectorXd inputVector(const LoadedProblem& L, const Eigen::VectorXd& z) {
+  const int n = L.P.n, m = L.m;
+  Eigen::VectorXd x(m + 2 * n + 6);
+  x << z, L.P.alpha, L.P.beta, L.F, L.M;
+  return x;
+}
+
+void evalValue(LoadedWork& W, const Eigen::VectorXd& z, LoadedOutputs* rec, bool nodes, bool tubes) {
+  const LoadedProblem& L = W.L;
+  const int n = L.P.n, m = L.m;
+  const Eigen::VectorXd x = inputVector(L, z);
+  W.r.resize(m);
+  double p[3], R[9], th;
+  runLoaded<double>(L, x.data(), x.data() + m, x.data() + m + n, x.data() + m + 2 * n, x.data() + m + 2 * n + 3,
+                    W.r.data(), p, R, &th, rec, nodes, tubes);
+  W.tip_p = Eigen::Vector3d(p[0], p[1], p[2]);
+  for (int a = 0; a < 3; ++a)
+    for (int b = 0; b < 3; ++b) W.tip_R(a, b) = R[3 * a + b];
+}
+
+// Derivatives of (r, tip p, tip R) w.r.t. the inputs x[dirs[start .. start+cnt)] into columns of W.D.
+template <int N>
+void evalDualChunk(LoadedWork& W, const Eigen::VectorXd& x, const std::vector<int>& dirs, int start, int cnt) {
+  const LoadedProblem& L = W.L;
+  const int n = L.P.n, m = L.m;
+  using D = Dual<N>;
+  std::vector<D> xd(static_cast<std::size_t>(x.size()));
+  for (int i = 0; i < x.size(); ++i) xd[static_cast<std::size_t>(i)] = D(x[i]);
+  for (int k = 0; k < cnt; ++k) xd[static_cast<std::size_t>(dirs[static_cast<std::size_t>(start + k)])].d[k] = 1.0;
+  std::vector<D> r(static_cast<std::size_t>(m));
+  D p[3], R[9], th;
+  const D* xs = xd.data();
+  runLoaded<D>(L, xs, xs + m, xs + m + n, xs + m + 2 * n, xs + m + 2 * n + 3, r.data(), p, R, &th, nullptr, false,
+               false);
+  W.r.resize(m);
+  for (int i = 0; i < m; ++i) {
+    W.r[i] = r[static_cast<std::size_t>(i)].v;
+    for (int k = 0; k < cnt; ++k) W.D(i, start + k) = r[static_cast<std::size_t>(i)].d[k];
+  }
+  for (int a = 0; a < 3; ++a) {
+    W.tip_p[a] = p[a].v;
+    for (int k = 0; k < cnt; ++k) W.D(m + a, start + k) = p[a].d[k];
+  }
+  for (int c = 0; c < 9; ++c) {
+    W.tip_R(c / 3, c % 3) = R[c].v;
+    for (int k = 0; k < cnt; ++k) W.D(m + 3 + c, start + k) = R[c].d[k];
+  }
+  for (int k = 0; k < cnt; ++k) W.D(m + 12, start + k) = th.d[k];
+}
+
+// Value and derivatives w.r.t. the listed inputs (W.D: (m + 13) x dirs.size(): r, tip p, tip R, theta_n(tip)).
+void evalDerivatives(LoadedWork& W, const Eigen::VectorXd& z, const std::vector<int>& dirs) {
+  const Eigen::VectorXd x = inputVector(W.L, z);
+  const int total = static_cast<int>(dirs.size());
+  W.D.resize(W.L.m + 13, total);
+  for (int start = 0; start < total;) {
+    const int left = total - start;
+    int cnt;
+    if (left <= 2) {
+      cnt = left;
+      evalDualChunk<2>(W, x, dirs, start, cnt);
+    } else if (left <= 4) {
+      cnt = left;
+      evalDualChunk<4>(W, x, dirs, start, cnt);
+    } else if (left <= 6) {
+      cnt = left;
+      evalDualChunk<6>(W, x, dirs, start, cnt);
+    } else if (left <= 8) {
+      cnt = left;
+      evalDualChunk<8>(W, x, dirs, start, cnt);
+    } else if (left <= 12) {
+      cnt = left;
+      evalDualChunk<12>(W, x, dirs, start, cnt);
+    } else if (left <= 16) {
+      cnt = left;
+      evalDualChunk<16>(W, x, dirs, start, cnt);
+    } else {
+      cnt = std::min(left, 24);
+      evalDualChunk<24>(W, x, dirs, start, cnt);
+    }
+    start += cnt;
+  }
+}
+
+// Residual and its Jacobian w.r.t. the unknowns.
+void evalJacobian(LoadedWork& W, const Eigen::VectorXd& z) {
+  const int m = W.L.m;
+  std::vector<int> dirs(static_cast<std::size_t>(m));
+  for (int i = 0; i < m; ++i) dirs[static_cast<std::size_t>(i)] = i;
+  evalDerivatives(W, z, dirs);
+  W.J = W.D.topRows(m);
+}
+
+// ---------------------------------------------------------------------------------------------------------------
+// Newton, continuation in the load, packaging
+// ---------------------------------------------------------------------------------------------------------------
+double maxAbs(const Eigen::VectorXd& v) {
+  return v.size() ? v.cwiseAbs().maxCoeff() : 0.0;
+}
+
+bool newtonLoaded(LoadedWork& W, Eigen::VectorXd& z, const KinematicsOptions& opt, int max_iterations, int& iterations,
+                  double& res_norm, std::string& why) {
+  const LoadedProblem& L = W.L;
+  evalJacobian(W, z);
+  double nr = maxAbs(W.r);
+  double merit = W.r.squaredNorm();
+  const double step_cap = 4.0 * M_PI / std::max(L.P.s_tip, 1e-3);
+  for (int it = 0;; ++it) {
+    if (!W.r.allFinite()) {
+      why = "non-finite residual";
+      res_norm = nr;
+      return false;
+    }
+    if (nr < opt.tolerance) {
+      res_norm = nr;
+      return true;
+    }
+    if (it >= max_iterations) break;
+    ++iterations;
+    Eigen::PartialPivLU<Eigen::MatrixXd> lu(W.J);
+    Eigen::VectorXd dz = lu.solve(-W.r);
+    if (!dz.allFinite() || std::abs(lu.determinant()) < 1e-300) {
+      const Eigen::MatrixXd JtJ = W.J.transpose() * W.J + 1e-8 * Eigen::MatrixXd::Identity(L.m, L.m);
+      dz = JtJ.ldlt().solve(-W.J.transpose() * W.r);
+      if (!dz.allFinite()) {
+        why = "singular Jacobian";
+        res_norm = nr;
+        return false;
+      }
+    }
+    const double big = maxAbs(dz);
+    if (big > step_cap) dz *= step_cap / big;
+    double t = 1.0;
+    Eigen::VectorXd zt;
+    bool accepted = false;
+    int ls = 0;
+    for (; ls < 12; ++ls) {
+      zt = z + t * dz;
+      if (ls == 0)
+        evalJacobian(W, zt);
+      else
+        evalValue(W, zt, nullptr, false, false);
+      const double mt = W.r.squaredNorm();
+      if (W.r.allFinite() && mt < (1.0 - 1e-4 * t) * merit) {
+        accepted = true;
+        break;
+      }
+      t *= 0.5;
+    }
+    if (!accepted) {
+      if (maxAbs(W.r) < opt.tolerance) {
+        evalJacobian(W, zt);
+        z = zt;
+        nr = maxAbs(W.r);
+        continue;
+      }
+      why = "line search failed (no descent direction)";
+      evalJacobian(W, z);
+      res_norm = maxAbs(W.r);
+      return false;
+    }
+    if (ls > 0) evalJacobian(W, zt);
+    z = zt;
+    nr = maxAbs(W.r);
+    merit = W.r.squaredNorm();
+  }
+  res_norm = nr;
+  std::ostringstream os;
+  os << "no convergence in " << max_iterations << " Newton iterations (residual " << nr << ")";
+  why = os.str();
+  return false;
+}
+
+// Unknowns from a (loaded or load-free) solution: twist rates, base moment, contact torques.
+Eigen::VectorXd unknownsFrom(const LoadedProblem& L, const Solution& s) {
+  const Problem& P = L.P;
+  const int n = P.n;
+  Eigen::VectorXd z = Eigen::VectorXd::Zero(L.m);
+  if (s.base_twist_rate.size() != n || !s.base_twist_rate.allFinite()) return z;
+  for (int i = 0; i + 1 < n; ++i) z[i] = s.base_twist_rate[i];
+  Eigen::Vector3d m0 = s.base_moment;
+  if (!s.loaded || !m0.allFinite()) m0 = Eigen::Vector3d(0.0, 0.0, P.kt.dot(s.base_twist_rate));
+  z.segment(n - 1, 3) = m0 / L.K0;
+  for (std::size_t c = 0; c < P.contacts.size(); ++c)
+    for (const ContactResult& w : s.contacts)
+      if (w.site == P.contacts[c].site) z[n + 2 + static_cast<int>(c)] = w.torque / P.kt[P.contacts[c].site.inner];
+  return z;
+}
+
+Solution inadmissibleLoaded(const Configuration& q, const std::string& why, int n) {
+  Solution s;
+  s.q = q;
+  s.loaded = true;
+  s.summary.status = SolveStatus::Inadmissible;
+  s.summary.message = why;
+  s.base_twist_rate = Eigen::VectorXd::Zero(n);
+  s.theta0 = Eigen::VectorXd::Zero(n);
+  s.twist = Eigen::VectorXd::Zero(std::max(0, n - 1));
+  return s;
+}
+
+// Stability of the loaded equilibrium: det(J) / det(J_mm) over the twist and moment rows/columns (no contacts),
+// i.e. the determinant of the distal torsion conditions w.r.t. the base twist rates with the tip moment conditions
+// held (Schur complement); equals 1 without tube interaction and changes sign at folds.
+double loadedStability(const LoadedProblem& L, const Eigen::MatrixXd& J) {
+  const int n = L.P.n;
+  const Eigen::MatrixXd core = J.topLeftCorner(n + 2, n + 2);
+  const double dmm = core.block(n - 1, n - 1, 3, 3).determinant();
+  const double dc = core.determinant();
+  return dmm != 0.0 ? dc / dmm : dc;
+}
+
+Solution packageLoaded(LoadedWork& W, const Configuration& q, const Eigen::VectorXd& z, bool ok, int iterations,
+                       double res_norm, const std::string& why, const KinematicsOptions& opt, double stability) {
+  const LoadedProblem& L = W.L;
+  const Problem& P = L.P;
+  const int n = P.n;
+  // One recorded evaluation at the returned point: twist, moments, contacts, backbone.
+  evalValue(W, z, &W.out, opt.record_backbone, opt.record_tube_states);
+  Solution sol;
+  sol.q = q;
+  sol.loaded = true;
+  sol.summary.status = ok ? SolveStatus::Converged : SolveStatus::NotConverged;
+  sol.summary.iterations = iterations;
+  sol.summary.residual_norm = ok ? res_norm : maxAbs(W.r);
+  sol.summary.message = ok ? "" : why;
+  sol.summary.stability = stability;
+  sol.summary.stable = ok && stability > 0.0;
+  sol.base_twist_rate.resize(n);
+  double msum = 0.0;
+  for (int i = 0; i + 1 < n; ++i) {
+    sol.base_twist_rate[i] = z[i];
+    msum += P.kt[i] * z[i];
+  }
+  sol.base_moment = L.K0 * z.segment(n - 1, 3);
+  sol.base_twist_rate[n - 1] = (sol.base_moment.z() - msum) / P.kt[n - 1];
+  sol.theta0 = P.alpha - P.beta.cwiseProduct(sol.base_twist_rate);
+  double C = 0.0;
+  for (int i = 0; i < n; ++i) C += L.rho[i] * std::max(0.0, P.end[i]);
+  sol.base_force = L.F + L.g * C;
+  sol.contact_unknowns = z.tail(L.m - n - 2);
+  sol.twist = W.out.twist;
+  if (sol.twist.size() != n - 1) sol.twist = Eigen::VectorXd::Zero(n - 1);
+  sol.tip_position = W.tip_p;
+  sol.tip_frame = W.tip_R;
+  sol.moments = W.out.moments;
+  if (opt.record_backbone) sol.backbone = W.out.backbone;
+  for (std::size_t c = 0; c < P.contacts.size(); ++c) {
+    const ActiveContact& ac = P.contacts[c];
+    ContactResult cr;
+    cr.site = ac.site;
+    cr.condition = ac.condition;
+    cr.relative_twist = W.out.contacts_relative_twist[c];
+    cr.moment = W.out.contacts_moment[c];
+    cr.torque = z[n + 2 + static_cast<int>(c)] * P.kt[ac.site.inner];
+    sol.contacts.push_back(cr);
+  }
+  return sol;
+}
+
+}  // namespace
+
+Solution solveLoaded(const Robot& robot, const Configuration& q, const std::vector<ContactCondition>* conditions,
+                     Workspace& ws, const KinematicsOptions& opt, const Solution* warm) {
+  const Admissibility adm = checkAdmissible(robot, q);
+  if (!adm) return inadmissibleLoaded(q, adm.message, robot.size());
+  LoadedWork& W = ws.impl().loaded;
+  LoadedProblem& L = W.L;
+  setupLoaded(L, robot, q, conditions, opt, 1.0);
+  int iters = 0;
+  double rn = 0.0;
+  std::string why;
+  Eigen::VectorXd z;
+  bool ok = false;
+  const bool have_warm = warm && warm->base_twist_rate.size() == robot.size() && warm->base_twist_rate.allFinite();
+  if (have_warm) {
+    z = unknownsFrom(L, *warm);
+    ok = newtonLoaded(W, z, opt, opt.max_iterations, iters, rn, why);
+  }
+  if (!ok || (!have_warm && loadedStability(L, W.J) <= 0.0)) {
+    // From the load-free equilibrium (its own cold-start fallbacks; the warm branch when given), then continuation
+    // in the load scale from 0 to 1 when the full load is too far for Newton.
+    KinematicsOptions o = opt;
+    o.record_backbone = false;
+    o.loaded_model = false;
+    const Solution free = solveTorsionOnly(robot, q, conditions, ws, o, have_warm ? warm : nullptr);
+    iters += free.summary.iterations;
+    if (!free.converged()) {
+      setupLoaded(L, robot, q, conditions, opt, 1.0);
+      const Eigen::VectorXd z0 = z.size() == L.m ? z : Eigen::VectorXd::Zero(L.m);
+      return packageLoaded(
+          W, q, z0, false, iters, rn,
+          "the load-free equilibrium (start of the load continuation) did not converge: " + free.summary.message, opt,
+          0.0);
+    }
+    Eigen::VectorXd zc = unknownsFrom(L, free);
+    std::string w;
+    bool found = newtonLoaded(W, zc, opt, opt.max_iterations, iters, rn, w) && loadedStability(L, W.J) > 0.0;
+    if (!found) {
+      zc = unknownsFrom(L, free);
+      double t = 0.0, dt = 1.0 / std::max(1, opt.homotopy_steps);
+      int steps = 0;
+      found = true;
+      while (t < 1.0) {
+        const double tn = std::min(1.0, t + dt);
+        setLoadScale(L, robot, tn);
+        Eigen::VectorXd zt = zc;
+        double r2 = 0.0;
+        ++steps;
+        if (newtonLoaded(W, zt, opt, std::min(opt.max_iterations, 12), iters, r2, w)) {
+          zc = zt;
+          t = tn;
+          dt = std::min(0.5, 1.5 * dt);
+        } else {
+          dt *= 0.5;
+        }
+        if (dt < 1e-4 || steps > 400) {
+          found = false;
+          why = (ok ? std::string() : why + "; ") + "load continuation from the load-free equilibrium stopped at " +
+                std::to_string(t) + " of the load: " + w;
+          break;
+        }
+      }
+      setLoadScale(L, robot, 1.0);
+      if (found) found = newtonLoaded(W, zc, opt, opt.max_iterations, iters, rn, w);
+    }
+    if (found) {
+      z = zc;
+      ok = true;
+    } else if (!ok) {
+      if (why.empty()) why = w;
+      if (z.size() != L.m) z = zc;
+    }
+  }
+  if (!ok) {
+    evalJacobian(W, z);  // (after a success the last Newton evaluation was at z, with its Jacobian)
+    rn = maxAbs(W.r);
+  }
+  const double stab = loadedStability(L, W.J);
+  return packageLoaded(W, q, z, ok, iters, rn, why, opt, stab);
+}
+
+}  // namespace detail
+
+TipJacobian tipJacobian(const Robot& robot, const Solution& solution, Workspace& ws, const KinematicsOptions& options) {
+  if (!solution.converged()) throw std::invalid_argument("tipJacobian: the solution did not converge");
+  const int n = robot.size();
+  if (solution.q.size() != n || solution.base_twist_rate.size() != n)
+    throw std::invalid_argument("tipJacobian: the solution does not belong to this robot (tube count)");
+  std::vector<ContactCondition> cond;
+  const std::vector<ContactCondition>* conditions = nullptr;
+  if (!solution.contacts.empty()) {
+    const std::size_t k = contactSites(robot, solution.q).size();
+    if (solution.contacts.size() != k)
+      throw std::invalid_argument("tipJacobian: the solution's contacts do not match the robot's contact sites");
+    for (const ContactResult& c : solution.contacts) cond.push_back(c.condition);
+    conditions = &cond;
+  }
+  detail::LoadedWork& W = ws.impl().loaded;
+  detail::LoadedProblem& L = W.L;
+  detail::setupLoaded(L, robot, solution.q, conditions, options, 1.0);
+  TipJacobian out;
+  // Polish: the equilibrium of exactly the map that is differentiated (0 iterations for a loaded solution solved
+  // with the same options).
+  Eigen::VectorXd z = detail::unknownsFrom(L, solution);
+  int iters = 0;
+  double rn = 0.0;
+  std::string why;
+  if (!detail::newtonLoaded(W, z, options, options.max_iterations, iters, rn, why)) {
+    out.message = "the equilibrium could not be re-established for differentiation: " + why;
+    out.residual_norm = rn;
+    return out;
+  }
+  out.residual_norm = rn;
+  const int m = L.m, nin = m + 2 * n + 6;
+  std::vector<int> dirs(static_cast<std::size_t>(nin));
+  for (int i = 0; i < nin; ++i) dirs[static_cast<std::size_t>(i)] = i;
+  detail::evalDerivatives(W, z, dirs);
+  // Tip rows: position, and the spatial angle w with [dw]x = dR R^T (skew part) of the Bishop frame R; the material
+  // frame of the innermost tube, R R_z(theta_n), turns by w + t dtheta_n (t the tip tangent).
+  Eigen::MatrixXd G(6, nin);
+  G.topRows(3) = W.D.block(m, 0, 3, nin);
+  const Eigen::Matrix3d R = W.tip_R;
+  for (int j = 0; j < nin; ++j) {
+    Eigen::Matrix3d dR;
+    for (int c = 0; c < 9; ++c) dR(c / 3, c % 3) = W.D(m + 3 + c, j);
+    const Eigen::Matrix3d Om = dR * R.transpose();
+    G(3, j) = 0.5 * (Om(2, 1) - Om(1, 2));
+    G(4, j) = 0.5 * (Om(0, 2) - Om(2, 0));
+    G(5, j) = 0.5 * (Om(1, 0) - Om(0, 1));
+  }
+  Eigen::MatrixXd Gm = G;
+  Gm.bottomRows(3) += R.col(2) * W.D.row(m + 12);
+  const Eigen::MatrixXd Jz = W.D.topLeftCorner(m, m);
+  const Eigen::MatrixXd Jx = W.D.block(0, m, m, nin - m);
+  Eigen::FullPivLU<Eigen::MatrixXd> lu(Jz);
+  if (!lu.isInvertible()) {
+    out.message = "singular shooting Jacobian (at a fold): the tip Jacobian is not defined";
+    return out;
+  }
+  const Eigen::MatrixXd dz = -lu.solve(Jx);
+  const Eigen::MatrixXd total = Gm.rightCols(nin - m) + Gm.leftCols(m) * dz;
+  out.actuation = total.leftCols(2 * n);
+  out.compliance = total.rightCols(6);
+  const Eigen::MatrixXd bishop = G.rightCols(nin - m) + G.leftCols(m) * dz;
+  out.bishop_actuation = bishop.leftCols(2 * n);
+  out.bishop_compliance = bishop.rightCols(6);
+  out.ok = out.actuation.allFinite() && out.compliance.allFinite();
+  if (!out.ok) out.message = "non-finite derivative";
+  return out;
+}
+
+}  // namespace ctr

@@ -9,10 +9,12 @@ namespace ctr::detail {
 
 template <int N>
 struct Dual {
-  double v = 0.0;
-  double d[N] = {};
+  double v;
+  double d[N];  // left uninitialised by the default constructor: every operation below writes all of it
   Dual() = default;
-  Dual(double x) : v(x) {}  // NOLINT: constants convert implicitly
+  Dual(double x) : v(x) {  // NOLINT: constants convert implicitly
+    for (int k = 0; k < N; ++k) d[k] = 0.0;
+  }
   Dual& operator+=(const Dual& o) {
     v += o.v;
     for (int k = 0; k < N; ++k) d[k] += o.d[k];

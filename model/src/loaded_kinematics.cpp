@@ -85,22 +85,32 @@ struct Exp {
   T A, B, C;  // sin(t)/t, (1-cos t)/t^2, (t - sin t)/t^3
 };
 
+// Power series in x = t^2 up to x^6 for t^2 <= 0.04 (truncation < 1e-20; no sqrt, sin, cos, division — the usual
+// case, t = h |u0| per half step), the closed forms otherwise. C only when asked (translation).
 template <class T>
-Exp<T> expCoefficients(const T& wx, const T& wy) {
-  const T th2 = wx * wx + wy * wy;
+Exp<T> expCoefficients(const T& wx, const T& wy, bool withC) {
+  const T x = wx * wx + wy * wy;
   Exp<T> e;
-  if (value(th2) < 1e-8) {
-    e.A = 1.0 - th2 / 6.0 * (1.0 - th2 / 20.0);
-    e.B = 0.5 - th2 / 24.0 * (1.0 - th2 / 30.0);
-    e.C = 1.0 / 6.0 - th2 / 120.0 * (1.0 - th2 / 42.0);
+  if (value(x) <= 0.04) {
+    e.A =
+        1.0 + x * (-1.0 / 6 +
+                   x * (1.0 / 120 + x * (-1.0 / 5040 + x * (1.0 / 362880 + x * (-1.0 / 39916800 + x / 6227020800.0)))));
+    e.B = 0.5 +
+          x * (-1.0 / 24 +
+               x * (1.0 / 720 + x * (-1.0 / 40320 + x * (1.0 / 3628800 + x * (-1.0 / 479001600 + x / 87178291200.0)))));
+    if (withC)
+      e.C = 1.0 / 6 +
+            x * (-1.0 / 120 +
+                 x * (1.0 / 5040 +
+                      x * (-1.0 / 362880 + x * (1.0 / 39916800 + x * (-1.0 / 6227020800.0 + x / 1307674368000.0)))));
   } else {
     using std::sqrt;
-    const T th = sqrt(th2);
+    const T th = sqrt(x);
     T sn, cs;
     sinCos(th, sn, cs);
     e.A = sn / th;
-    e.B = (1.0 - cs) / th2;
-    e.C = (th - sn) / (th2 * th);
+    e.B = (1.0 - cs) / x;
+    if (withC) e.C = (th - sn) / (x * th);
   }
   return e;
 }
@@ -108,7 +118,7 @@ Exp<T> expCoefficients(const T& wx, const T& wy) {
 // R <- R exp([w]x) with w = (wx, wy, 0); R row-major. Optionally p <- p + R V(w) e3 a (SE(3) step).
 template <class T>
 void expStep(T* R, T* p, const T& wx, const T& wy, const T* a) {
-  const Exp<T> c = expCoefficients(wx, wy);
+  const Exp<T> c = expCoefficients(wx, wy, p != nullptr);
   const T Bwxwy = c.B * wx * wy;
   const T E[9] = {1.0 - c.B * wy * wy,
                   Bwxwy,
@@ -128,6 +138,41 @@ void expStep(T* R, T* p, const T& wx, const T& wy, const T* a) {
     for (int col = 0; col < 3; ++col)
       out[3 * r + col] = R[3 * r] * E[col] + R[3 * r + 1] * E[3 + col] + R[3 * r + 2] * E[6 + col];
   for (int k = 0; k < 9; ++k) R[k] = out[k];
+}
+
+// The rotation exp([w]x), w = (wx, wy, 0), applied to vectors without forming it (stage rotations of CF4: the stage
+// derivative needs only R_s^T m and R_s e3).
+template <class T>
+struct SmallRotation {
+  T Bxx, Byy, Bxy, Awx, Awy;
+  SmallRotation(const T& wx, const T& wy) {
+    const Exp<T> c = expCoefficients(wx, wy, false);
+    Bxx = c.B * wx * wx;
+    Byy = c.B * wy * wy;
+    Bxy = c.B * wx * wy;
+    Awx = c.A * wx;
+    Awy = c.A * wy;
+  }
+  void transposeTimes(const T* v, T* o) const {  // o = E^T v
+    o[0] = v[0] - Byy * v[0] + Bxy * v[1] - Awy * v[2];
+    o[1] = Bxy * v[0] + v[1] - Bxx * v[1] + Awx * v[2];
+    o[2] = Awy * v[0] - Awx * v[1] + v[2] - (Bxx + Byy) * v[2];
+  }
+  void times(const T* v, T* o) const {  // o = E v
+    o[0] = v[0] - Byy * v[0] + Bxy * v[1] + Awy * v[2];
+    o[1] = Bxy * v[0] + v[1] - Bxx * v[1] - Awx * v[2];
+    o[2] = -(Awy * v[0]) + Awx * v[1] + v[2] - (Bxx + Byy) * v[2];
+  }
+};
+
+template <class T>
+void transposeTimes(const T* R, const T* v, T* o) {
+  for (int c = 0; c < 3; ++c) o[c] = R[c] * v[0] + R[3 + c] * v[1] + R[6 + c] * v[2];
+}
+
+template <class T>
+void times(const T* R, const T* v, T* o) {
+  for (int r = 0; r < 3; ++r) o[r] = R[3 * r] * v[0] + R[3 * r + 1] * v[1] + R[3 * r + 2] * v[2];
 }
 
 template <class T>
@@ -185,7 +230,8 @@ T loadedEndMoment(const Problem& P, const Segment& sg, const T* th, const T& mbx
 /// position p (3) and frame R (9, row-major). With `rec` (double only) also twist, moments, contacts, backbone.
 template <class T>
 void runLoaded(const LoadedProblem& L, const T* z, const T* alpha, const T* beta, const T* F, const T* M, T* r, T* tipP,
-               T* tipR, T* tipTheta, LoadedOutputs* rec, bool record_nodes, bool record_tubes) {
+               T* tipR, T* tipTheta, LoadedOutputs* rec, bool record_nodes, bool record_tubes,
+               bool want_position = true) {
   const Problem& P = L.P;
   const int n = P.n, m = L.m;
   const int dim = 2 * n + 3;  // theta, u_z, m
@@ -243,11 +289,12 @@ void runLoaded(const LoadedProblem& L, const T* z, const T* alpha, const T* beta
   };
 
   // Curvature and derivative of (theta, u_z, m) at arc length s with rotation Rs; force n(s) = F + g (C - rho s).
-  auto deriv = [&](const Segment& sg, double rho, const T& C, const T& s, const T* ys, const T* Rs, T* dy, T& u0x,
-                   T& u0y) {
+  // Curvature and derivative of (theta, u_z, m) at arc length s, given the stage's (R^T m)_xy and tangent t = R e3;
+  // force n(s) = F + g (C - rho s).
+  auto deriv = [&](const Segment& sg, double rho, const T& C, const T& s, const T* ys, const T* mb, const T* t, T* dy,
+                   T& u0x, T& u0y) {
     const T* ths = ys;
     const T* uzs = ys + n;
-    const T* ms = ys + 2 * n;
     T A = 0.0, B = 0.0;
     for (int j = 0; j < n; ++j) {
       if (sg.w[j] != 0.0) {
@@ -256,10 +303,8 @@ void runLoaded(const LoadedProblem& L, const T* z, const T* alpha, const T* beta
         B += sg.w[j] * sn[j];
       }
     }
-    const T mbx = Rs[0] * ms[0] + Rs[3] * ms[1] + Rs[6] * ms[2];
-    const T mby = Rs[1] * ms[0] + Rs[4] * ms[1] + Rs[7] * ms[2];
-    u0x = (mbx - B) / sg.K;
-    u0y = (A + mby) / sg.K;
+    u0x = (mb[0] - B) / sg.K;
+    u0y = (A + mb[1]) / sg.K;
     for (int i = 0; i < n; ++i) {
       dy[i] = sg.present[static_cast<std::size_t>(i)] ? uzs[i] : T(0.0);
       dy[n + i] = sg.a[i] != 0.0 ? (sg.a[i] * sg.K) * (cs[i] * u0x + sn[i] * u0y) : T(0.0);
@@ -267,12 +312,9 @@ void runLoaded(const LoadedProblem& L, const T* z, const T* alpha, const T* beta
     const T load = C - rho * s;
     T nv[3];
     for (int c = 0; c < 3; ++c) nv[c] = F[c] + L.g[c] * load;
-    const T& tx = Rs[2];
-    const T& ty = Rs[5];
-    const T& tz = Rs[8];
-    dy[2 * n] = -(ty * nv[2] - tz * nv[1]);
-    dy[2 * n + 1] = -(tz * nv[0] - tx * nv[2]);
-    dy[2 * n + 2] = -(tx * nv[1] - ty * nv[0]);
+    dy[2 * n] = -(t[1] * nv[2] - t[2] * nv[1]);
+    dy[2 * n + 1] = -(t[2] * nv[0] - t[0] * nv[2]);
+    dy[2 * n + 2] = -(t[0] * nv[1] - t[1] * nv[0]);
   };
 
   auto pushNode = [&](double s, const Segment& sg, double u0x, double u0y, bool segment_start, const double* force) {
@@ -303,7 +345,6 @@ void runLoaded(const LoadedProblem& L, const T* z, const T* alpha, const T* beta
   };
 
   T s_start = boundary(0);
-  T R2[9], Rst[9];
   for (std::size_t si = 0; si < P.segments.size(); ++si) {
     const Segment& sg = P.segments[si];
     const T s_end = boundary(si + 1);
@@ -316,26 +357,43 @@ void runLoaded(const LoadedProblem& L, const T* z, const T* alpha, const T* beta
     for (int st = 0; st < sg.steps; ++st) {
       const T s = s_start + static_cast<double>(st) * h;
       T u01x, u01y, u02x, u02y, u03x, u03y, u04x, u04y;
-      deriv(sg, rho, C, s, y, R, k[0], u01x, u01y);
+      T v[3], v2[3], mb[3], e[3], t[3];
+      // Stage 1 at (y, R).
+      transposeTimes(R, y + 2 * n, mb);
+      const T t1[3] = {R[2], R[5], R[8]};
+      deriv(sg, rho, C, s, y, mb, t1, k[0], u01x, u01y);
       if (rec && record_nodes) {
         double f[3];
         for (int c = 0; c < 3; ++c) f[c] = value(F[c]) + L.g[c] * (value(C) - rho * value(s));
         pushNode(value(s), sg, value(u01x), value(u01y), st == 0, f);
       }
-      // Stage 2: y + h/2 k1, R exp(h/2 u01).
+      const T ez[3] = {0.0, 0.0, 1.0};
+      // Stage 2: y + h/2 k1 at R E2, E2 = exp(h/2 u01).
       for (int d = 0; d < dim; ++d) yt[d] = y[d] + hh * k[0][d];
-      for (int c = 0; c < 9; ++c) R2[c] = R[c];
-      expStep<T>(R2, nullptr, hh * u01x, hh * u01y, nullptr);
-      deriv(sg, rho, C, s + hh, yt, R2, k[1], u02x, u02y);
-      // Stage 3: y + h/2 k2, R exp(h/2 u02).
+      const SmallRotation<T> E2(hh * u01x, hh * u01y);
+      transposeTimes(R, yt + 2 * n, v);
+      E2.transposeTimes(v, mb);
+      E2.times(ez, e);
+      times(R, e, t);
+      deriv(sg, rho, C, s + hh, yt, mb, t, k[1], u02x, u02y);
+      // Stage 3: y + h/2 k2 at R exp(h/2 u02).
       for (int d = 0; d < dim; ++d) yt[d] = y[d] + hh * k[1][d];
-      for (int c = 0; c < 9; ++c) Rst[c] = R[c];
-      expStep<T>(Rst, nullptr, hh * u02x, hh * u02y, nullptr);
-      deriv(sg, rho, C, s + hh, yt, Rst, k[2], u03x, u03y);
-      // Stage 4: y + h k3, R exp(h/2 u01) exp(h u03 - h/2 u01).
+      const SmallRotation<T> E3(hh * u02x, hh * u02y);
+      transposeTimes(R, yt + 2 * n, v);
+      E3.transposeTimes(v, mb);
+      E3.times(ez, e);
+      times(R, e, t);
+      deriv(sg, rho, C, s + hh, yt, mb, t, k[2], u03x, u03y);
+      // Stage 4: y + h k3 at R E2 E4, E4 = exp(h u03 - h/2 u01).
       for (int d = 0; d < dim; ++d) yt[d] = y[d] + h * k[2][d];
-      expStep<T>(R2, nullptr, h * u03x - hh * u01x, h * u03y - hh * u01y, nullptr);
-      deriv(sg, rho, C, s + h, yt, R2, k[3], u04x, u04y);
+      const SmallRotation<T> E4(h * u03x - hh * u01x, h * u03y - hh * u01y);
+      transposeTimes(R, yt + 2 * n, v);
+      E2.transposeTimes(v, v2);
+      E4.transposeTimes(v2, mb);
+      E4.times(ez, v);
+      E2.times(v, e);
+      times(R, e, t);
+      deriv(sg, rho, C, s + h, yt, mb, t, k[3], u04x, u04y);
       const T h6 = h / 6.0;
       for (int d = 0; d < dim; ++d) y[d] += h6 * (k[0][d] + 2.0 * k[1][d] + 2.0 * k[2][d] + k[3][d]);
       const T h12 = h / 12.0;
@@ -343,8 +401,8 @@ void runLoaded(const LoadedProblem& L, const T* z, const T* alpha, const T* beta
       const T w1y = h12 * (3.0 * u01y + 2.0 * u02y + 2.0 * u03y - u04y);
       const T w2x = h12 * (-u01x + 2.0 * u02x + 2.0 * u03x + 3.0 * u04x);
       const T w2y = h12 * (-u01y + 2.0 * u02y + 2.0 * u03y + 3.0 * u04y);
-      expStep<T>(R, p, w1x, w1y, &hh);
-      expStep<T>(R, p, w2x, w2y, &hh);
+      expStep<T>(R, want_position ? p : nullptr, w1x, w1y, &hh);
+      expStep<T>(R, want_position ? p : nullptr, w2x, w2y, &hh);
     }
     orthonormalizeT(R);
     s_start = s_end;
@@ -462,7 +520,8 @@ void evalValue(LoadedWork& W, const Eigen::VectorXd& z, LoadedOutputs* rec, bool
 
 // Derivatives of (r, tip p, tip R) w.r.t. the inputs x[dirs[start .. start+cnt)] into columns of W.D.
 template <int N>
-void evalDualChunk(LoadedWork& W, const Eigen::VectorXd& x, const std::vector<int>& dirs, int start, int cnt) {
+void evalDualChunk(LoadedWork& W, const Eigen::VectorXd& x, const std::vector<int>& dirs, int start, int cnt,
+                   bool want_position) {
   const LoadedProblem& L = W.L;
   const int n = L.P.n, m = L.m;
   using D = Dual<N>;
@@ -473,13 +532,13 @@ void evalDualChunk(LoadedWork& W, const Eigen::VectorXd& x, const std::vector<in
   D p[3], R[9], th;
   const D* xs = xd.data();
   runLoaded<D>(L, xs, xs + m, xs + m + n, xs + m + 2 * n, xs + m + 2 * n + 3, r.data(), p, R, &th, nullptr, false,
-               false);
+               false, want_position);
   W.r.resize(m);
   for (int i = 0; i < m; ++i) {
     W.r[i] = r[static_cast<std::size_t>(i)].v;
     for (int k = 0; k < cnt; ++k) W.D(i, start + k) = r[static_cast<std::size_t>(i)].d[k];
   }
-  for (int a = 0; a < 3; ++a) {
+  for (int a = 0; a < 3 && want_position; ++a) {
     W.tip_p[a] = p[a].v;
     for (int k = 0; k < cnt; ++k) W.D(m + a, start + k) = p[a].d[k];
   }
@@ -491,34 +550,42 @@ void evalDualChunk(LoadedWork& W, const Eigen::VectorXd& x, const std::vector<in
 }
 
 // Value and derivatives w.r.t. the listed inputs (W.D: (m + 13) x dirs.size(): r, tip p, tip R, theta_n(tip)).
-void evalDerivatives(LoadedWork& W, const Eigen::VectorXd& z, const std::vector<int>& dirs) {
+void evalDerivatives(LoadedWork& W, const Eigen::VectorXd& z, const std::vector<int>& dirs, bool want_position) {
   const Eigen::VectorXd x = inputVector(W.L, z);
   const int total = static_cast<int>(dirs.size());
   W.D.resize(W.L.m + 13, total);
   for (int start = 0; start < total;) {
     const int left = total - start;
-    int cnt;
+    int cnt = std::min(left, 24);
+    // Directions per pass: the smallest instantiated size that holds them (the cost grows with the size).
     if (left <= 2) {
-      cnt = left;
-      evalDualChunk<2>(W, x, dirs, start, cnt);
+      evalDualChunk<2>(W, x, dirs, start, cnt, want_position);
+    } else if (left <= 3) {
+      evalDualChunk<3>(W, x, dirs, start, cnt, want_position);
     } else if (left <= 4) {
-      cnt = left;
-      evalDualChunk<4>(W, x, dirs, start, cnt);
+      evalDualChunk<4>(W, x, dirs, start, cnt, want_position);
+    } else if (left <= 5) {
+      evalDualChunk<5>(W, x, dirs, start, cnt, want_position);
     } else if (left <= 6) {
-      cnt = left;
-      evalDualChunk<6>(W, x, dirs, start, cnt);
+      evalDualChunk<6>(W, x, dirs, start, cnt, want_position);
+    } else if (left <= 7) {
+      evalDualChunk<7>(W, x, dirs, start, cnt, want_position);
     } else if (left <= 8) {
-      cnt = left;
-      evalDualChunk<8>(W, x, dirs, start, cnt);
-    } else if (left <= 12) {
-      cnt = left;
-      evalDualChunk<12>(W, x, dirs, start, cnt);
-    } else if (left <= 16) {
-      cnt = left;
-      evalDualChunk<16>(W, x, dirs, start, cnt);
+      evalDualChunk<8>(W, x, dirs, start, cnt, want_position);
+    } else if (left <= 9) {
+      evalDualChunk<9>(W, x, dirs, start, cnt, want_position);
+    } else if (left <= 11) {
+      evalDualChunk<11>(W, x, dirs, start, cnt, want_position);
+    } else if (left <= 13) {
+      evalDualChunk<13>(W, x, dirs, start, cnt, want_position);
+    } else if (left <= 15) {
+      evalDualChunk<15>(W, x, dirs, start, cnt, want_position);
+    } else if (left <= 17) {
+      evalDualChunk<17>(W, x, dirs, start, cnt, want_position);
+    } else if (left <= 20) {
+      evalDualChunk<20>(W, x, dirs, start, cnt, want_position);
     } else {
-      cnt = std::min(left, 24);
-      evalDualChunk<24>(W, x, dirs, start, cnt);
+      evalDualChunk<24>(W, x, dirs, start, cnt, want_position);
     }
     start += cnt;
   }
@@ -529,7 +596,7 @@ void evalJacobian(LoadedWork& W, const Eigen::VectorXd& z) {
   const int m = W.L.m;
   std::vector<int> dirs(static_cast<std::size_t>(m));
   for (int i = 0; i < m; ++i) dirs[static_cast<std::size_t>(i)] = i;
-  evalDerivatives(W, z, dirs);
+  evalDerivatives(W, z, dirs, false);  // the residual does not depend on the tip position
   W.J = W.D.topRows(m);
 }
 
@@ -540,22 +607,90 @@ double maxAbs(const Eigen::VectorXd& v) {
   return v.size() ? v.cwiseAbs().maxCoeff() : 0.0;
 }
 
+double loadedStability(const LoadedProblem& L, const Eigen::MatrixXd& J);
+
+// Below this |stability| a converged quasi-Newton solve recomputes the exact Jacobian (near a fold).
+constexpr double kExactStabilityBelow = 0.25;
+
+// The exact Jacobian of the last converged solve is kept in the workspace: a nearby warm start with the same
+// problem structure starts from it (Broyden updates, exact Jacobian again on poor progress). Only the Newton path
+// depends on it; the converged point and its (exact) Jacobian do not.
+Eigen::VectorXd robotFingerprint(const LoadedProblem& L) {
+  const Problem& P = L.P;
+  Eigen::VectorXd f(4 * P.n + 9);
+  f << P.kb, P.kt, P.kappa, L.rho, L.g, L.F, L.M;
+  return f;
+}
+
+bool cachedJacobianUsable(const LoadedWork& W, const Eigen::VectorXd& z) {
+  const Problem& P = W.L.P;
+  if (!W.J_valid || W.J.rows() != W.L.m || W.J_z.size() != z.size() || W.J_alpha.size() != P.n) return false;
+  if (W.J_laws.size() != P.contacts.size()) return false;
+  for (std::size_t c = 0; c < P.contacts.size(); ++c)
+    if (!(W.J_sites[c] == P.contacts[c].site) || W.J_laws[c] != P.contacts[c].condition.law) return false;
+  if ((W.J_alpha - P.alpha).cwiseAbs().maxCoeff() > 0.1 || (W.J_beta - P.beta).cwiseAbs().maxCoeff() > 5e-3)
+    return false;
+  // The same robot and loads (another robot's Jacobian could mislead the stability sign kept after convergence).
+  if (W.J_robot.size() != 4 * P.n + 9) return false;
+  if (W.J_robot != robotFingerprint(W.L)) return false;
+  return (W.J_z - z).cwiseAbs().maxCoeff() <= 0.1 * (1.0 + W.J_z.cwiseAbs().maxCoeff());
+}
+
+void storeJacobian(LoadedWork& W, const Eigen::VectorXd& z) {
+  const Problem& P = W.L.P;
+  W.J_valid = true;
+  W.J_robot = robotFingerprint(W.L);
+  W.J_z = z;
+  W.J_alpha = P.alpha;
+  W.J_beta = P.beta;
+  W.J_sites.clear();
+  W.J_laws.clear();
+  for (const ActiveContact& ac : P.contacts) {
+    W.J_sites.push_back(ac.site);
+    W.J_laws.push_back(ac.condition.law);
+  }
+}
+
+// Newton (quasi-Newton from a cached Jacobian) with backtracking. On success W.r, W.J (exact) and, with `record`,
+// W.out are those of the returned z; *recorded says whether W.out is at z.
 bool newtonLoaded(LoadedWork& W, Eigen::VectorXd& z, const KinematicsOptions& opt, int max_iterations, int& iterations,
-                  double& res_norm, std::string& why) {
+                  double& res_norm, std::string& why, bool record = false, bool* recorded = nullptr) {
   const LoadedProblem& L = W.L;
-  evalJacobian(W, z);
+  LoadedOutputs* rec = record ? &W.out : nullptr;
+  const bool nodes = record && opt.record_backbone, tubes = opt.record_tube_states;
+  bool exact = false;
+  bool rec_at_z = false;
+  if (cachedJacobianUsable(W, z)) {
+    evalValue(W, z, rec, nodes, tubes);
+    rec_at_z = record;
+  } else {
+    evalJacobian(W, z);
+    exact = true;
+    W.J_updates = 0;
+  }
   double nr = maxAbs(W.r);
   double merit = W.r.squaredNorm();
   const double step_cap = 4.0 * M_PI / std::max(L.P.s_tip, 1e-3);
+  auto done = [&](bool ok) {
+    res_norm = nr;
+    if (recorded) *recorded = rec_at_z;
+    return ok;
+  };
   for (int it = 0;; ++it) {
     if (!W.r.allFinite()) {
       why = "non-finite residual";
-      res_norm = nr;
-      return false;
+      return done(false);
     }
     if (nr < opt.tolerance) {
-      res_norm = nr;
-      return true;
+      // The quasi-Newton Jacobian at the solution is within ~|dz|/|z| of the exact one. It is kept (stability sign,
+      // next warm start) unless near a fold, where the stability's sign matters most, or after many updates.
+      if (!exact && (W.J_updates > 30 || !(std::abs(loadedStability(L, W.J)) > kExactStabilityBelow))) {
+        evalJacobian(W, z);
+        exact = true;
+      }
+      if (exact) W.J_updates = 0;
+      storeJacobian(W, z);
+      return done(true);
     }
     if (it >= max_iterations) break;
     ++iterations;
@@ -566,22 +701,19 @@ bool newtonLoaded(LoadedWork& W, Eigen::VectorXd& z, const KinematicsOptions& op
       dz = JtJ.ldlt().solve(-W.J.transpose() * W.r);
       if (!dz.allFinite()) {
         why = "singular Jacobian";
-        res_norm = nr;
-        return false;
+        return done(false);
       }
     }
     const double big = maxAbs(dz);
     if (big > step_cap) dz *= step_cap / big;
+    const Eigen::VectorXd r_old = W.r;
     double t = 1.0;
     Eigen::VectorXd zt;
     bool accepted = false;
     int ls = 0;
     for (; ls < 12; ++ls) {
       zt = z + t * dz;
-      if (ls == 0)
-        evalJacobian(W, zt);
-      else
-        evalValue(W, zt, nullptr, false, false);
+      evalValue(W, zt, rec, nodes, tubes);
       const double mt = W.r.squaredNorm();
       if (W.r.allFinite() && mt < (1.0 - 1e-4 * t) * merit) {
         accepted = true;
@@ -590,27 +722,48 @@ bool newtonLoaded(LoadedWork& W, Eigen::VectorXd& z, const KinematicsOptions& op
       t *= 0.5;
     }
     if (!accepted) {
-      if (maxAbs(W.r) < opt.tolerance) {
-        evalJacobian(W, zt);
+      if (W.r.allFinite() && maxAbs(W.r) < opt.tolerance) {  // converged within roundoff of the merit test
         z = zt;
         nr = maxAbs(W.r);
+        rec_at_z = record;
+        exact = false;
+        continue;
+      }
+      if (!exact) {  // retry from z with the exact Jacobian
+        evalJacobian(W, z);
+        exact = true;
+        rec_at_z = false;
+        nr = maxAbs(W.r);
+        merit = W.r.squaredNorm();
         continue;
       }
       why = "line search failed (no descent direction)";
       evalJacobian(W, z);
-      res_norm = maxAbs(W.r);
-      return false;
+      rec_at_z = false;
+      nr = maxAbs(W.r);
+      return done(false);
     }
-    if (ls > 0) evalJacobian(W, zt);
+    const double nr_new = maxAbs(W.r);
+    rec_at_z = record;
+    if (ls > 0 || nr_new > 0.25 * nr) {
+      evalJacobian(W, zt);  // poor progress: exact Jacobian
+      exact = true;
+    } else {
+      // Broyden update along the step taken.
+      const Eigen::VectorXd s_step = zt - z;
+      const double ss = s_step.squaredNorm();
+      if (ss > 0.0) W.J += ((W.r - r_old) - W.J * s_step) * (s_step.transpose() / ss);
+      exact = false;
+      ++W.J_updates;
+    }
     z = zt;
-    nr = maxAbs(W.r);
+    nr = nr_new;
     merit = W.r.squaredNorm();
   }
-  res_norm = nr;
   std::ostringstream os;
   os << "no convergence in " << max_iterations << " Newton iterations (residual " << nr << ")";
   why = os.str();
-  return false;
+  return done(false);
 }
 
 // Unknowns from a (loaded or load-free) solution: twist rates, base moment, contact torques.
@@ -653,12 +806,13 @@ double loadedStability(const LoadedProblem& L, const Eigen::MatrixXd& J) {
 }
 
 Solution packageLoaded(LoadedWork& W, const Configuration& q, const Eigen::VectorXd& z, bool ok, int iterations,
-                       double res_norm, const std::string& why, const KinematicsOptions& opt, double stability) {
+                       double res_norm, const std::string& why, const KinematicsOptions& opt, double stability,
+                       bool recorded) {
   const LoadedProblem& L = W.L;
   const Problem& P = L.P;
   const int n = P.n;
-  // One recorded evaluation at the returned point: twist, moments, contacts, backbone.
-  evalValue(W, z, &W.out, opt.record_backbone, opt.record_tube_states);
+  // The outputs (twist, moments, contacts, backbone) of an evaluation at the returned point.
+  if (!recorded) evalValue(W, z, &W.out, opt.record_backbone, opt.record_tube_states);
   Solution sol;
   sol.q = q;
   sol.loaded = true;
@@ -713,13 +867,13 @@ Solution solveLoaded(const Robot& robot, const Configuration& q, const std::vect
   double rn = 0.0;
   std::string why;
   Eigen::VectorXd z;
-  bool ok = false;
+  bool ok = false, recorded = false;
   const bool have_warm = warm && warm->base_twist_rate.size() == robot.size() && warm->base_twist_rate.allFinite();
   if (have_warm) {
     z = unknownsFrom(L, *warm);
-    ok = newtonLoaded(W, z, opt, opt.max_iterations, iters, rn, why);
+    ok = newtonLoaded(W, z, opt, opt.max_iterations, iters, rn, why, true, &recorded);
   }
-  if (!ok || (!have_warm && loadedStability(L, W.J) <= 0.0)) {
+  if (!ok) {
     // From the load-free equilibrium (its own cold-start fallbacks; the warm branch when given), then continuation
     // in the load scale from 0 to 1 when the full load is too far for Newton.
     KinematicsOptions o = opt;
@@ -728,16 +882,17 @@ Solution solveLoaded(const Robot& robot, const Configuration& q, const std::vect
     const Solution free = solveTorsionOnly(robot, q, conditions, ws, o, have_warm ? warm : nullptr);
     iters += free.summary.iterations;
     if (!free.converged()) {
-      setupLoaded(L, robot, q, conditions, opt, 1.0);
       const Eigen::VectorXd z0 = z.size() == L.m ? z : Eigen::VectorXd::Zero(L.m);
+      evalJacobian(W, z0);
       return packageLoaded(
-          W, q, z0, false, iters, rn,
+          W, q, z0, false, iters, maxAbs(W.r),
           "the load-free equilibrium (start of the load continuation) did not converge: " + free.summary.message, opt,
-          0.0);
+          loadedStability(L, W.J), false);
     }
     Eigen::VectorXd zc = unknownsFrom(L, free);
     std::string w;
-    bool found = newtonLoaded(W, zc, opt, opt.max_iterations, iters, rn, w) && loadedStability(L, W.J) > 0.0;
+    bool found = newtonLoaded(W, zc, opt, opt.max_iterations, iters, rn, w, true, &recorded) &&
+                 (have_warm || loadedStability(L, W.J) > 0.0);
     if (!found) {
       zc = unknownsFrom(L, free);
       double t = 0.0, dt = 1.0 / std::max(1, opt.homotopy_steps);
@@ -758,33 +913,33 @@ Solution solveLoaded(const Robot& robot, const Configuration& q, const std::vect
         }
         if (dt < 1e-4 || steps > 400) {
           found = false;
-          why = (ok ? std::string() : why + "; ") + "load continuation from the load-free equilibrium stopped at " +
-                std::to_string(t) + " of the load: " + w;
+          why = (why.empty() ? std::string() : why + "; ") +
+                "load continuation from the load-free equilibrium stopped at " + std::to_string(t) +
+                " of the load: " + w;
           break;
         }
       }
       setLoadScale(L, robot, 1.0);
-      if (found) found = newtonLoaded(W, zc, opt, opt.max_iterations, iters, rn, w);
+      if (found) found = newtonLoaded(W, zc, opt, opt.max_iterations, iters, rn, w, true, &recorded);
     }
     if (found) {
       z = zc;
       ok = true;
-    } else if (!ok) {
+    } else {
       if (why.empty()) why = w;
       if (z.size() != L.m) z = zc;
+      evalJacobian(W, z);
+      rn = maxAbs(W.r);
+      recorded = false;
     }
   }
-  if (!ok) {
-    evalJacobian(W, z);  // (after a success the last Newton evaluation was at z, with its Jacobian)
-    rn = maxAbs(W.r);
-  }
-  const double stab = loadedStability(L, W.J);
-  return packageLoaded(W, q, z, ok, iters, rn, why, opt, stab);
+  return packageLoaded(W, q, z, ok, iters, rn, why, opt, loadedStability(L, W.J), recorded);
 }
 
 }  // namespace detail
 
-TipJacobian tipJacobian(const Robot& robot, const Solution& solution, Workspace& ws, const KinematicsOptions& options) {
+TipJacobian tipJacobian(const Robot& robot, const Solution& solution, Workspace& ws, const KinematicsOptions& options,
+                        bool with_compliance) {
   if (!solution.converged()) throw std::invalid_argument("tipJacobian: the solution did not converge");
   const int n = robot.size();
   if (solution.q.size() != n || solution.base_twist_rate.size() != n)
@@ -814,10 +969,10 @@ TipJacobian tipJacobian(const Robot& robot, const Solution& solution, Workspace&
     return out;
   }
   out.residual_norm = rn;
-  const int m = L.m, nin = m + 2 * n + 6;
+  const int m = L.m, nin = m + 2 * n + (with_compliance ? 6 : 0);
   std::vector<int> dirs(static_cast<std::size_t>(nin));
   for (int i = 0; i < nin; ++i) dirs[static_cast<std::size_t>(i)] = i;
-  detail::evalDerivatives(W, z, dirs);
+  detail::evalDerivatives(W, z, dirs, true);
   // Tip rows: position, and the spatial angle w with [dw]x = dR R^T (skew part) of the Bishop frame R; the material
   // frame of the innermost tube, R R_z(theta_n), turns by w + t dtheta_n (t the tip tangent).
   Eigen::MatrixXd G(6, nin);
@@ -843,10 +998,10 @@ TipJacobian tipJacobian(const Robot& robot, const Solution& solution, Workspace&
   const Eigen::MatrixXd dz = -lu.solve(Jx);
   const Eigen::MatrixXd total = Gm.rightCols(nin - m) + Gm.leftCols(m) * dz;
   out.actuation = total.leftCols(2 * n);
-  out.compliance = total.rightCols(6);
+  if (with_compliance) out.compliance = total.rightCols(6);
   const Eigen::MatrixXd bishop = G.rightCols(nin - m) + G.leftCols(m) * dz;
   out.bishop_actuation = bishop.leftCols(2 * n);
-  out.bishop_compliance = bishop.rightCols(6);
+  if (with_compliance) out.bishop_compliance = bishop.rightCols(6);
   out.ok = out.actuation.allFinite() && out.compliance.allFinite();
   if (!out.ok) out.message = "non-finite derivative";
   return out;

@@ -113,7 +113,13 @@ struct LoadedWork {
   Eigen::MatrixXd J;       // its Jacobian w.r.t. the unknowns (when asked)
   Eigen::Vector3d tip_p = Eigen::Vector3d::Zero();
   Eigen::Matrix3d tip_R = Eigen::Matrix3d::Identity();
-  Eigen::MatrixXd D;       // derivatives of (r, tip p, tip R) w.r.t. chosen inputs (tipJacobian)
+  Eigen::MatrixXd D;       // derivatives of (r, tip p, tip R, theta_n) w.r.t. chosen inputs
+  // The exact Jacobian of the last converged solve and where it was taken (initial Jacobian of the next warm start).
+  bool J_valid = false;
+  int J_updates = 0;  // Broyden updates since J was last exact
+  Eigen::VectorXd J_z, J_alpha, J_beta, J_robot;
+  std::vector<ContactSite> J_sites;
+  std::vector<ContactCondition::Law> J_laws;
 };
 
 }  // namespace detail

@@ -317,7 +317,8 @@ TEST(Loads, WarmStartFollowsAndColdStartAgree) {
   EXPECT_TRUE(cold.summary.stable);
   const Solution warm = solve(robot, threeConfig(1.12), ws, {}, &cold);
   ASSERT_TRUE(warm.converged());
-  EXPECT_LE(warm.summary.iterations, 4);
+  EXPECT_LE(warm.summary.iterations, 8);  // quasi-Newton from the previous solve's Jacobian: cheap iterations
+  EXPECT_LT(warm.summary.iterations, cold.summary.iterations);
   const Solution cold2 = solve(robot, threeConfig(1.12), ws);
   EXPECT_LT((warm.tip_position - cold2.tip_position).norm(), 1e-10);
   // continueTo follows the loaded branch.

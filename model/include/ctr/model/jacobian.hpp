@@ -34,8 +34,9 @@ struct TipJacobian {
 /// @brief Tip Jacobian and compliance at `solution` (a converged result of solve / solveWithContacts / continueTo /
 /// step for `robot`, with or without loads). Contact laws of the solution are held (Stick: relative twist fixed;
 /// Torque: value * mu' * |m| with |m| varying). `options` must be the discretisation used to solve (the map that is
-/// differentiated). Throws std::invalid_argument for a solution that did not converge or does not match the robot.
+/// differentiated). `with_compliance = false` skips the compliance (6 fewer derivative directions; it stays zero).
+/// Throws std::invalid_argument for a solution that did not converge or does not match the robot.
 TipJacobian tipJacobian(const Robot& robot, const Solution& solution, Workspace& ws,
-                        const KinematicsOptions& options = {});
+                        const KinematicsOptions& options = {}, bool with_compliance = true);
 
 }  // namespace ctr

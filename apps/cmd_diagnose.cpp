@@ -1,5 +1,8 @@
 // `ctr diagnose`: locate where a recording differs from the nominal model, name and fit the left-out physics.
+#include <algorithm>
+#include <cstdio>
 #include <iostream>
+#include <mutex>
 #include <sstream>
 
 #include "commands.hpp"
@@ -7,6 +10,7 @@
 #include "ctr/io/recording.hpp"
 #include "ctr/io/robot_yaml.hpp"
 #include "html_report.hpp"
+#include "progress.hpp"
 
 namespace ctr::cli {
 
@@ -64,8 +68,41 @@ void registerDiagnose(CLI::App& app, Action& action) {
           }
         }
       }
-      if (!o->quiet) d.progress = [](const std::string& s) { std::cerr << s << "\n"; };
+      // Progress: the diagnosis' messages as before, plus a status line counting the selection rounds (at most
+      // --max-effects) and the candidates fitted in the current round (read from the messages).
+      Progress progress("diagnose", static_cast<std::size_t>(std::max(1, o->max_effects)), "rounds", o->quiet);
+      struct RoundCount {
+        std::mutex m;
+        int round = 0, candidates = 0, fitted = 0;
+      };
+      auto rc = std::make_shared<RoundCount>();
+      if (!o->quiet)
+        d.progress = [&progress, rc](const std::string& s) {
+          progress.note(s);
+          const auto b = s.find("] ");
+          const std::string m = s.rfind("[", 0) == 0 && b != std::string::npos ? s.substr(b + 2) : s;
+          std::lock_guard<std::mutex> lock(rc->m);
+          int r = 0, k = 0;
+          if (std::sscanf(m.c_str(), "round %d: fitting %d candidates", &r, &k) == 2) {
+            rc->round = r;
+            rc->candidates = k;
+            rc->fitted = 0;
+            progress.set(static_cast<std::size_t>(std::max(0, r - 1)));
+          } else if (std::sscanf(m.c_str(), "round %d:", &r) == 1) {
+            progress.set(static_cast<std::size_t>(r));
+            rc->candidates = 0;
+          } else if (rc->candidates > 0 && m.rfind("  ", 0) == 0) {
+            ++rc->fitted;
+          }
+          progress.setDetail(rc->candidates > 0 ? "round " + std::to_string(rc->round) + ": " +
+                                                      std::to_string(std::min(rc->fitted, rc->candidates)) + "/" +
+                                                      std::to_string(rc->candidates) + " candidates"
+                                                : std::string());
+        };
       const diagnosis::DiagnosisReport rep = diagnosis::diagnose(robot, rec, d);
+      progress.setDetail("");
+      progress.set(progress.total());
+      progress.finish();
       io::writeFileAtomic(o->json, diagnosis::reportToJson(rep));
       if (!o->report.empty()) io::writeFileAtomic(o->report, diagnosis::reportToMarkdown(rep, rec));
       if (!o->plot.empty()) io::writeFileAtomic(o->plot, diagnosis::plotDataJson(rep, rec));

@@ -14,6 +14,7 @@
 #include "ctr/environments/environment_yaml.hpp"
 #include "ctr/io/robot_yaml.hpp"
 #include "ctr/model/kinematics.hpp"
+#include "progress.hpp"
 
 namespace ctr::cli {
 
@@ -44,6 +45,7 @@ struct EnvOptions {
   std::string start;        // named start pose to use as the base pose
   bool json = false;
   bool verbose = false;
+  bool quiet = false;  // env build: no progress line
 };
 
 void addEnvOptions(CLI::App* sub, EnvOptions& o) {
@@ -53,11 +55,25 @@ void addEnvOptions(CLI::App* sub, EnvOptions& o) {
   sub->add_flag("--verbose", o.verbose, "Print build progress on stderr");
 }
 
-env::Environment buildFrom(const EnvOptions& o) {
+// With `progress`: its total is set to the build's steps (load each source, rasterise, + one step left to the
+// caller, e.g. writing the octree), and each step is counted as it starts.
+env::Environment buildFrom(const EnvOptions& o, Progress* progress = nullptr) {
   env::BuildOptions bo;
   if (o.resolution > 0.0) bo.resolution = o.resolution;
-  if (o.verbose) bo.log = [](const std::string& m) { std::cerr << "  " << m << "\n"; };
-  env::Environment e = env::loadEnvironment(o.file, bo);
+  const env::EnvironmentDescription desc = env::loadEnvironmentDescription(o.file);
+  std::size_t step = 0;
+  if (progress) progress->setTotal(desc.obstacles.size() + (desc.stay_inside ? 1 : 0) + 2);
+  if (o.verbose || progress)
+    bo.log = [&o, progress, &step](const std::string& m) {
+      if (progress) {
+        progress->set(step++);
+        progress->setDetail(m);
+        if (o.verbose) progress->note("  " + m);
+      } else {
+        std::cerr << "  " << m << "\n";
+      }
+    };
+  env::Environment e = env::buildEnvironment(desc, bo);
   if (!o.start.empty()) {
     try {
       e.useStart(o.start);
@@ -179,6 +195,7 @@ void registerEnv(CLI::App& app, Action& action) {
     CLI::App* sub = env->add_subcommand("build", "Build an environment and write its octree (.bt for octovis, or .ot)");
     addEnvOptions(sub, *o);
     sub->add_option("-o,--output", *out, "Output octree file (.bt or .ot)")->required();
+    sub->add_flag("--quiet", o->quiet, "No progress on stderr");
     sub->callback([o, out, &action]() {
       action = [o, out]() {
         const std::string& path = *out;
@@ -186,8 +203,15 @@ void registerEnv(CLI::App& app, Action& action) {
                                                   path.compare(path.size() - 3, 3, ".ot") == 0));
         if (!ok_ext) throw UsageError("-o: the output must end in .bt or .ot");
         checkOutputPath("-o", path, {{"ENV", o->file}});
-        const env::Environment e = buildFrom(*o);
+        Progress progress("env build", 0, "steps", o->quiet);
+        const env::Environment e = buildFrom(*o, &progress);
+        const std::size_t steps = progress.total();
+        progress.set(steps - 1);  // loaded and rasterised; the last step writes the octree
+        progress.setDetail("writing " + path);
         e.write(path);  // atomic: OUT.tmp + rename
+        progress.setDetail("");
+        progress.set(steps);
+        progress.finish();
         const env::OccupancyStats st = e.stats();
         std::cout << "wrote " << path << ": " << st.nodes << " nodes, resolution " << e.resolution() * 1e3
                   << " mm, occupied " << st.occupied_volume * 1e6 << " cm^3, built in " << e.buildSeconds()

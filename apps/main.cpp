@@ -23,6 +23,7 @@ int main(int argc, char** argv) {
 #endif
 #ifdef CTR_WITH_PLANNER
   registerPlan(app, action);
+  registerBench(app, action);
 #endif
 #ifdef CTR_WITH_VIEW
   registerView(app, action);

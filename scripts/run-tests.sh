@@ -27,8 +27,9 @@ RELIABILITY_BUILD=${CTR_RELIABILITY_BUILD_DIR:-build-asan}
 # Under ASan two kinds of tests are left out of CI: the eight time-limited planning runs (they would explore 3-10x
 # fewer states in their time limit and fail for that reason alone; their code paths run under ASan in the other
 # planner tests and by hand with longer limits) and the five concealed diagnosis cases (5.6 min under ASan; they
-# passed under ASan when run by hand); docs/reliability.md ("Sanitizers").
-export CTR_CTEST_ARGS=${CTR_CTEST_ARGS:--LE test_diagnosis_concealed -E Planning\.ExactMode|Planning\.FrictionlessMode|Planning\.RobustModeSolves|Planning\.Portfolio|Planning\.InfeasibleLung|Cli\.BenchWrites|Cli\.BenchFills|Cli\.DemoPlans}
+# passed under ASan when run by hand); docs/reliability.md ("Sanitizers"). The time-limited benchmark campaigns
+# (Campaign.BenchCampaign*) and the Slurm job-array test (label slurm) run once, in the normal build.
+export CTR_CTEST_ARGS=${CTR_CTEST_ARGS:--LE test_diagnosis_concealed|slurm -E Planning\.ExactMode|Planning\.FrictionlessMode|Planning\.RobustModeSolves|Planning\.Portfolio|Planning\.InfeasibleLung|Cli\.BenchWrites|Cli\.BenchFills|Cli\.DemoPlans|Campaign\.BenchCampaign}
 if [ "${CI:-}" = true ] || [ "${CTR_SKIP_SANITIZERS:-0}" != 1 ]; then
   scripts/run-sanitizers.sh "$RELIABILITY_BUILD"
 fi

@@ -55,6 +55,8 @@ const char* kindName(ReportKind k) {
       return "planning";
     case ReportKind::Sweep:
       return "sweep";
+    case ReportKind::Bench:
+      return "bench";
   }
   return "diagnosis";
 }
@@ -74,6 +76,10 @@ std::string renderHtml(ReportKind kind, const std::string& title, const std::str
   h += "<script type=\"application/json\" id=\"ctr-data\">" + scriptSafe(data_json) + "</script>\n";
   h += "<script>\n" + js + "\n</script>\n</body>\n</html>\n";
   return h;
+}
+
+std::string benchHtml(const std::string& summary_json, const std::string& title) {
+  return renderHtml(ReportKind::Bench, title, summary_json);
 }
 
 void writeHtml(const std::string& path, const std::string& html) {

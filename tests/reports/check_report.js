@@ -3,7 +3,7 @@
 // page errors, nothing fetched from the network, the expected elements (plotted series, candidate rows, the slider
 // moving the robot), and a PNG screenshot kept as a test artefact. Registered by tests/reports/CMakeLists.txt.
 //
-// Usage: node check_report.js --kind diagnosis|sweep|planning --html OUT.html --png OUT.png
+// Usage: node check_report.js --kind diagnosis|sweep|planning|bench --html OUT.html --png OUT.png
 //          [--metrics OUT.json] [--make-path SPEC] [--min-series N] [--accept-exit 0,1] -- COMMAND...
 'use strict';
 const fs = require('fs');
@@ -146,6 +146,20 @@ if (/<script[^>]+src=|<link[^>]+href=["']?https?:/i.test(htmlText)) fail('the re
       const snaps = d.snapped.some((v) => v) ? 1 : 0;
       for (const c of twist) check(c.series >= dirs + (d.band.length ? 1 : 0) && c.series <= dirs + (d.band.length ? 1 : 0) + snaps,
         `twist chart has ${c.series} series`);
+    }
+    if (opt.kind === 'bench') {
+      const d = info.data;
+      const groups = new Set(d.rows.map((r) => `${r.query}/${r.mode}`)).size;
+      check(info.charts.length === 3 + groups, `${info.charts.length} charts, expected ${3 + groups} (success, outcomes, ${groups} time-to-solution, strip)`);
+      for (const c of info.charts) check(c.points > 0, `empty chart '${c.title}'`);
+      check(info.charts.some((c) => /Success rate/.test(c.title)), 'no success-rate chart');
+      check(info.charts.some((c) => /Replay outcomes/.test(c.title)), 'no replay-outcome chart');
+      check(info.charts.some((c) => /Time to solution/.test(c.title)), 'no time-to-solution chart');
+      const rows = await page.locator('#summary-table tbody tr').count();
+      check(rows === d.rows.length, `summary table has ${rows} rows, expected ${d.rows.length}`);
+      const outcomes = d.run_outcomes.length;
+      check(outcomes === d.runs, `${outcomes} run outcomes for ${d.runs} runs`);
+      Object.assign(metrics, { rows: d.rows.length, runs: d.runs });
     }
     if (opt.kind === 'planning') {
       const r = await page.evaluate(async () => {

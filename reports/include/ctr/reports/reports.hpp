@@ -1,6 +1,7 @@
 /// @file reports.hpp
 /// @brief Self-contained HTML reports: one file with the bundled scripts and styles (three.js, uPlot) and the data
-/// embedded as JSON; it opens offline and fetches nothing. Kinds: diagnosis, planning viewer, sweep.
+/// embedded as JSON; it opens offline and fetches nothing. Kinds: diagnosis, planning viewer, sweep, benchmark
+/// campaign.
 #pragma once
 
 #include <array>
@@ -25,7 +26,7 @@ class Context;
 namespace ctr::reports {
 
 /// @brief Report kinds (each has its own bundled script).
-enum class ReportKind { Diagnosis, Planning, Sweep };
+enum class ReportKind { Diagnosis, Planning, Sweep, Bench };
 
 /// @brief The complete HTML page of a report: `data_json` (a JSON document) is embedded in a
 /// `<script type="application/json" id="ctr-data">`; `title` is HTML-escaped.
@@ -95,6 +96,11 @@ struct ViewGoal {
 /// rest state at the first waypoint). Throws std::invalid_argument for an empty path.
 std::string planningHtml(const plan::Context& ctx, const std::vector<Configuration>& waypoints,
                          const std::optional<ViewGoal>& goal, const PlanningViewOptions& options = {});
+
+/// @brief The benchmark campaign report as HTML (`ctr bench merge --html`): success rate and replay outcomes per
+/// query / mode / planner, time-to-solution distributions. `summary_json` is the merge's summary.json (embedded
+/// unchanged).
+std::string benchHtml(const std::string& summary_json, const std::string& title);
 
 /// @brief Writes `html` to `path` atomically (no partial file on failure).
 void writeHtml(const std::string& path, const std::string& html);

@@ -20,6 +20,7 @@ PACKAGES=(
   zlib1g-dev
   clang libclang-rt-14-dev llvm   # fuzzing (libFuzzer runtime) and the sanitizer build; llvm: llvm-symbolizer
   chromium fonts-liberation       # HTML report tests (headless Chromium)
+  ompl-demos parallel munge slurmctld slurmd slurm-client   # benchmark campaigns: ompl_benchmark_statistics, GNU parallel, the local Slurm test
 )
 
 SUDO=""

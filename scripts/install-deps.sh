@@ -21,6 +21,8 @@ PACKAGES=(
   clang libclang-rt-14-dev llvm   # fuzzing (libFuzzer runtime) and the sanitizer build; llvm: llvm-symbolizer
   chromium fonts-liberation       # HTML report tests (headless Chromium)
   ompl-demos parallel munge slurmctld slurmd slurm-client   # benchmark campaigns: ompl_benchmark_statistics, GNU parallel, the local Slurm test
+  python3-dev pybind11-dev python3-pybind11   # the `ctr` Python module (python/, CTR_BUILD_PYTHON)
+  python3-numpy python3-matplotlib python3-pytest   # its tests and examples/python (Debian's /usr/bin/python3)
 )
 
 SUDO=""

@@ -1,0 +1,125 @@
+// Bindings of recordings (ctr::io) and ctr::diagnosis: diagnose(...) returns the dict of the diagnosis JSON.
+#include <sstream>
+
+#include "common.hpp"
+#include "ctr/diagnosis/diagnose.hpp"
+#include "ctr/io/recording.hpp"
+
+namespace ctr::py {
+
+namespace {
+
+using pyb::arg;
+
+io::Recording recordingFrom(const pyb::object& obj, int tubes) {
+  if (pyb::isinstance<io::Recording>(obj)) return obj.cast<io::Recording>();
+  const std::string path = pyb::str(pyb::module_::import("os").attr("fspath")(obj)).cast<std::string>();
+  pyb::gil_scoped_release release;
+  return io::loadRecording(path, tubes, true);
+}
+
+}  // namespace
+
+void registerDiagnosis(pyb::module_& m) {
+  pyb::class_<io::Recording>(m, "Recording",
+                             "A recording (formats.md): commanded actuation and measured twist / tip position / tip "
+                             "tangent per row, NaN where not measured.")
+      .def_readonly("tubes", &io::Recording::tubes)
+      .def_property_readonly("rows", &io::Recording::rows)
+      .def("__len__", &io::Recording::rows)
+      .def_property_readonly(
+          "alpha", [](const io::Recording& r) { return pyb::object(configurationArrays(r.commands, r.tubes)[0]); },
+          "(rows, n)")
+      .def_property_readonly(
+          "beta", [](const io::Recording& r) { return pyb::object(configurationArrays(r.commands, r.tubes)[1]); },
+          "(rows, n)")
+      .def_property_readonly(
+          "twist", [](const io::Recording& r) { return r.twist; }, "(rows, n-1), or (rows, 0) when absent.")
+      .def_property_readonly(
+          "tip_position", [](const io::Recording& r) { return r.tip_position; }, "(rows, 3), or (rows, 0) when absent.")
+      .def_property_readonly("tip_tangent", [](const io::Recording& r) { return r.tip_tangent; })
+      .def_property_readonly(
+          "time", [](const io::Recording& r) { return r.time; }, "(rows,), or empty.")
+      .def_readonly("warnings", &io::Recording::warnings)
+      .def("to_csv", &io::recordingToCsv, "CSV text with the formats.md columns.")
+      .def(
+          "save", [](const io::Recording& r, const std::string& path) { io::saveRecording(r, path); }, arg("path"))
+      .def("__repr__", [](const io::Recording& r) {
+        return "<ctr.Recording " + std::to_string(r.rows()) + " rows, " + std::to_string(r.tubes) + " tubes>";
+      });
+
+  m.def(
+      "load_recording",
+      [](const std::string& path, int tubes, bool require_measurement) {
+        pyb::gil_scoped_release release;
+        return io::loadRecording(path, tubes, require_measurement);
+      },
+      arg("path"), arg("tubes") = -1, arg("require_measurement") = true,
+      "Reads a recording CSV (tubes < 0: inferred from the alpha_* columns). Raises ctr.InputError naming the file, "
+      "line and column.");
+
+  m.def(
+      "diagnose",
+      [](const Robot& robot, const pyb::object& recording, const std::string& frame, int folds, int threads,
+         int max_effects, double bic_threshold, const std::optional<std::vector<std::string>>& candidates,
+         const pyb::object& progress, bool with_report) {
+        const io::Recording rec = recordingFrom(recording, robot.size());
+        if (rec.rows() < 8) {
+          const std::string file = pyb::isinstance<io::Recording>(recording) ? std::string("<recording>")
+                                                                             : pyb::str(recording).cast<std::string>();
+          throw io::InputError(
+              file, 0, "",
+              "the recording has " + std::to_string(rec.rows()) + " data row(s); the diagnosis needs at least 8");
+        }
+        diagnosis::DiagnoseOptions d;
+        if (frame == "base")
+          d.frame = diagnosis::FrameMode::Base;
+        else if (frame == "unknown")
+          d.frame = diagnosis::FrameMode::Unknown;
+        else
+          throw pyb::value_error("frame: '" + frame + "': expected 'base' or 'unknown'");
+        if (folds < 2 || folds > 20) throw pyb::value_error("folds: must be in 2..20");
+        if (threads < 1 || threads > 64) throw pyb::value_error("threads: must be in 1..64");
+        if (max_effects < 0 || max_effects > 6) throw pyb::value_error("max_effects: must be in 0..6");
+        d.folds = folds;
+        d.threads = threads;
+        d.max_effects = max_effects;
+        d.bic_threshold = bic_threshold;
+        if (candidates)
+          for (const auto& c : *candidates) {
+            try {
+              d.candidates.push_back(diagnosis::parseEffectKind(c));
+            } catch (const std::invalid_argument& e) {
+              throw pyb::value_error(std::string("candidates: ") + e.what());
+            }
+          }
+        if (!progress.is_none()) {
+          // Called from the diagnosis's threads: take the GIL for the Python callback.
+          auto cb = std::make_shared<pyb::object>(progress);
+          d.progress = [cb](const std::string& s) {
+            pyb::gil_scoped_acquire acquire;
+            (*cb)(s);
+          };
+        }
+        std::string json, markdown;
+        {
+          pyb::gil_scoped_release release;
+          const diagnosis::DiagnosisReport rep = diagnosis::diagnose(robot, rec, d);
+          json = diagnosis::reportToJson(rep);
+          if (with_report) markdown = diagnosis::reportToMarkdown(rep, rec);
+        }
+        d.progress = nullptr;  // drops the callback while holding the GIL
+        pyb::object out = jsonLoads(json);
+        if (with_report) return pyb::object(pyb::make_tuple(out, markdown));
+        return out;
+      },
+      arg("robot"), arg("recording"), arg("frame") = "base", arg("folds") = 4, arg("threads") = 2,
+      arg("max_effects") = 4, arg("bic_threshold") = 10.0, arg("candidates") = pyb::none(),
+      arg("progress") = pyb::none(), arg("with_report") = false,
+      "`ctr diagnose`: where the recording (a path or a ctr.Recording) and the nominal robot differ, and which "
+      "left-out physics explains it. Returns the dict of the diagnosis JSON (formats.md; the same object as "
+      "--json writes); with_report=True returns (dict, Markdown report). progress: a callable taking a str. "
+      "Runs without the GIL.");
+}
+
+}  // namespace ctr::py

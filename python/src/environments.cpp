@@ -1,0 +1,380 @@
+// Bindings of ctr::environments: load an environment YAML, its map, collision and clearance of a solved shape.
+#include <octomap/OcTree.h>
+
+#include <chrono>
+#include <iostream>
+
+#include "common.hpp"
+#include "ctr/environments/collision.hpp"
+#include "ctr/environments/environment_yaml.hpp"
+
+namespace ctr::py {
+
+namespace {
+
+using pyb::arg;
+using EnvPtr = std::shared_ptr<env::Environment>;
+
+const char* occName(env::Occupancy o) {
+  switch (o) {
+    case env::Occupancy::Free:
+      return "free";
+    case env::Occupancy::Occupied:
+      return "occupied";
+    default:
+      return "unknown";
+  }
+}
+
+pyb::list vec(const Eigen::Vector3d& v) {
+  pyb::list l;
+  for (int k = 0; k < 3; ++k) l.append(jsonNumber(v[k]));
+  return l;
+}
+
+pyb::dict poseDict(const Eigen::Isometry3d& T) {
+  pyb::list rows;
+  for (int r = 0; r < 4; ++r) {
+    pyb::list row;
+    for (int c = 0; c < 4; ++c) row.append(T.matrix()(r, c));
+    rows.append(row);
+  }
+  pyb::dict d;
+  d["position"] = vec(T.translation());
+  d["direction"] = vec(T.linear().col(2));
+  d["matrix"] = rows;
+  return d;
+}
+
+/// The `ctr env info --json` object (apps/cmd_env.cpp).
+pyb::dict infoDict(const env::Environment& e) {
+  const env::OccupancyStats st = e.stats();
+  pyb::dict j;
+  j["name"] = e.name();
+  j["resolution"] = e.resolution();
+  pyb::dict bounds;
+  bounds["min"] = vec(e.bounds().min);
+  bounds["max"] = vec(e.bounds().max);
+  bounds["size"] = vec(e.bounds().size());
+  j["bounds"] = bounds;
+  j["nodes"] = st.nodes;
+  j["occupied_leaves"] = st.occupied_leaves;
+  j["free_leaves"] = st.free_leaves;
+  j["occupied_volume"] = st.occupied_volume;
+  j["free_volume"] = st.free_volume;
+  j["memory_bytes"] = st.memory_bytes;
+  j["build_seconds"] = e.buildSeconds();
+  pyb::dict base = poseDict(e.basePose());
+  base["source"] = e.basePoseSource();
+  base["occupancy"] = occName(e.occupancy(e.basePose().translation()));
+  j["base_pose"] = base;
+  pyb::list starts;
+  for (const auto& s : e.starts()) {
+    pyb::dict p = poseDict(s.pose);
+    p["name"] = s.name;
+    p["source"] = s.source;
+    starts.append(p);
+  }
+  j["starts"] = starts;
+  pyb::list targets;
+  for (const auto& t : e.targets()) {
+    pyb::dict d;
+    d["name"] = t.name;
+    d["position"] = vec(t.position);
+    d["occupancy"] = occName(e.occupancy(t.position));
+    d["distance_from_base"] = (t.position - e.basePose().translation()).norm();
+    d["source"] = t.source;
+    targets.append(d);
+  }
+  j["targets"] = targets;
+  j["sources"] = e.sources();
+  pyb::dict col;
+  col["safety_margin"] = e.collisionDefaults().safety_margin;
+  col["unknown_space"] = env::toString(e.collisionDefaults().unknown_space);
+  col["exclude_proximal"] = e.collisionDefaults().exclude_proximal;
+  j["collision"] = col;
+  return j;
+}
+
+/// A collision checker with the environment it checks against (kept alive by the Python object).
+struct Checker {
+  std::shared_ptr<const env::Environment> env;
+  std::shared_ptr<const env::CollisionChecker> checker;
+  double build_seconds = 0.0;
+};
+
+Checker makeChecker(const EnvPtr& e, const Robot& robot, std::optional<double> margin,
+                    const std::optional<std::string>& unknown, double max_distance) {
+  if (!e) throw pyb::value_error("environment: None");
+  env::CollisionOptions co = env::CollisionOptions::fromEnvironment(*e);
+  if (margin) {
+    if (!(*margin >= 0.0)) throw pyb::value_error("margin: must be a finite number >= 0");
+    co.geometry.safety_margin = *margin;
+  }
+  if (unknown) co.unknown_space = env::parseUnknownSpace(*unknown);
+  if (!(max_distance > 0.0)) throw pyb::value_error("max_distance: must be > 0");
+  co.max_distance = max_distance;
+  Checker c;
+  c.env = e;
+  pyb::gil_scoped_release release;
+  const auto t0 = std::chrono::steady_clock::now();
+  c.checker = std::make_shared<const env::CollisionChecker>(c.env, robot, co);
+  c.build_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  return c;
+}
+
+void requireShape(const Solution& sol) {
+  if (!sol.converged()) throw pyb::value_error("solution: not converged (" + sol.summary.message + ")");
+  if (sol.backbone.empty()) throw pyb::value_error("solution: no backbone (solved with record_backbone off)");
+}
+
+pyb::dict collisionDict(const env::CollisionResult& col, const Robot& robot) {
+  pyb::dict d;
+  d["collision"] = col.collision;
+  if (col.collision) {
+    pyb::dict f;
+    f["section"] = col.section;
+    f["tube"] = col.tube + 1;
+    f["tube_name"] = col.tube >= 0 ? robot.tube(col.tube).name : std::string();
+    pyb::list range;
+    range.append(jsonNumber(col.s0));
+    range.append(jsonNumber(col.s1));
+    f["s"] = range;
+    f["outside_map"] = col.outside_map;
+    d["first_colliding_section"] = f;
+  } else {
+    d["first_colliding_section"] = pyb::none();
+  }
+  d["capsules"] = col.capsules;
+  d["narrowphase_calls"] = col.narrowphase_calls;
+  return d;
+}
+
+pyb::dict clearanceDict(const env::ClearanceResult& cl) {
+  pyb::dict d;
+  d["clearance"] = jsonNumber(cl.clearance);
+  d["clearance_saturated"] = cl.saturated;
+  d["clearance_complete"] = cl.complete;
+  pyb::dict c;
+  c["section"] = cl.section;
+  c["tube"] = cl.tube + 1;
+  c["s"] = jsonNumber(cl.s);
+  c["robot_point"] = vec(cl.robot_point);
+  c["obstacle_point"] = vec(cl.obstacle_point);
+  d["closest"] = c;
+  return d;
+}
+
+}  // namespace
+
+void registerEnvironments(pyb::module_& m) {
+  pyb::class_<env::Environment, EnvPtr>(m, "Environment",
+                                        "An anatomy environment: occupancy octree (world frame, m), base pose, named "
+                                        "starts and targets. Load with ctr.load_environment(path).")
+      .def_property_readonly("name", &env::Environment::name)
+      .def_property_readonly("resolution", &env::Environment::resolution, "Octree leaf size (m).")
+      .def_property_readonly(
+          "bounds",
+          [](const env::Environment& e) { return pyb::make_tuple(array3(e.bounds().min), array3(e.bounds().max)); },
+          "(min, max) corners of the mapped region (m).")
+      .def_property_readonly(
+          "base_pose", [](const env::Environment& e) { return Eigen::Matrix4d(e.basePose().matrix()); },
+          "world_T_base (4, 4): the robot base frame in the world.")
+      .def_property_readonly("base_pose_source", &env::Environment::basePoseSource)
+      .def_property_readonly(
+          "starts",
+          [](const env::Environment& e) {
+            pyb::dict d;
+            for (const auto& s : e.starts()) d[pyb::str(s.name)] = Eigen::Matrix4d(s.pose.matrix());
+            return d;
+          },
+          "Named start poses {name: (4, 4)}.")
+      .def_property_readonly(
+          "targets",
+          [](const env::Environment& e) {
+            pyb::dict d;
+            for (const auto& t : e.targets()) d[pyb::str(t.name)] = array3(t.position);
+            return d;
+          },
+          "Named targets {name: (3,)} (world, m).")
+      .def_property_readonly("sources", &env::Environment::sources)
+      .def_property_readonly("build_seconds", &env::Environment::buildSeconds)
+      .def(
+          "with_start",
+          [](const env::Environment& e, const std::string& name) {
+            auto copy = std::make_shared<env::Environment>(e);
+            copy->useStart(name);
+            return copy;
+          },
+          arg("name"), "A copy whose base pose is the named start pose (the CLI's --start).")
+      .def(
+          "occupancy",
+          [](const env::Environment& e, const pyb::object& p) {
+            const Eigen::VectorXd v = toVector(p, "point");
+            if (v.size() != 3) throw pyb::value_error("point: expected 3 coordinates");
+            return std::string(occName(e.occupancy(v)));
+          },
+          arg("point"), "'free', 'occupied' or 'unknown' at a world point (m).")
+      .def(
+          "is_obstacle",
+          [](const env::Environment& e, const pyb::object& points, const std::string& unknown) {
+            const Eigen::MatrixXd P = toMatrix(points, "points", 3);
+            const env::UnknownSpace u = env::parseUnknownSpace(unknown);
+            pyb::array_t<bool> out(P.rows());
+            for (Eigen::Index k = 0; k < P.rows(); ++k) out.mutable_at(k) = e.isObstacle(P.row(k).transpose(), u);
+            return out;
+          },
+          arg("points"), arg("unknown") = "free", "Whether each world point (K, 3) is an obstacle.")
+      .def(
+          "occupied_voxels",
+          [](const env::Environment& e, const pyb::object& lo, const pyb::object& hi) {
+            env::Aabb box(Eigen::Vector3d::Constant(-1e300), Eigen::Vector3d::Constant(1e300));
+            if (!lo.is_none()) box.min = toVector(lo, "lo");
+            if (!hi.is_none()) box.max = toVector(hi, "hi");
+            std::vector<double> centres, sizes;
+            {
+              pyb::gil_scoped_release release;
+              const octomap::OcTree& tree = e.tree();
+              for (auto it = tree.begin_leafs(), end = tree.end_leafs(); it != end; ++it) {
+                if (!tree.isNodeOccupied(*it)) continue;
+                const Eigen::Vector3d c(it.getX(), it.getY(), it.getZ());
+                if (!box.contains(c)) continue;
+                centres.insert(centres.end(), {c.x(), c.y(), c.z()});
+                sizes.push_back(it.getSize());
+              }
+            }
+            const auto N = static_cast<pyb::ssize_t>(sizes.size());
+            pyb::array_t<double> C({N, pyb::ssize_t(3)});
+            std::copy(centres.begin(), centres.end(), C.mutable_data());
+            return pyb::make_tuple(C, pyb::array_t<double>(N, sizes.data()));
+          },
+          arg("lo") = pyb::none(), arg("hi") = pyb::none(),
+          "(centres (N, 3), edge lengths (N,)) of the occupied octree leaves inside the box [lo, hi] (world, m).")
+      .def("stats",
+           [](const env::Environment& e) {
+             const env::OccupancyStats st = e.stats();
+             pyb::dict d;
+             d["nodes"] = st.nodes;
+             d["occupied_leaves"] = st.occupied_leaves;
+             d["free_leaves"] = st.free_leaves;
+             d["occupied_volume"] = st.occupied_volume;
+             d["free_volume"] = st.free_volume;
+             d["memory_bytes"] = st.memory_bytes;
+             return d;
+           })
+      .def("info", &infoDict, "The `ctr env info --json` object.")
+      .def("write", &env::Environment::write, arg("path"), "Writes the octree (.bt or .ot) atomically.")
+      .def("__repr__", [](const env::Environment& e) {
+        return "<ctr.Environment '" + e.name() + "', resolution " +
+               pyb::repr(pyb::float_(e.resolution())).cast<std::string>() + " m>";
+      });
+
+  m.def(
+      "load_environment",
+      [](const std::string& path, std::optional<double> resolution, const std::optional<std::string>& start,
+         bool verbose) {
+        env::BuildOptions bo;
+        if (resolution) {
+          if (!(*resolution > 0.0)) throw pyb::value_error("resolution: must be > 0");
+          bo.resolution = *resolution;
+        }
+        if (verbose) bo.log = [](const std::string& msg) { std::cerr << "  " << msg << "\n"; };
+        pyb::gil_scoped_release release;
+        auto e = std::make_shared<env::Environment>(env::loadEnvironment(path, bo));
+        if (start) e->useStart(*start);
+        return e;
+      },
+      arg("path"), arg("resolution") = pyb::none(), arg("start") = pyb::none(), arg("verbose") = false,
+      "Loads an environment description (YAML) and builds its map (the CLI's `ctr env` ENV [--resolution] "
+      "[--start]). Raises ctr.InputError naming the file, line and key. Runs without the GIL.");
+
+  pyb::class_<Checker>(m, "CollisionChecker",
+                       "Collision and clearance of one robot in one environment (FCL + distance field). Build once, "
+                       "then check many solved shapes.")
+      .def(pyb::init(&makeChecker), arg("environment"), arg("robot"), arg("margin") = pyb::none(),
+           arg("unknown") = pyb::none(), arg("max_distance") = 0.005,
+           "margin: safety margin added to every tube radius (m; default the environment's); unknown: 'free' or "
+           "'occupied'; max_distance: clearance saturates there (m). Builds without the GIL.")
+      .def_property_readonly("reach", [](const Checker& c) { return c.checker->reach(); })
+      .def_property_readonly("build_seconds", [](const Checker& c) { return c.build_seconds; })
+      .def(
+          "check",
+          [](const Checker& c, const Solution& sol) {
+            requireShape(sol);
+            env::CollisionResult col;
+            {
+              pyb::gil_scoped_release release;
+              auto q = c.checker->query();
+              col = c.checker->check(sol, q);
+            }
+            return collisionDict(col, c.checker->robot());
+          },
+          arg("solution"), "Collision of a solved shape: dict collision, first_colliding_section, capsules, ...")
+      .def(
+          "clearance",
+          [](const Checker& c, const Solution& sol) {
+            requireShape(sol);
+            env::ClearanceResult cl;
+            {
+              pyb::gil_scoped_release release;
+              auto q = c.checker->query();
+              cl = c.checker->clearance(sol, q);
+            }
+            return clearanceDict(cl);
+          },
+          arg("solution"), "Clearance of a solved shape (m; <= 0 in contact): dict clearance, closest, ...");
+
+  m.def(
+      "check_shape",
+      [](const EnvPtr& e, const Robot& robot, const pyb::object& alpha, const pyb::object& beta,
+         std::optional<double> margin, const std::optional<std::string>& unknown, double max_distance) {
+        const Configuration q = toConfiguration(robot, alpha, beta);
+        Solution sol;
+        {
+          pyb::gil_scoped_release release;
+          KinematicsOptions ko;
+          ko.record_backbone = true;
+          sol = solve(robot, q, workspace(), ko);
+        }
+        if (!sol.converged()) throw std::runtime_error("the model did not converge: " + sol.summary.message);
+        const Checker c = makeChecker(e, robot, margin, unknown, max_distance);
+        env::CollisionResult col;
+        env::ClearanceResult cl;
+        double us_col = 0.0, us_cl = 0.0;
+        {
+          pyb::gil_scoped_release release;
+          auto query = c.checker->query();
+          const auto t1 = std::chrono::steady_clock::now();
+          col = c.checker->check(sol, query);
+          const auto t2 = std::chrono::steady_clock::now();
+          cl = c.checker->clearance(sol, query);
+          const auto t3 = std::chrono::steady_clock::now();
+          us_col = std::chrono::duration<double, std::micro>(t2 - t1).count();
+          us_cl = std::chrono::duration<double, std::micro>(t3 - t2).count();
+        }
+        const Eigen::Vector3d tip = e->basePose() * sol.tip_position;
+        pyb::dict j;
+        j["environment"] = e->name();
+        j["robot"] = robot.name();
+        pyb::dict cd = collisionDict(col, robot);
+        for (const auto& item : cd) j[item.first] = item.second;
+        pyb::dict cld = clearanceDict(cl);
+        for (const auto& item : cld) j[item.first] = item.second;
+        j["tip_position"] = vec(tip);
+        pyb::dict tg;
+        for (const auto& t : e->targets()) tg[pyb::str(t.name)] = (t.position - tip).norm();
+        j["tip_to_targets"] = tg;
+        pyb::dict timing;
+        timing["collision"] = us_col;
+        timing["clearance"] = us_cl;
+        timing["checker_build"] = c.build_seconds * 1e6;
+        j["timing_us"] = timing;
+        return j;
+      },
+      arg("environment"), arg("robot"), arg("alpha") = pyb::none(), arg("beta") = pyb::none(),
+      arg("margin") = pyb::none(), arg("unknown") = pyb::none(), arg("max_distance") = 0.005,
+      "`ctr env check --json`: solves the shape at (alpha, beta) and returns its collision and clearance in the "
+      "environment as the CLI's dict (tip_position in the world frame).");
+}
+
+}  // namespace ctr::py

@@ -1,0 +1,406 @@
+// Bindings of ctr::planner: queries, CtrPlanner(...).solve() and the result with its path and replay report.
+#include "ctr/planner/planner.hpp"
+#include "common.hpp"
+#include "ctr/io/input_error.hpp"
+
+namespace ctr::py {
+
+namespace {
+
+using pyb::arg;
+
+/// A plan result with what its arrays need (robot size, base pose) and the query it answers.
+struct Result {
+  std::shared_ptr<const plan::PlanResult> r;
+  std::shared_ptr<const plan::Context> ctx;
+  plan::Query query;
+};
+
+/// The replay report of a Result (shares the result's data).
+struct Replay {
+  std::shared_ptr<const plan::PlanResult> r;
+  std::shared_ptr<const plan::Context> ctx;
+  const plan::ReplayReport& rep() const { return r->replay; }
+};
+
+const char* historyName(plan::StartHistory::Kind k) {
+  switch (k) {
+    case plan::StartHistory::Kind::Rest:
+      return "rest";
+    case plan::StartHistory::Kind::Positive:
+      return "positive";
+    case plan::StartHistory::Kind::Negative:
+      return "negative";
+    case plan::StartHistory::Kind::Path:
+      return "path";
+  }
+  return "unknown";
+}
+
+/// The `ctr plan --json` object (apps/cmd_plan.cpp resultJson): same keys and values.
+pyb::dict resultDict(const plan::Query& q, const plan::PlanResult& r) {
+  pyb::dict j;
+  j["query"] = q.name;
+  j["solved"] = r.solved;
+  j["planner_solved"] = r.planner_solved;
+  j["mode"] = plan::toString(r.mode);
+  j["planner"] = r.planner;
+  j["planning_time"] = jsonNumber(r.planning_time);
+  j["planning_wall_time"] = jsonNumber(r.planning_wall_time);
+  j["time_limit_clock"] = q.cpu_time_limit ? "cpu" : "wall";
+  j["replay_time"] = jsonNumber(r.replay_time);
+  j["path_length"] = jsonNumber(r.path_length);
+  j["waypoints"] = r.path.size();
+  j["goal_pool"] = r.goal_pool;
+  pyb::dict rep;
+  rep["completed"] = r.replay.completed;
+  rep["collision_free"] = r.replay.collision_free;
+  rep["stable"] = r.replay.stable;
+  rep["goal_reached"] = r.replay.goal_reached;
+  rep["tip_error"] = jsonNumber(r.replay.tip_error);
+  rep["direction_error"] = jsonNumber(r.replay.direction_error);
+  rep["min_clearance"] = jsonNumber(r.replay.min_clearance);
+  rep["steps"] = r.replay.steps;
+  rep["collisions"] = r.replay.collisions;
+  rep["snaps"] = r.replay.snaps;
+  rep["first_failure"] = r.replay.first_failure;
+  j["replay"] = rep;
+  if (!r.message.empty()) j["message"] = r.message;
+  return j;
+}
+
+/// The CLI's check of the start before planning (apps/cmd_plan.cpp): an invalid start is bad input (InputError).
+void checkStart(const plan::CtrPlanner& p) {
+  const plan::Context& ctx = *p.context();
+  plan::ThreadScratch& t = plan::scratch();
+  const plan::Query& q = p.query();
+  const std::shared_ptr<const plan::StateCache> c = plan::startCache(ctx, q.start, q.history);
+  if (!c->solution.converged())
+    throw io::InputError(q.file, q.lineOf("start"), "start", "the model does not converge at the start: " + c->why);
+  const plan::ShapeCheck sc = plan::checkShape(ctx, c->solution, t);
+  if (!sc.ok) throw io::InputError(q.file, q.lineOf("start"), "start", "start configuration is invalid: " + sc.reason);
+}
+
+pyb::array_t<double> pathArray(const std::vector<Configuration>& path, int n) {
+  const auto K = static_cast<pyb::ssize_t>(path.size());
+  pyb::array_t<double> a({K, pyb::ssize_t(2 * n)});
+  auto v = a.mutable_unchecked<2>();
+  for (pyb::ssize_t k = 0; k < K; ++k)
+    for (int i = 0; i < n; ++i) {
+      v(k, i) = path[static_cast<std::size_t>(k)].alpha[i];
+      v(k, n + i) = path[static_cast<std::size_t>(k)].beta[i];
+    }
+  return a;
+}
+
+pyb::object optionalConfiguration(const std::optional<Configuration>& q) {
+  return q ? pyb::object(configurationTuple(*q)) : pyb::object(pyb::none());
+}
+
+Configuration configurationFromTuple(const pyb::handle& h, const std::string& what) {
+  const pyb::sequence s = pyb::reinterpret_borrow<pyb::sequence>(h);
+  if (!pyb::isinstance<pyb::sequence>(h) || pyb::len(s) != 2) throw pyb::value_error(what + ": expected (alpha, beta)");
+  Configuration q(toVector(s[0], what + " alpha"), toVector(s[1], what + " beta"));
+  if (q.alpha.size() != q.beta.size()) throw pyb::value_error(what + ": alpha and beta differ in length");
+  return q;
+}
+
+}  // namespace
+
+void registerPlanner(pyb::module_& m) {
+  pyb::class_<plan::Query>(m, "Query",
+                           "A planning query (docs/planning.md): robot, environment, start and its history, goal, "
+                           "mode, planner, time limit, seed. Load with ctr.load_query(path); fields can be changed "
+                           "before planning (the CLI's --mode, --planner, --time, --seed, --cpu-time).")
+      .def_readonly("file", &plan::Query::file)
+      .def_readwrite("name", &plan::Query::name)
+      .def_readwrite("robot", &plan::Query::robot, "Robot YAML path.")
+      .def_readwrite("environment", &plan::Query::environment, "Environment YAML path.")
+      .def_readwrite("base_start", &plan::Query::base_start)
+      .def_property(
+          "mode", [](const plan::Query& q) { return std::string(plan::toString(q.mode)); },
+          [](plan::Query& q, const std::string& s) { q.mode = plan::parseMode(s); },
+          "'exact', 'robust' or 'frictionless'.")
+      .def_readwrite("planner", &plan::Query::planner)
+      .def_property(
+          "time_limit", [](const plan::Query& q) { return q.time_limit; },
+          [](plan::Query& q, double t) {
+            if (!(t > 0.0) || !std::isfinite(t)) throw pyb::value_error("time_limit: must be a finite number > 0");
+            q.time_limit = t;
+          },
+          "Seconds.")
+      .def_readwrite("cpu_time_limit", &plan::Query::cpu_time_limit)
+      .def_readwrite("seed", &plan::Query::seed)
+      .def_readwrite("objective", &plan::Query::objective)
+      .def_readwrite("replay_rotation_step", &plan::Query::replay_rotation_step)
+      .def_readwrite("replay_translation_step", &plan::Query::replay_translation_step)
+      .def_readwrite("resolution_rotation", &plan::Query::resolution_rotation)
+      .def_readwrite("resolution_translation", &plan::Query::resolution_translation)
+      .def_readwrite("env_resolution", &plan::Query::env_resolution)
+      .def_readwrite("goal_configuration_tolerance", &plan::Query::goal_configuration_tolerance)
+      .def_readonly("target_name", &plan::Query::target_name)
+      .def_property(
+          "start", [](const plan::Query& q) { return configurationTuple(q.start); },
+          [](plan::Query& q, const pyb::object& v) { q.start = configurationFromTuple(v, "start"); },
+          "(alpha, beta) of the start.")
+      .def_property_readonly(
+          "history",
+          [](const plan::Query& q) {
+            pyb::dict d;
+            d["kind"] = historyName(q.history.kind);
+            d["approach"] = q.history.approach;
+            d["path"] = configurationArrays(q.history.path, q.start.size());
+            return d;
+          },
+          "How the robot arrived at the start.")
+      .def_property_readonly(
+          "tip_goal",
+          [](const plan::Query& q) -> pyb::object {
+            if (!q.tip_goal) return pyb::none();
+            pyb::dict d;
+            d["position"] = array3(q.tip_goal->position);
+            d["tolerance"] = q.tip_goal->tolerance;
+            d["direction"] = q.tip_goal->direction ? pyb::object(array3(*q.tip_goal->direction)) : pyb::none();
+            d["cone_angle"] = q.tip_goal->cone_angle;
+            return std::move(d);
+          },
+          "Tip goal (world): position, tolerance, direction, cone_angle; None for a goal configuration. A named "
+          "target's "
+          "position is resolved in the environment by CtrPlanner: read it from planner.query.")
+      .def_property_readonly("goal_configuration",
+                             [](const plan::Query& q) { return optionalConfiguration(q.goal_configuration); })
+      .def_property(
+          "friction",
+          [](const plan::Query& q) -> pyb::object {
+            if (!q.friction) return pyb::none();
+            pyb::dict d;
+            d["boundary"] = q.friction->boundary;
+            d["distributed"] = q.friction->distributed;
+            return std::move(d);
+          },
+          [](plan::Query& q, const pyb::object& v) {
+            if (v.is_none()) {
+              q.friction.reset();
+              return;
+            }
+            const pyb::dict d = v.cast<pyb::dict>();
+            FrictionCoefficients f;
+            if (d.contains("boundary")) f.boundary = d["boundary"].cast<double>();
+            if (d.contains("distributed")) f.distributed = d["distributed"].cast<double>();
+            q.friction = f;
+          },
+          "Override of the robot's friction ({'boundary', 'distributed'}) or None.")
+      .def("line_of", &plan::Query::lineOf, arg("key"), "Line of a key in the query file (0 if unknown).")
+      .def("__copy__", [](const plan::Query& q) { return plan::Query(q); })
+      .def("__deepcopy__", [](const plan::Query& q, const pyb::dict&) { return plan::Query(q); })
+      .def("__repr__", [](const plan::Query& q) {
+        return "<ctr.Query '" + q.name + "', " + plan::toString(q.mode) + ", " + q.planner + ", " +
+               pyb::repr(pyb::float_(q.time_limit)).cast<std::string>() + " s>";
+      });
+
+  m.def(
+      "load_query", [](const std::string& path) { return plan::loadQuery(path); }, arg("path"),
+      "Parses a query file. Raises ctr.InputError naming the file, line and key.");
+  m.def("parse_query", &plan::parseQuery, arg("text"), arg("source") = "<string>", arg("base_dir") = ".",
+        arg("check_files") = true, "Parses query text; relative paths resolve against base_dir.");
+  m.def(
+      "planner_names", [](const std::string& mode) { return plan::plannerNames(plan::parseMode(mode)); },
+      arg("mode") = "exact", "Known planner names of a mode.");
+
+  pyb::class_<Replay>(m, "ReplayReport",
+                      "The planned path replayed at fine resolution through the stateful friction model: the summary "
+                      "and per-step arrays.")
+      .def_property_readonly("completed", [](const Replay& p) { return p.rep().completed; })
+      .def_property_readonly("collision_free", [](const Replay& p) { return p.rep().collision_free; })
+      .def_property_readonly("stable", [](const Replay& p) { return p.rep().stable; })
+      .def_property_readonly("goal_reached", [](const Replay& p) { return p.rep().goal_reached; })
+      .def_property_readonly("tip_error", [](const Replay& p) { return p.rep().tip_error; })
+      .def_property_readonly("direction_error", [](const Replay& p) { return p.rep().direction_error; })
+      .def_property_readonly("min_clearance", [](const Replay& p) { return p.rep().min_clearance; })
+      .def_property_readonly("steps", [](const Replay& p) { return p.rep().steps; })
+      .def_property_readonly("collisions", [](const Replay& p) { return p.rep().collisions; })
+      .def_property_readonly("snaps", [](const Replay& p) { return p.rep().snaps; })
+      .def_property_readonly("unstable", [](const Replay& p) { return p.rep().unstable; })
+      .def_property_readonly("first_failure", [](const Replay& p) { return p.rep().first_failure; })
+      .def_property_readonly("ok", [](const Replay& p) { return p.rep().ok(); })
+      .def("__len__", [](const Replay& p) { return p.rep().points.size(); })
+      .def_property_readonly(
+          "alpha",
+          [](const Replay& p) {
+            std::vector<Configuration> qs;
+            for (const auto& pt : p.rep().points) qs.push_back(pt.q);
+            return pyb::object(configurationArrays(qs, p.ctx->robot().size())[0]);
+          },
+          "(M, n) commanded rotations at every replay step (unwrapped).")
+      .def_property_readonly(
+          "beta",
+          [](const Replay& p) {
+            std::vector<Configuration> qs;
+            for (const auto& pt : p.rep().points) qs.push_back(pt.q);
+            return pyb::object(configurationArrays(qs, p.ctx->robot().size())[1]);
+          },
+          "(M, n) commanded translations.")
+      .def(
+          "tip_positions",
+          [](const Replay& p, bool world) {
+            const auto& pts = p.rep().points;
+            Eigen::MatrixXd P(pts.size(), 3);
+            for (std::size_t k = 0; k < pts.size(); ++k) {
+              const Eigen::Vector3d t = pts[k].solution.tip_position;
+              P.row(static_cast<Eigen::Index>(k)) = (world ? Eigen::Vector3d(p.ctx->basePose() * t) : t).transpose();
+            }
+            return P;
+          },
+          arg("world") = true, "(M, 3) tip positions at every replay step, world frame (or the base frame).")
+      .def_property_readonly(
+          "clearance",
+          [](const Replay& p) {
+            Eigen::VectorXd c(p.rep().points.size());
+            for (std::size_t k = 0; k < p.rep().points.size(); ++k)
+              c[static_cast<Eigen::Index>(k)] = p.rep().points[k].clearance;
+            return c;
+          },
+          "(M,) distance-field clearance at every replay step (m).")
+      .def_property_readonly(
+          "valid",
+          [](const Replay& p) {
+            pyb::array_t<bool> v(static_cast<pyb::ssize_t>(p.rep().points.size()));
+            for (std::size_t k = 0; k < p.rep().points.size(); ++k)
+              v.mutable_at(static_cast<pyb::ssize_t>(k)) = p.rep().points[k].valid;
+            return v;
+          },
+          "(M,) converged, stable, no snap, collision-free.")
+      .def_property_readonly(
+          "twist",
+          [](const Replay& p) {
+            const int n = p.ctx->robot().size();
+            Eigen::MatrixXd w = Eigen::MatrixXd::Constant(p.rep().points.size(), std::max(n - 1, 0), NAN);
+            for (std::size_t k = 0; k < p.rep().points.size(); ++k) {
+              const Solution& s = p.rep().points[k].solution;
+              if (s.converged() && s.twist.size() == n - 1) w.row(static_cast<Eigen::Index>(k)) = s.twist.transpose();
+            }
+            return w;
+          },
+          "(M, n-1) twist at every replay step (rad).")
+      .def_property_readonly(
+          "states",
+          [](const Replay& p) {
+            pyb::list l;
+            for (const auto& pt : p.rep().points) l.append(pyb::cast(pt.hysteresis));
+            return l;
+          },
+          "HysteresisState after every replay step.")
+      .def_property_readonly(
+          "solutions",
+          [](const Replay& p) {
+            pyb::list l;
+            for (const auto& pt : p.rep().points) l.append(pyb::cast(pt.solution));
+            return l;
+          },
+          "Solution at every replay step (base frame, without backbone).")
+      .def(
+          "csv", [](const Replay& p) { return plan::replayCsv(p.ctx->robot(), p.rep()); },
+          "The `ctr plan --path` CSV text (recording columns + clearance, validity, hysteresis).")
+      .def("__repr__", [](const Replay& p) {
+        return "<ctr.ReplayReport " + std::to_string(p.rep().steps) + " steps, " +
+               (p.rep().ok() ? std::string("ok") : "failed: " + p.rep().first_failure) + ">";
+      });
+
+  pyb::class_<Result>(m, "PlanResult", "Result of planning + replay; to_dict() is the `ctr plan --json` object.")
+      .def_property_readonly(
+          "solved", [](const Result& x) { return x.r->solved; },
+          "Planner found a path AND its replay is collision-free, stable and reaches the goal.")
+      .def_property_readonly("planner_solved", [](const Result& x) { return x.r->planner_solved; })
+      .def_property_readonly("mode", [](const Result& x) { return std::string(plan::toString(x.r->mode)); })
+      .def_property_readonly("planner", [](const Result& x) { return x.r->planner; })
+      .def_property_readonly("planning_time", [](const Result& x) { return x.r->planning_time; })
+      .def_property_readonly("planning_wall_time", [](const Result& x) { return x.r->planning_wall_time; })
+      .def_property_readonly("replay_time", [](const Result& x) { return x.r->replay_time; })
+      .def_property_readonly("path_length", [](const Result& x) { return x.r->path_length; })
+      .def_property_readonly("goal_pool", [](const Result& x) { return x.r->goal_pool; })
+      .def_property_readonly("message", [](const Result& x) { return x.r->message; })
+      .def_property_readonly(
+          "path", [](const Result& x) { return pathArray(x.r->path, x.ctx->robot().size()); },
+          "(K, 2n) waypoints [alpha_1..alpha_n, beta_1..beta_n] from the start (unwrapped rotations).")
+      .def_property_readonly(
+          "path_alpha",
+          [](const Result& x) { return pyb::object(configurationArrays(x.r->path, x.ctx->robot().size())[0]); })
+      .def_property_readonly(
+          "path_beta",
+          [](const Result& x) { return pyb::object(configurationArrays(x.r->path, x.ctx->robot().size())[1]); })
+      .def_property_readonly("replay",
+                             [](const Result& x) {
+                               return Replay{x.r, x.ctx};
+                             })
+      .def_property_readonly("query", [](const Result& x) { return x.query; })
+      .def(
+          "to_dict", [](const Result& x) { return resultDict(x.query, *x.r); },
+          "The `ctr plan --json` object of this result.")
+      .def("__repr__", [](const Result& x) {
+        return std::string("<ctr.PlanResult ") + (x.r->solved ? "solved" : "not solved") + ", " + x.r->planner + ", " +
+               std::to_string(x.r->path.size()) + " waypoints" + (x.r->message.empty() ? "" : ": " + x.r->message) +
+               ">";
+      });
+
+  pyb::class_<plan::CtrPlanner>(m, "CtrPlanner",
+                                "A planning problem built from a query (robot, environment, collision checker, OMPL "
+                                "set-up). solve() plans within the time limit, then replays the path through the "
+                                "friction model.")
+      .def(pyb::init([](const plan::Query& q) {
+             pyb::gil_scoped_release release;
+             return std::make_unique<plan::CtrPlanner>(q);
+           }),
+           arg("query"), "Loads the query's robot and environment (ctr.InputError for bad files); no GIL.")
+      .def(pyb::init([](const plan::Query& q, const Robot& robot, const std::shared_ptr<env::Environment>& e) {
+             if (!e) throw pyb::value_error("environment: None");
+             pyb::gil_scoped_release release;
+             return std::make_unique<plan::CtrPlanner>(q, robot, *e);
+           }),
+           arg("query"), arg("robot"), arg("environment"),
+           "With a robot and an environment already loaded (the query's paths are then ignored).")
+      .def_property_readonly("query", &plan::CtrPlanner::query, "The query as planned (start projected).")
+      .def_property_readonly(
+          "robot", [](const plan::CtrPlanner& p) { return p.context()->robot(); },
+          "The robot with the query's friction.")
+      .def_property_readonly("environment",
+                             [](const plan::CtrPlanner& p) {
+                               return std::const_pointer_cast<env::Environment>(p.context()->environmentPtr());
+                             })
+      .def(
+          "check_start",
+          [](const plan::CtrPlanner& p) {
+            pyb::gil_scoped_release release;
+            checkStart(p);
+          },
+          "Raises ctr.InputError when the start does not converge or is invalid (as `ctr plan` before planning).")
+      .def(
+          "solve",
+          [](plan::CtrPlanner& p, const std::optional<std::string>& planner, std::optional<double> time_limit,
+             bool check_start) {
+            Result x;
+            x.ctx = p.context();
+            x.query = p.query();
+            {
+              pyb::gil_scoped_release release;
+              if (check_start) checkStart(p);
+              if (planner || time_limit) {
+                const std::string name = planner.value_or(p.query().planner);
+                const double t = time_limit.value_or(p.query().time_limit);
+                if (!(t > 0.0)) throw std::invalid_argument("time_limit: must be > 0");
+                p.makePlanner(name);  // unknown planner: ValueError before planning
+                x.r = std::make_shared<const plan::PlanResult>(p.solve(name, t));
+                x.query.planner = name;
+                x.query.time_limit = t;
+              } else {
+                p.makePlanner(p.query().planner);
+                x.r = std::make_shared<const plan::PlanResult>(p.solve());
+              }
+            }
+            return x;
+          },
+          arg("planner") = pyb::none(), arg("time_limit") = pyb::none(), arg("check_start") = true,
+          "Plans (the query's planner and time limit, or these), then replays the path; never reports an unreplayed "
+          "path as solved. With check_start, an invalid start raises ctr.InputError first (as `ctr plan`). No GIL.");
+}
+
+}  // namespace ctr::py

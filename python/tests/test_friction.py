@@ -1,0 +1,100 @@
+"""Friction: sweeps, simulate, the hysteresis state object and the friction band, against `ctr sweep` / `simulate`."""
+import copy
+import csv
+import io
+import math
+import pickle
+
+import numpy as np
+import pytest
+
+import ctr
+from conftest import EXAMPLES
+
+PAIR_B = EXAMPLES / "robots" / "tube_pair_B.yaml"
+BETA = [-0.018, -0.018]
+
+
+def read_csv(text):
+    rows = list(csv.DictReader(io.StringIO(text)))
+    return {k: np.array([float(r[k]) if r[k] != "" else math.nan for r in rows]) for k in rows[0]}
+
+
+@pytest.mark.parametrize("mode", ["stick-slip", "paper"])
+def test_sweep_equals_cli(cli, mode):
+    out = cli("sweep", "--robot", PAIR_B, "--tube", "2", "--from", "0", "--to", "360deg", "--step", "30deg",
+              "--both-directions", "--boundary-friction", "0.12", "--friction-mode", mode, "--beta", "-0.018,-0.018")
+    expected = read_csv(out.stdout)
+    robot = ctr.load_robot(str(PAIR_B)).with_friction(boundary=0.12)
+    sw = ctr.sweep(robot, 2, 0.0, 2 * math.pi, math.radians(30), both_directions=True, beta=BETA,
+                   options=ctr.FrictionOptions(mode=mode))
+    k = len(expected["alpha_1"])
+    assert sw["twist"].shape == (k, 1) and sw["angle"].shape == (k,)
+    for i in (1, 2):
+        assert np.array_equal(sw["alpha"][:, i - 1], expected[f"alpha_{i}"])
+        assert np.array_equal(sw["beta"][:, i - 1], expected[f"beta_{i}"])
+    assert np.allclose(sw["twist"][:, 0], expected["twist_2"], rtol=1e-12, atol=1e-13)
+    for d, c in enumerate("xyz"):
+        assert np.allclose(sw["tip_position"][:, d], expected[f"tip_{c}"], rtol=1e-12, atol=1e-13)
+        assert np.allclose(sw["tip_tangent"][:, d], expected[f"tip_t{c}"], rtol=1e-12, atol=1e-13)
+    assert np.array_equal(sw["direction"], expected["direction"])
+    assert np.array_equal(sw["stable"], expected["stable"] == 1)
+    assert np.array_equal(sw["converged"], expected["converged"] == 1)
+    assert np.array_equal(sw["snapped"], expected["snapped"] == 1)
+    if mode == "stick-slip":  # the envelope: going up and coming back differ at 180 deg
+        up, down = sw["twist"][6, 0], sw["twist"][-7, 0]
+        assert sw["angle"][6] == sw["angle"][-7] and abs(down - up) > math.radians(30)
+
+
+def test_simulate_equals_cli(cli, tmp_path):
+    angles = np.radians([0, 40, 80, 120, 160, 120, 80, 40, 0])
+    act = tmp_path / "act.csv"
+    act.write_text("alpha_1,alpha_2,beta_1,beta_2\n" +
+                   "".join(f"0,{a!r},-0.018,-0.018\n" for a in angles))
+    rec = tmp_path / "rec.csv"
+    cli("simulate", "--robot", PAIR_B, "--actuation", act, "--out", rec, "--boundary-friction", "0.12")
+    expected = read_csv(rec.read_text())
+    robot = ctr.load_robot(str(PAIR_B)).with_friction(boundary=0.12)
+    alpha = np.column_stack([np.zeros_like(angles), angles])
+    sim = ctr.simulate(robot, alpha, np.tile(BETA, (len(angles), 1)), keep_states=True)
+    assert np.allclose(sim["twist"][:, 0], expected["twist_2"], rtol=1e-12, atol=1e-13)
+    for d, c in enumerate("xyz"):
+        assert np.allclose(sim["tip_position"][:, d], expected[f"tip_{c}"], rtol=1e-12, atol=1e-13)
+    assert len(sim["states"]) == len(angles) and all(s.valid for s in sim["states"])
+
+
+def test_hysteresis_state_is_a_python_value():
+    robot = ctr.load_robot(str(PAIR_B)).with_friction(boundary=0.12)
+    r = ctr.initial_state(robot, [0, 0], BETA)
+    assert r.converged and r.state.valid and r.state.contacts
+    up = r
+    for a in np.radians(np.arange(10, 181, 10)):
+        up = ctr.step(robot, up.state, [0, a])  # beta kept from the state
+    assert np.array_equal(up.state.beta, BETA)
+    branch = copy.copy(up.state)
+    # same command, different history -> different shape
+    down = ctr.step(robot, up.state, [0, math.radians(270)])
+    down = ctr.step(robot, down.state, [0, math.pi])
+    assert abs(down.solution.twist[0] - up.solution.twist[0]) > math.radians(20)
+    # the copy is independent, and a pickled state continues exactly like the original
+    again = ctr.step(robot, branch, [0, math.radians(200)])
+    restored = pickle.loads(pickle.dumps(branch))
+    assert restored.contacts == branch.contacts
+    again2 = ctr.step(robot, restored, [0, math.radians(200)])
+    assert np.array_equal(again.solution.twist, again2.solution.twist)
+    assert {"mode", "torque", "bound", "relative_twist"} <= set(up.state.contacts[0])
+    assert up.state.contacts[0]["mode"] in ("stick", "slip_positive", "slip_negative")
+    with pytest.raises(ValueError, match="not initialised"):
+        ctr.step(robot, ctr.HysteresisState(), [0, 1])
+
+
+def test_friction_band_is_the_sweep_envelope():
+    robot = ctr.load_robot(str(PAIR_B)).with_friction(boundary=0.12)
+    sw = ctr.sweep(robot, 2, 0.0, 2 * math.pi, math.radians(30), both_directions=True, beta=BETA)
+    band = ctr.friction_band(robot, [0, math.pi], BETA, interior_samples=0)
+    assert band.converged and len(band.shapes) == 3  # frictionless + 2 vertices (one contact)
+    up, down = sw["twist"][6, 0], sw["twist"][-7, 0]
+    assert band.twist_min[0] == pytest.approx(min(up, down), abs=1e-6)
+    assert band.twist_max[0] == pytest.approx(max(up, down), abs=1e-6)
+    assert band.tip_positions.shape == (3, 3) and band.torque_fractions.shape == (3, 1)
+    assert band.tip_spread > 0.005

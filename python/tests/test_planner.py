@@ -1,0 +1,75 @@
+"""Planning: load_query, CtrPlanner(...).solve() and its result against `ctr plan --json` / `--path`.
+
+The comparison runs first in this file and no other test file builds a planner: OMPL's random seed is set once per
+process, so the module reproduces a fresh `ctr plan` run only for the process's first planner (single-threaded
+planner 'rrt'; the default 'portfolio' races two threads and is not reproducible run to run).
+"""
+import numpy as np
+import pytest
+
+import ctr
+from conftest import EXAMPLES, assert_same, cli_error, load_json
+
+QUERY = EXAMPLES / "queries" / "proc_intracardiac.yaml"
+TIMES = ("planning_time", "planning_wall_time", "replay_time")
+
+
+def test_plan_equals_cli(cli, tmp_path):
+    out, path = tmp_path / "result.json", tmp_path / "path.csv"
+    cli("plan", QUERY, "--planner", "rrt", "--time", "20", "--json", out, "--path", path)
+    expected = load_json(out.read_text())
+    assert expected["solved"]
+
+    q = ctr.load_query(str(QUERY))
+    assert q.name == "proc_intracardiac" and q.mode == "exact" and q.planner == "portfolio"
+    q.planner, q.time_limit = "rrt", 20.0
+    planner = ctr.CtrPlanner(q)
+    r = planner.solve()
+    assert_same(r.to_dict(), expected, ignore=TIMES)
+    assert r.replay.csv() == path.read_text()
+
+    # the path and the replay as arrays
+    n = planner.robot.size
+    assert r.solved and r.path.shape == (expected["waypoints"], 2 * n)
+    alpha0, beta0 = planner.query.start
+    assert np.allclose(r.path[0, :n], alpha0) and np.allclose(r.path[0, n:], beta0)
+    assert np.array_equal(r.path_alpha, r.path[:, :n]) and np.array_equal(r.path_beta, r.path[:, n:])
+    rep = r.replay
+    m = len(rep)
+    assert rep.ok and rep.steps == expected["replay"]["steps"]
+    tips = rep.tip_positions()
+    assert tips.shape == (m, 3) and rep.clearance.shape == (m,) and rep.valid.all()
+    assert rep.clearance.min() == pytest.approx(rep.min_clearance, abs=1e-12)
+    target = planner.environment.targets["tricuspid"]
+    assert np.linalg.norm(tips[-1] - target) == pytest.approx(rep.tip_error, abs=1e-9)
+    assert len(rep.states) == m and rep.states[-1].valid
+    assert rep.alpha.shape == (m, n) and rep.twist.shape == (m, n - 1)
+
+
+def test_query_fields_and_errors():
+    q = ctr.load_query(str(QUERY))
+    assert q.tip_goal["tolerance"] == pytest.approx(0.003) and q.friction == {"boundary": 0.1, "distributed": 0.0}
+    assert q.history["kind"] == "positive" and q.line_of("goal") > 0
+    q.mode = "robust"
+    assert q.mode == "robust"
+    with pytest.raises(ValueError, match="mode"):
+        q.mode = "fastest"
+    with pytest.raises(ValueError, match="time_limit"):
+        q.time_limit = 0
+    assert "rrt" in ctr.planner_names("exact")
+
+
+def test_invalid_start_raises_the_cli_message(cli, tmp_path):
+    text = QUERY.read_text()
+    text = (text.replace("robot: ../robots/", f"robot: {EXAMPLES}/robots/")
+            .replace("environment: ../environments/", f"environment: {EXAMPLES}/environments/")
+            .replace("alpha: [0.0, 0.0, 0.0]", "alpha: [0.5, 2.0, -1.0]")
+            .replace("beta: [-0.10, -0.16, -0.21]", "beta: [-0.06, -0.10, -0.14]"))
+    path = tmp_path / "q.yaml"
+    path.write_text(text)
+    proc = cli("plan", path, "--time", "1", check=False)
+    assert proc.returncode == 2
+    planner = ctr.CtrPlanner(ctr.load_query(str(path)))
+    with pytest.raises(ctr.InputError) as e:
+        planner.solve()
+    assert str(e.value) == cli_error(proc) and e.value.key == "start" and "collision" in str(e.value)

@@ -90,10 +90,16 @@ void BM_SolveSweep(benchmark::State& st) {
 }
 
 // One stick-slip step (1 deg) of the 3-tube robot with mu' = 0.1, warm (the state from the previous step).
+// kPlanning: with the planner's integration settings (40 mm / 0.3 rad steps).
+template <bool kPlanning>
 void BM_StickSlipStep3(benchmark::State& st) {
   const ctr::Robot robot = loadExample("dupont_lab_3tube.yaml").withFriction({0.1, 0.0});
   ctr::Workspace ws;
   ctr::FrictionOptions fo;
+  if (kPlanning) {
+    fo.kinematics.max_step = 0.04;
+    fo.kinematics.max_bending_per_step = 0.3;
+  }
   fo.kinematics.record_backbone = false;
   double a = 0.5;
   ctr::StepResult cur = ctr::initialState(robot, dupontConfig(a, -a), ws, fo);
@@ -114,6 +120,7 @@ BENCHMARK(BM_SolveWarm<true, false>)->Name("solve_warm/dupont3/tip");
 BENCHMARK(BM_SolveWarm<true, true>)->Name("solve_warm/dupont3/shape100");
 BENCHMARK(BM_SolveCold<true, false>)->Name("solve_cold/dupont3/tip");
 BENCHMARK(BM_SolveCold<true, true>)->Name("solve_cold/dupont3/shape100");
-BENCHMARK(BM_StickSlipStep3)->Name("stick_slip_step/dupont3/1deg");
+BENCHMARK(BM_StickSlipStep3<false>)->Name("stick_slip_step/dupont3/1deg");
+BENCHMARK(BM_StickSlipStep3<true>)->Name("stick_slip_step/dupont3/1deg/planning");
 BENCHMARK(BM_SolveSweep<false>)->Name("solve_sweep/dupont3/tip/default");
 BENCHMARK(BM_SolveSweep<true>)->Name("solve_sweep/dupont3/tip/planning");

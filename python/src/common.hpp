@@ -74,7 +74,9 @@ void addOptionsProtocol(Class& cls, std::vector<std::string> fields) {
 /// tip_tangent (K, 3), NaN where not converged; stability, converged, stable (K,); status (list of str).
 pyb::dict solutionRows(const std::vector<const Solution*>& sols, int n);
 
-/// @brief Contact sites as dicts (kind, tube, outer, inner 1-based; s).
+/// @brief A contact site as a dict (kind, tube, outer, inner 1-based; s).
+pyb::dict siteDict(const ContactSite& site);
+/// @brief Contact sites as dicts.
 pyb::list siteList(const std::vector<ContactSite>& sites);
 
 /// @brief A number as the CLI's JSON holds it: a float, or None for NaN and infinities (nlohmann::json writes null).

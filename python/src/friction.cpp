@@ -47,7 +47,7 @@ MomentKind parseKind(const std::string& s) {
 pyb::list contactMemoryList(const HysteresisState& h) {
   pyb::list out;
   for (const ContactMemory& c : h.contacts) {
-    pyb::dict d = siteList({c.site})[0];
+    pyb::dict d = siteDict(c.site);
     d["mode"] = contactModeName(c.mode);
     d["relative_twist"] = c.relative_twist;
     d["torque"] = c.torque;

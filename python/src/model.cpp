@@ -164,16 +164,6 @@ pyb::list momentsList(const Solution& sol) {
   return out;
 }
 
-pyb::dict siteDict(const ContactSite& c) {
-  pyb::dict d;
-  d["kind"] = kindName(c.kind);
-  d["tube"] = c.tube + 1;
-  d["outer"] = c.outer + 1;
-  d["inner"] = c.inner + 1;
-  d["s"] = c.s;
-  return d;
-}
-
 /// The `ctr fk --json` object of a solution (apps/output.cpp solutionJson): same keys and values.
 pyb::dict solutionDict(const Solution& sol) {
   auto list = [](const auto& v, Eigen::Index n) {
@@ -252,6 +242,16 @@ pyb::dict solutionRows(const std::vector<const Solution*>& sols, int n) {
   d["converged"] = converged;
   d["stable"] = stable;
   d["status"] = status;
+  return d;
+}
+
+pyb::dict siteDict(const ContactSite& c) {
+  pyb::dict d;
+  d["kind"] = kindName(c.kind);
+  d["tube"] = c.tube + 1;
+  d["outer"] = c.outer + 1;
+  d["inner"] = c.inner + 1;
+  d["s"] = c.s;
   return d;
 }
 

@@ -345,7 +345,8 @@ void registerPlanner(pyb::module_& m) {
   pyb::class_<plan::CtrPlanner>(m, "CtrPlanner",
                                 "A planning problem built from a query (robot, environment, collision checker, OMPL "
                                 "set-up). solve() plans within the time limit, then replays the path through the "
-                                "friction model.")
+                                "friction model. One solve at a time per planner (build one planner per thread). "
+                                "OMPL's random seed is the first planner's query seed, set once per process.")
       .def(pyb::init([](const plan::Query& q) {
              pyb::gil_scoped_release release;
              return std::make_unique<plan::CtrPlanner>(q);

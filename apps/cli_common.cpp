@@ -4,6 +4,7 @@
 #include <cmath>
 #include <cstdlib>
 #include <filesystem>
+#include <iostream>
 #include <sstream>
 
 namespace ctr::cli {
@@ -175,6 +176,36 @@ Robot FrictionCli::apply(const Robot& robot) const {
   if (boundary >= 0.0) f.boundary = boundary;
   if (distributed >= 0.0) f.distributed = distributed;
   return robot.withFriction(f);
+}
+
+void LoadsCli::add(CLI::App* app) {
+  app->add_option("--tip-force", tip_force, "Tip force fx,fy,fz (N, base frame; replaces the robot's loads entry)");
+  app->add_option("--tip-moment", tip_moment, "Tip moment mx,my,mz (N m, base frame; replaces the robot's)");
+  app->add_option("--gravity", gravity,
+                  "Gravity gx,gy,gz (m/s^2, base frame; acts on the tubes' linear_density; replaces the robot's)");
+}
+
+Robot LoadsCli::apply(const Robot& robot) const {
+  Loads l = robot.loads();
+  auto vec = [](const std::string& text, const std::string& what) {
+    const std::vector<double> v = parseList(text, what, false);
+    if (v.size() != 3)
+      throw UsageError(what + ": expected three numbers x,y,z (base frame), got " + std::to_string(v.size()));
+    for (double x : v)
+      if (!std::isfinite(x)) throw UsageError(what + ": values must be finite");
+    return Eigen::Vector3d(v[0], v[1], v[2]);
+  };
+  if (!tip_force.empty()) l.tip_force = vec(tip_force, "--tip-force");
+  if (!tip_moment.empty()) l.tip_moment = vec(tip_moment, "--tip-moment");
+  if (!gravity.empty()) l.gravity = vec(gravity, "--gravity");
+  if (!gravity.empty() && l.gravity.norm() > 0.0) {
+    bool weightless = true;
+    for (const Tube& t : robot.tubes()) weightless = weightless && t.linear_density == 0.0;
+    if (weightless)
+      std::cerr << "warning: --gravity has no effect: no tube of robot '" << robot.name()
+                << "' has a linear_density (or density with diameters)\n";
+  }
+  return robot.withLoads(l);
 }
 
 FrictionOptions FrictionCli::options() const {

@@ -63,6 +63,15 @@ CLI::Validator finiteNonNegative();
 
 namespace ctr::cli {
 
+/// Options --tip-force, --tip-moment, --gravity ("x,y,z" in the base frame; N, N m, m/s^2). Each given option
+/// replaces that entry of the robot's `loads:` block (formats.md); the others are kept.
+struct LoadsCli {
+  std::string tip_force, tip_moment, gravity;
+  void add(CLI::App* app);
+  /// The robot with the loads applied. Throws UsageError for a value that is not three finite numbers.
+  Robot apply(const Robot& robot) const;
+};
+
 /// Options --boundary-friction, --distributed-friction, --friction-mode (override the robot's friction block).
 struct FrictionCli {
   double boundary = -1.0, distributed = -1.0;

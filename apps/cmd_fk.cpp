@@ -7,6 +7,7 @@
 #include "ctr/io/recording.hpp"
 #include "ctr/io/robot_yaml.hpp"
 #include "ctr/model/backbone.hpp"
+#include "ctr/model/jacobian.hpp"
 #include "ctr/model/kinematics.hpp"
 #include "output.hpp"
 
@@ -16,20 +17,26 @@ void registerFk(CLI::App& app, Action& action) {
   struct Opts {
     std::string robot, shape;
     ConfigOptions config;
-    bool json = false;
+    LoadsCli loads;
+    bool json = false, jacobian = false;
     double ds = 1e-3;
   };
   auto o = std::make_shared<Opts>();
-  CLI::App* sub = app.add_subcommand("fk", "Forward kinematics (frictionless torsionally compliant model)");
+  CLI::App* sub = app.add_subcommand(
+      "fk", "Forward kinematics (frictionless torsionally compliant model; Cosserat rods under external loads)");
   sub->add_option("--robot", o->robot, "Robot description YAML")->required();
   o->config.add(sub);
   sub->add_flag("--json", o->json, "Print one JSON object");
+  o->loads.add(sub);
+  sub->add_flag("--jacobian", o->jacobian,
+                "Also give the exact tip Jacobian (6 x 2n: position, rotation w.r.t. alpha then beta) and the 6 x 6 "
+                "compliance (w.r.t. tip force then moment), base frame; JSON keys jacobian, compliance");
   sub->add_option("--shape", o->shape, "Write the backbone (s,x,y,z) to this CSV");
   sub->add_option("--shape-step", o->ds, "Backbone resolution for --shape (m)")->check(finitePositive());
   sub->callback([o, &action]() {
     action = [o]() {
       checkOutputPath("--shape", o->shape, {{"--robot", o->robot}});
-      const Robot robot = io::loadRobot(o->robot);
+      const Robot robot = o->loads.apply(io::loadRobot(o->robot));
       const Configuration q = o->config.resolve(robot);
       Workspace ws;
       KinematicsOptions opt;
@@ -37,10 +44,38 @@ void registerFk(CLI::App& app, Action& action) {
       const Solution sol = solve(robot, q, ws, opt);
       if (sol.summary.status == SolveStatus::Inadmissible)
         throw UsageError("configuration is not admissible: " + sol.summary.message);
+      TipJacobian jac;
+      if (o->jacobian && sol.converged()) {
+        jac = tipJacobian(robot, sol, ws, opt);
+        if (!jac.ok) {
+          std::cerr << "error: the tip Jacobian is not defined here: " << jac.message << "\n";
+          return static_cast<int>(kRuntimeFailure);
+        }
+      }
+      auto rows = [](const Eigen::MatrixXd& M) {
+        nlohmann::json a = nlohmann::json::array();
+        for (int r = 0; r < M.rows(); ++r) {
+          nlohmann::json row = nlohmann::json::array();
+          for (int c = 0; c < M.cols(); ++c) row.push_back(M(r, c));
+          a.push_back(row);
+        }
+        return a;
+      };
       if (o->json) {
-        std::cout << solutionJson(sol).dump() << "\n";
+        nlohmann::json j = solutionJson(sol);
+        if (jac.ok) {
+          j["jacobian"] = rows(jac.actuation);
+          j["compliance"] = rows(jac.compliance);
+        }
+        std::cout << j.dump() << "\n";
       } else {
         printSolution(std::cout, sol);
+        if (jac.ok) {
+          const Eigen::IOFormat fmt(6, 0, " ", "\n", "  ", "");
+          std::cout << "jacobian (rows p_x p_y p_z w_x w_y w_z; columns alpha_1..n, beta_1..n):\n"
+                    << jac.actuation.format(fmt) << "\n";
+          std::cout << "compliance (columns F_x F_y F_z M_x M_y M_z):\n" << jac.compliance.format(fmt) << "\n";
+        }
       }
       if (!sol.converged()) {
         std::cerr << "error: the model did not converge: " << sol.summary.message << "\n";

@@ -13,6 +13,7 @@ void registerSimulate(CLI::App& app, Action& action) {
     std::string robot, actuation, out;
     bool allow_failures = false;
     FrictionCli friction;
+    LoadsCli loads;
   };
   auto o = std::make_shared<Opts>();
   CLI::App* sub = app.add_subcommand("simulate", "Replay an actuation CSV (alpha_*, beta_* rows in order) and write a recording");
@@ -21,10 +22,11 @@ void registerSimulate(CLI::App& app, Action& action) {
   sub->add_option("--out", o->out, "Recording CSV to write (formats.md columns)")->required();
   sub->add_flag("--allow-failures", o->allow_failures, "Write rows that did not converge with empty measurements");
   o->friction.add(sub);
+  o->loads.add(sub);
   sub->callback([o, &action]() {
     action = [o]() {
       checkOutputPath("--out", o->out, {{"--robot", o->robot}, {"--actuation", o->actuation}});
-      const Robot robot = o->friction.apply(io::loadRobot(o->robot));
+      const Robot robot = o->loads.apply(o->friction.apply(io::loadRobot(o->robot)));
       io::Recording act = io::loadRecording(o->actuation, robot.size(), false);
       // Logged rows are rounded: violations up to kAdmissibilityTolerance are projected (docs/formats-io.md
       // "Admissibility tolerance"); larger ones name the file, line and row.

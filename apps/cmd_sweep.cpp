@@ -19,6 +19,7 @@ void registerSweep(CLI::App& app, Action& action) {
     bool both = false;
     ConfigOptions config;
     FrictionCli friction;
+    LoadsCli loads;
   };
   auto o = std::make_shared<Opts>();
   CLI::App* sub = app.add_subcommand("sweep", "Rotate one tube through a range, warm-starting each step");
@@ -32,12 +33,13 @@ void registerSweep(CLI::App& app, Action& action) {
   sub->add_option("--html", o->html, "Self-contained HTML plots to write (twist, tip, friction band, stability)");
   o->config.add(sub);
   o->friction.add(sub);
+  o->loads.add(sub);
   sub->callback([o, &action]() {
     action = [o]() {
       requireHtmlReports(o->html);
       checkOutputPath("--csv", o->csv, {{"--robot", o->robot}});
       checkOutputPath("--html", o->html, {{"--robot", o->robot}, {"--csv", o->csv}});
-      const Robot robot = o->friction.apply(io::loadRobot(o->robot));
+      const Robot robot = o->loads.apply(o->friction.apply(io::loadRobot(o->robot)));
       const int n = robot.size();
       if (o->tube < 1 || o->tube > n)
         throw UsageError("--tube: " + std::to_string(o->tube) + " is not a tube of robot '" + robot.name() + "' (1.." +

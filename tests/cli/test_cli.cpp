@@ -10,6 +10,7 @@
 #include <fstream>
 #include <sstream>
 #include <string>
+#include <vector>
 
 namespace fs = std::filesystem;
 
@@ -151,6 +152,131 @@ TEST(Cli, SweepBothDirectionsWithFrictionShowsTheEnvelope) {
   EXPECT_GT(rows[18][4] - rows[6][4], 1.0);
   EXPECT_EQ(rows[6][11], 1);
   EXPECT_EQ(rows[18][11], -1);
+}
+
+// External loads (issue #15): --tip-force/--tip-moment/--gravity on fk, sweep, simulate; `loads:` in the robot YAML;
+// fk --jacobian adds the exact tip Jacobian and compliance.
+namespace {
+
+// tube_pair_B with linear densities (and optionally a loads block) written to a temporary file.
+std::string heavyPair(const std::string& loads = "") {
+  const fs::path f = tmp(loads.empty() ? "heavy_pair.yaml" : "heavy_pair_loads.yaml");
+  std::ifstream in(robot("tube_pair_B.yaml"));
+  std::ofstream out(f);
+  std::string line;
+  while (std::getline(in, line)) {
+    out << line << "\n";
+    if (line.find("inner_diameter") != std::string::npos) out << "    density: 6450\n";
+  }
+  out << loads;
+  return f.string();
+}
+
+std::vector<double> tipOf(const std::string& json) {
+  const auto j = nlohmann::json::parse(json);
+  return j.at("tip_position").get<std::vector<double>>();
+}
+
+}  // namespace
+
+TEST(Cli, FkWithLoadsAndJacobian) {
+  const std::string base = "fk --robot " + robot("tube_pair_B.yaml") + " --alpha 0,1 --beta -0.018,-0.018 --json";
+  const Proc free = run(base);
+  const Proc loaded = run(base + " --tip-force 0.1,-0.05,0 --tip-moment 0,0,0.002");
+  ASSERT_EQ(free.code, 0) << free.err;
+  ASSERT_EQ(loaded.code, 0) << loaded.err;
+  const std::vector<double> a = tipOf(free.out), b = tipOf(loaded.out);
+  EXPECT_GT(std::hypot(a[0] - b[0], a[1] - b[1]), 1e-3);
+  // The same keys with and without loads; jacobian/compliance only with --jacobian.
+  const auto jf = nlohmann::json::parse(free.out), jl = nlohmann::json::parse(loaded.out);
+  for (auto it = jf.begin(); it != jf.end(); ++it) EXPECT_TRUE(jl.contains(it.key())) << it.key();
+  EXPECT_EQ(jf.size(), jl.size());
+  EXPECT_FALSE(jl.contains("jacobian"));
+  const std::string loads = " --tip-force 0.1,-0.05,0 --tip-moment 0,0,0.002";
+  const Proc jac = run(base + loads + " --jacobian");
+  ASSERT_EQ(jac.code, 0) << jac.err;
+  const auto j = nlohmann::json::parse(jac.out);
+  ASSERT_EQ(j.at("jacobian").size(), 6u);
+  ASSERT_EQ(j["jacobian"][0].size(), 4u);  // alpha_1, alpha_2, beta_1, beta_2
+  ASSERT_EQ(j.at("compliance").size(), 6u);
+  ASSERT_EQ(j["compliance"][0].size(), 6u);
+  // The alpha_2 column against central differences of two more runs (printed with round-trip precision).
+  const double h = 1e-5;
+  const std::string pre = "fk --robot " + robot("tube_pair_B.yaml") + " --beta -0.018,-0.018 --json" + loads;
+  const std::vector<double> p = tipOf(run(pre + " --alpha 0," + std::to_string(1 + h)).out);
+  const std::vector<double> m = tipOf(run(pre + " --alpha 0," + std::to_string(1 - h)).out);
+  double err = 0, size = 0;
+  for (int k = 0; k < 3; ++k) {
+    const double fd = (p[static_cast<std::size_t>(k)] - m[static_cast<std::size_t>(k)]) / (2 * h);
+    const double ex = j["jacobian"][static_cast<std::size_t>(k)][1].get<double>();
+    err = std::max(err, std::abs(fd - ex));
+    size = std::max(size, std::abs(ex));
+  }
+  EXPECT_LT(err, 1e-5 * size);
+  // Bad load values: exit 2 naming the option.
+  const Proc bad = run(base + " --gravity 0,-9.81");
+  EXPECT_EQ(bad.code, 2);
+  EXPECT_NE(bad.err.find("--gravity"), std::string::npos) << bad.err;
+  const Proc bad2 = run(base + " --tip-force 0,abc,0");
+  EXPECT_EQ(bad2.code, 2);
+  EXPECT_NE(bad2.err.find("--tip-force"), std::string::npos) << bad2.err;
+}
+
+TEST(Cli, LoadsFromTheRobotFileAndOverriddenOnTheCommandLine) {
+  const std::string heavy = heavyPair();
+  const std::string with_loads = heavyPair("loads:\n  gravity: [0, -9.81, 0]\n");
+  const std::string q = " --alpha 0,1 --beta -0.018,-0.018 --json";
+  const std::vector<double> none = tipOf(run("fk --robot " + heavy + q).out);
+  const Proc file = run("fk --robot " + with_loads + q);
+  const Proc cli = run("fk --robot " + heavy + q + " --gravity 0,-9.81,0");
+  ASSERT_EQ(file.code, 0) << file.err;
+  ASSERT_EQ(cli.code, 0) << cli.err;
+  EXPECT_EQ(tipOf(file.out), tipOf(cli.out));  // the same load from the file or the command line
+  EXPECT_LT(tipOf(file.out)[1], none[1] - 1e-5);  // sags toward -y
+  // The command line replaces the file's entry.
+  const Proc off = run("fk --robot " + with_loads + q + " --gravity 0,0,0");
+  ASSERT_EQ(off.code, 0) << off.err;
+  const std::vector<double> o = tipOf(off.out);
+  for (int k = 0; k < 3; ++k) EXPECT_NEAR(o[static_cast<std::size_t>(k)], none[static_cast<std::size_t>(k)], 1e-12);
+  // Gravity on a robot without densities: a warning, no effect.
+  const Proc weightless = run("fk --robot " + robot("tube_pair_B.yaml") + q + " --gravity 0,-9.81,0");
+  EXPECT_EQ(weightless.code, 0);
+  EXPECT_NE(weightless.err.find("no effect"), std::string::npos) << weightless.err;
+}
+
+TEST(Cli, SweepAndSimulateUnderLoads) {
+  const std::string heavy = heavyPair();
+  const fs::path f0 = tmp("sweep0.csv"), f1 = tmp("sweep1.csv");
+  const std::string sweep = "sweep --robot " + heavy +
+                            " --tube 2 --from 0 --to 180deg --step 30deg --both-directions --boundary-friction 0.1 --csv ";
+  const Proc a = run(sweep + f0.string());
+  const Proc b = run(sweep + f1.string() + " --gravity 0,-9.81,0 --tip-force 0,0,-0.05");
+  ASSERT_EQ(a.code, 0) << a.err;
+  ASSERT_EQ(b.code, 0) << b.err;
+  auto readRows = [](const fs::path& p) {
+    std::ifstream in(p);
+    std::string line;
+    std::getline(in, line);
+    std::vector<std::string> rows;
+    while (std::getline(in, line)) rows.push_back(line);
+    return rows;
+  };
+  const auto ra = readRows(f0), rb = readRows(f1);
+  ASSERT_EQ(ra.size(), 13u);
+  ASSERT_EQ(rb.size(), ra.size());
+  EXPECT_NE(ra[3], rb[3]);  // the loads change the shape
+  // simulate: loads apply too.
+  const fs::path act = tmp("act_loads.csv"), o0 = tmp("rec0.csv"), o1 = tmp("rec1.csv");
+  {
+    std::ofstream s(act);
+    s << "alpha_1,alpha_2,beta_1,beta_2\n";
+    for (int k = 0; k <= 6; ++k) s << "0," << k * 0.3 << ",-0.018,-0.018\n";
+  }
+  const std::string sim = "simulate --robot " + heavy + " --actuation " + act.string() + " --out ";
+  ASSERT_EQ(run(sim + o0.string()).code, 0);
+  const Proc s1 = run(sim + o1.string() + " --tip-moment 0.001,0,0");
+  ASSERT_EQ(s1.code, 0) << s1.err;
+  EXPECT_NE(readRows(o0), readRows(o1));
 }
 
 TEST(Cli, SimulateWritesARecordingAndNothingOnBadInput) {

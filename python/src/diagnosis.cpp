@@ -43,16 +43,18 @@ void registerDiagnosis(pyb::module_& m) {
       .def_readonly("warnings", &io::Recording::warnings)
       .def("to_csv", &io::recordingToCsv, "CSV text with the formats.md columns.")
       .def(
-          "save", [](const io::Recording& r, const std::string& path) { io::saveRecording(r, path); }, arg("path"))
+          "save",
+          [](const io::Recording& r, const std::filesystem::path& path) { io::saveRecording(r, path.string()); },
+          arg("path"))
       .def("__repr__", [](const io::Recording& r) {
         return "<ctr.Recording " + std::to_string(r.rows()) + " rows, " + std::to_string(r.tubes) + " tubes>";
       });
 
   m.def(
       "load_recording",
-      [](const std::string& path, int tubes, bool require_measurement) {
+      [](const std::filesystem::path& path, int tubes, bool require_measurement) {
         pyb::gil_scoped_release release;
-        return io::loadRecording(path, tubes, require_measurement);
+        return io::loadRecording(path.string(), tubes, require_measurement);
       },
       arg("path"), arg("tubes") = -1, arg("require_measurement") = true,
       "Reads a recording CSV (tubes < 0: inferred from the alpha_* columns). Raises ctr.InputError naming the file, "

@@ -263,7 +263,9 @@ void registerEnvironments(pyb::module_& m) {
              return d;
            })
       .def("info", &infoDict, "The `ctr env info --json` object.")
-      .def("write", &env::Environment::write, arg("path"), "Writes the octree (.bt or .ot) atomically.")
+      .def(
+          "write", [](const env::Environment& e, const std::filesystem::path& path) { e.write(path.string()); },
+          arg("path"), "Writes the octree (.bt or .ot) atomically.")
       .def("__repr__", [](const env::Environment& e) {
         return "<ctr.Environment '" + e.name() + "', resolution " +
                pyb::repr(pyb::float_(e.resolution())).cast<std::string>() + " m>";
@@ -271,7 +273,7 @@ void registerEnvironments(pyb::module_& m) {
 
   m.def(
       "load_environment",
-      [](const std::string& path, std::optional<double> resolution, const std::optional<std::string>& start,
+      [](const std::filesystem::path& path, std::optional<double> resolution, const std::optional<std::string>& start,
          bool verbose) {
         env::BuildOptions bo;
         if (resolution) {
@@ -280,7 +282,7 @@ void registerEnvironments(pyb::module_& m) {
         }
         if (verbose) bo.log = [](const std::string& msg) { std::cerr << "  " << msg << "\n"; };
         pyb::gil_scoped_release release;
-        auto e = std::make_shared<env::Environment>(env::loadEnvironment(path, bo));
+        auto e = std::make_shared<env::Environment>(env::loadEnvironment(path.string(), bo));
         if (start) e->useStart(*start);
         return e;
       },

@@ -321,8 +321,8 @@ void registerModel(pyb::module_& m) {
       .def("to_dict", &robotDict, "The description as a dict; Robot(robot.to_dict()) is the same robot.")
       .def("to_yaml", &io::robotToYaml, "The robot YAML text.")
       .def(
-          "save", [](const Robot& r, const std::string& path) { io::saveRobot(r, path); }, arg("path"),
-          "Writes the robot YAML atomically.")
+          "save", [](const Robot& r, const std::filesystem::path& path) { io::saveRobot(r, path.string()); },
+          arg("path"), "Writes the robot YAML atomically.")
       .def(
           "with_friction",
           [](const Robot& r, std::optional<double> boundary, std::optional<double> distributed) {
@@ -343,7 +343,7 @@ void registerModel(pyb::module_& m) {
       });
 
   m.def(
-      "load_robot", [](const std::string& path) { return io::loadRobot(path); }, arg("path"),
+      "load_robot", [](const std::filesystem::path& path) { return io::loadRobot(path.string()); }, arg("path"),
       "Loads and validates a robot YAML file. Raises ctr.InputError naming the file, line, tube and key.");
   m.def("parse_robot", &io::parseRobot, arg("text"), arg("source") = "<string>",
         "Parses robot YAML text; `source` names it in error messages.");

@@ -199,7 +199,7 @@ void registerPlanner(pyb::module_& m) {
       });
 
   m.def(
-      "load_query", [](const std::string& path) { return plan::loadQuery(path); }, arg("path"),
+      "load_query", [](const std::filesystem::path& path) { return plan::loadQuery(path.string()); }, arg("path"),
       "Parses a query file. Raises ctr.InputError naming the file, line and key.");
   m.def("parse_query", &plan::parseQuery, arg("text"), arg("source") = "<string>", arg("base_dir") = ".",
         arg("check_files") = true, "Parses query text; relative paths resolve against base_dir.");

@@ -20,13 +20,13 @@ def test_diagnose_equals_cli(cli, tmp_path):
     expected = load_json(out.read_text())
     robot = ctr.load_robot(str(robot_yaml))
     messages = []
-    got = ctr.diagnose(robot, str(rec), progress=messages.append)
+    got = ctr.diagnose(robot, rec, progress=messages.append)
     assert_same(got, expected, ignore=TIMING)
     assert messages and all(isinstance(m, str) for m in messages)
     assert got["verdict"] == expected["verdict"]
 
     # a loaded recording gives the same answer, and the Markdown report comes along on request
-    recording = ctr.load_recording(str(rec))
+    recording = ctr.load_recording(rec)
     assert recording.alpha.shape == (recording.rows, 2) and recording.tip_position.shape[1] in (0, 3)
     got2, report = ctr.diagnose(robot, recording, with_report=True)
     assert_same(got2, expected, ignore=TIMING)

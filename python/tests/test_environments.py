@@ -11,7 +11,7 @@ ROBOT = EXAMPLES / "robots" / "proc_intracardiac.yaml"
 
 @pytest.fixture(scope="module")
 def env():
-    return ctr.load_environment(str(ENV))
+    return ctr.load_environment(ENV)
 
 
 def test_info_equals_cli(cli, env):

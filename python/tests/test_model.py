@@ -16,7 +16,7 @@ THREE = EXAMPLES / "robots" / "three_tube_generic.yaml"
 
 
 def test_robot_from_yaml_and_dict_round_trip():
-    r = ctr.load_robot(str(PAIR_B))
+    r = ctr.load_robot(PAIR_B)  # str or os.PathLike
     assert r.name == "tube_pair_B" and r.size == 2 and len(r) == 2
     d = r.to_dict()
     assert d["tubes"][0]["curvature"] == pytest.approx(1 / 0.154, rel=1e-9)

@@ -47,7 +47,7 @@ def test_plan_equals_cli(cli, tmp_path):
 
 
 def test_query_fields_and_errors():
-    q = ctr.load_query(str(QUERY))
+    q = ctr.load_query(QUERY)
     assert q.tip_goal["tolerance"] == pytest.approx(0.003) and q.friction == {"boundary": 0.1, "distributed": 0.0}
     assert q.history["kind"] == "positive" and q.line_of("goal") > 0
     q.mode = "robust"

@@ -6,6 +6,7 @@
 #include "ctr/io/robot_yaml.hpp"
 #include "ctr/model/backbone.hpp"
 #include "ctr/model/friction.hpp"
+#include "ctr/model/jacobian.hpp"
 #include "ctr/model/kinematics.hpp"
 
 namespace {
@@ -111,6 +112,83 @@ void BM_StickSlipStep3(benchmark::State& st) {
   }
 }
 
+// External loads (issue #15): the Dupont-lab robot with nitinol tubes (density 6450 kg/m^3 over its diameters),
+// gravity across the robot and a 0.05 N tip force.
+ctr::Robot loadedDupont() {
+  const ctr::Robot r = loadExample("dupont_lab_3tube.yaml");
+  std::vector<ctr::Tube> tubes = r.tubes();
+  for (ctr::Tube& t : tubes)
+    t.linear_density = 6450.0 * M_PI * (t.outer_diameter * t.outer_diameter - t.inner_diameter * t.inner_diameter) / 4;
+  ctr::Loads l;
+  l.gravity = Eigen::Vector3d(0.0, -9.81, 0.0);
+  l.tip_force = Eigen::Vector3d(0.05, 0.0, 0.0);
+  return ctr::Robot(r.name(), tubes, r.friction(), l);
+}
+
+// Warm start advancing with a sweep, as BM_SolveSweep<false>: kLoaded false = the same robot without loads.
+template <bool kLoaded>
+void BM_LoadedSweep(benchmark::State& st) {
+  const ctr::Robot robot = kLoaded ? loadedDupont() : loadExample("dupont_lab_3tube.yaml");
+  ctr::Workspace ws;
+  ctr::KinematicsOptions opt;
+  opt.record_backbone = false;
+  const double d = 0.5 * M_PI / 180.0;
+  auto cfg = [&](int k) { return dupontConfig(d * k, -2.0 + 1.3 * d * k); };
+  int k = 0;
+  ctr::Solution prev = ctr::solve(robot, cfg(k), ws, opt);
+  for (auto _ : st) {
+    if (++k == 720) {
+      st.PauseTiming();
+      k = 0;
+      prev = ctr::solve(robot, cfg(k), ws, opt);
+      st.ResumeTiming();
+      continue;
+    }
+    ctr::Solution s = ctr::solve(robot, cfg(k), ws, opt, &prev);
+    benchmark::DoNotOptimize(s.tip_position);
+    prev = std::move(s);
+  }
+}
+
+void BM_LoadedCold(benchmark::State& st) {
+  const ctr::Robot robot = loadedDupont();
+  ctr::Workspace ws;
+  ctr::KinematicsOptions opt;
+  opt.record_backbone = false;
+  int k = 0;
+  for (auto _ : st) {
+    const double a = 0.3 + 0.01 * (k++ % 200);
+    benchmark::DoNotOptimize(ctr::solve(robot, dupontConfig(a, -a), ws, opt).tip_position);
+  }
+}
+
+// Exact tip Jacobian (6 x 6 actuation) with / without the 6 x 6 compliance at a loaded equilibrium.
+template <bool kCompliance>
+void BM_TipJacobian(benchmark::State& st) {
+  const ctr::Robot robot = loadedDupont();
+  ctr::Workspace ws;
+  ctr::KinematicsOptions opt;
+  opt.record_backbone = false;
+  const ctr::Solution sol = ctr::solve(robot, dupontConfig(0.4, -1.5), ws, opt);
+  for (auto _ : st) benchmark::DoNotOptimize(ctr::tipJacobian(robot, sol, ws, opt, kCompliance).actuation);
+}
+
+// One stick-slip step (1 deg, mu' = 0.1) under the loads.
+void BM_LoadedStickSlipStep(benchmark::State& st) {
+  const ctr::Robot robot = loadedDupont().withFriction({0.1, 0.0});
+  ctr::Workspace ws;
+  ctr::FrictionOptions fo;
+  fo.kinematics.record_backbone = false;
+  double a = 0.5;
+  ctr::StepResult cur = ctr::initialState(robot, dupontConfig(a, -a), ws, fo);
+  int k = 0;
+  for (auto _ : st) {
+    a += ((k++ / 90) % 2 ? -1.0 : 1.0) * M_PI / 180.0;
+    cur = ctr::step(robot, cur.state, dupontConfig(a, -a), ws, fo);
+    benchmark::DoNotOptimize(cur.solution.tip_position);
+  }
+}
+
 }  // namespace
 
 BENCHMARK(BM_SolveWarm<false, false>)->Name("solve_warm/pairB/tip");
@@ -124,3 +202,9 @@ BENCHMARK(BM_StickSlipStep3<false>)->Name("stick_slip_step/dupont3/1deg");
 BENCHMARK(BM_StickSlipStep3<true>)->Name("stick_slip_step/dupont3/1deg/planning");
 BENCHMARK(BM_SolveSweep<false>)->Name("solve_sweep/dupont3/tip/default");
 BENCHMARK(BM_SolveSweep<true>)->Name("solve_sweep/dupont3/tip/planning");
+BENCHMARK(BM_LoadedSweep<false>)->Name("loads/solve_sweep/dupont3/no_load");
+BENCHMARK(BM_LoadedSweep<true>)->Name("loads/solve_sweep/dupont3/gravity_tip_force");
+BENCHMARK(BM_LoadedCold)->Name("loads/solve_cold/dupont3/gravity_tip_force");
+BENCHMARK(BM_TipJacobian<false>)->Name("loads/tip_jacobian/dupont3/actuation");
+BENCHMARK(BM_TipJacobian<true>)->Name("loads/tip_jacobian/dupont3/actuation_compliance");
+BENCHMARK(BM_LoadedStickSlipStep)->Name("loads/stick_slip_step/dupont3/1deg");

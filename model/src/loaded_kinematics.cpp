@@ -889,39 +889,47 @@ Solution solveLoaded(const Robot& robot, const Configuration& q, const std::vect
           "the load-free equilibrium (start of the load continuation) did not converge: " + free.summary.message, opt,
           loadedStability(L, W.J), false);
     }
+    // Quasi-static loading from the load-free shape: the load scale goes from 0 to 1 (first in one step); a step is
+    // taken when Newton converges and the tip moved little (tangent turned by less than snap_threshold, position by
+    // less than a tenth of the robot's length), otherwise it is halved. So a cold solve returns the equilibrium reached
+    // by applying the load gradually, never another equilibrium that Newton happens to find under the full load.
     Eigen::VectorXd zc = unknownsFrom(L, free);
     std::string w;
-    bool found = newtonLoaded(W, zc, opt, opt.max_iterations, iters, rn, w, true, &recorded) &&
-                 (have_warm || loadedStability(L, W.J) > 0.0);
-    if (!found) {
-      zc = unknownsFrom(L, free);
-      double t = 0.0, dt = 1.0 / std::max(1, opt.homotopy_steps);
-      int steps = 0;
-      found = true;
-      while (t < 1.0) {
-        const double tn = std::min(1.0, t + dt);
-        setLoadScale(L, robot, tn);
-        Eigen::VectorXd zt = zc;
-        double r2 = 0.0;
-        ++steps;
-        if (newtonLoaded(W, zt, opt, std::min(opt.max_iterations, 12), iters, r2, w)) {
+    Eigen::Vector3d tip_p = free.tip_position, tip_t = free.tipTangent();
+    double t = 0.0, dt = 1.0;
+    int steps = 0;
+    bool found = true;
+    while (t < 1.0) {
+      const double tn = std::min(1.0, t + dt);
+      setLoadScale(L, robot, tn);
+      Eigen::VectorXd zt = zc;
+      double r2 = 0.0;
+      ++steps;
+      if (newtonLoaded(W, zt, opt, opt.max_iterations, iters, r2, w)) {
+        evalValue(W, zt, nullptr, false, false);  // tip of the converged point
+        const Eigen::Vector3d np = W.tip_p, nt = W.tip_R.col(2);
+        const double turn = std::acos(std::clamp(tip_t.dot(nt), -1.0, 1.0));
+        if ((turn > opt.snap_threshold || (np - tip_p).norm() > 0.1 * L.P.s_tip) && dt > 1e-3) {
+          dt *= 0.5;
+        } else {
           zc = zt;
           t = tn;
-          dt = std::min(0.5, 1.5 * dt);
-        } else {
-          dt *= 0.5;
+          tip_p = np;
+          tip_t = nt;
+          dt = std::min(1.0, 2.0 * dt);
         }
-        if (dt < 1e-4 || steps > 400) {
-          found = false;
-          why = (why.empty() ? std::string() : why + "; ") +
-                "load continuation from the load-free equilibrium stopped at " + std::to_string(t) +
-                " of the load: " + w;
-          break;
-        }
+      } else {
+        dt *= 0.5;
       }
-      setLoadScale(L, robot, 1.0);
-      if (found) found = newtonLoaded(W, zc, opt, opt.max_iterations, iters, rn, w, true, &recorded);
+      if (dt < 1e-4 || steps > 400) {
+        found = false;
+        why = (why.empty() ? std::string() : why + "; ") +
+              "load continuation from the load-free equilibrium stopped at " + std::to_string(t) + " of the load: " + w;
+        break;
+      }
     }
+    setLoadScale(L, robot, 1.0);
+    if (found) found = newtonLoaded(W, zc, opt, opt.max_iterations, iters, rn, w, true, &recorded);
     if (found) {
       z = zc;
       ok = true;

@@ -57,9 +57,9 @@ ElasticaTip integrateElastica(double EI, double L, double P, double w, double ka
   return {y[2], y[3], y[0]};
 }
 
-ElasticaTip elastica(double EI, double L, double P, double w) {
-  // Secant on the base curvature, starting from the linear solution.
-  double a = (P * L + 0.5 * w * L * L) / EI, b = 1.05 * a + 1e-9;
+ElasticaTip elastica(double EI, double L, double P, double w, double* guess = nullptr) {
+  // Secant on the base curvature, starting from the linear solution (or a given guess).
+  double a = guess ? *guess : (P * L + 0.5 * w * L * L) / EI, b = 1.05 * a + 1e-9;
   double fa, fb;
   integrateElastica(EI, L, P, w, a, &fa);
   integrateElastica(EI, L, P, w, b, &fb);
@@ -71,7 +71,16 @@ ElasticaTip elastica(double EI, double L, double P, double w) {
     integrateElastica(EI, L, P, w, b, &fb);
   }
   double kL;
+  if (guess) *guess = b;
   return integrateElastica(EI, L, P, w, b, &kL);
+}
+
+// Large loads: the reference by continuation in the load (each solve starts from the previous base curvature).
+ElasticaTip elasticaLarge(double EI, double L, double P) {
+  double k0 = 0.0;
+  ElasticaTip r;
+  for (int i = 1; i <= 50; ++i) r = elastica(EI, L, P * i / 50.0, 0.0, &k0);
+  return r;
 }
 
 Robot straightRod(double L, double EI, double rho) {
@@ -531,4 +540,58 @@ TEST(Jacobian, MisuseThrows) {
   Workspace ws;
   Solution bad;
   EXPECT_THROW(tipJacobian(threeTubes(), bad, ws), std::invalid_argument);
+}
+
+TEST(Loads, EdgeCasesAreReportedLikeTheLoadFreeSolver) {
+  const Robot robot = threeTubes().withLoads(someLoads());
+  Workspace ws;
+  // Inadmissible: reported, nothing solved.
+  Configuration bad = threeConfig();
+  bad.beta[0] = 0.01;
+  const Solution s = solve(robot, bad, ws);
+  EXPECT_EQ(s.summary.status, SolveStatus::Inadmissible);
+  EXPECT_FALSE(s.summary.message.empty());
+  // Wrong number of contact conditions: misuse, throws.
+  EXPECT_THROW(solveWithContacts(robot, threeConfig(), {}, ws), std::invalid_argument);
+  // Geometry-only recording gives the same shape.
+  KinematicsOptions geo;
+  geo.record_tube_states = false;
+  const Solution a = solve(robot, threeConfig(), ws);
+  const Solution b = solve(robot, threeConfig(), ws, geo);
+  ASSERT_TRUE(a.converged() && b.converged());
+  ASSERT_EQ(a.backbone.size(), b.backbone.size());
+  EXPECT_EQ(b.backbone.front().theta.size(), 0);
+  EXPECT_LT((a.tip_position - b.tip_position).norm(), 1e-12);
+  for (std::size_t k = 0; k < a.backbone.size(); ++k)
+    EXPECT_LT((a.backbone[k].moment - b.backbone[k].moment).norm(), 1e-12);
+  // Tip only: the same tip, twist and moments as with the backbone.
+  KinematicsOptions tip;
+  tip.record_backbone = false;
+  const Solution c = solve(robot, threeConfig(), ws, tip);
+  ASSERT_TRUE(c.converged());
+  EXPECT_TRUE(c.backbone.empty());
+  EXPECT_LT((a.tip_position - c.tip_position).norm(), 1e-12);
+  EXPECT_LT((a.twist - c.twist).cwiseAbs().maxCoeff(), 1e-10);
+  ASSERT_EQ(a.moments.size(), c.moments.size());
+  for (std::size_t k = 0; k < a.moments.size(); ++k) EXPECT_NEAR(a.moments[k].magnitude, c.moments[k].magnitude, 1e-10);
+  // A Jacobian for another robot's solution: misuse.
+  EXPECT_THROW(tipJacobian(straightRod(0.2, 0.05, 0.0), a, ws), std::invalid_argument);
+}
+
+TEST(Loads, LargeLoadsConvergeByContinuation) {
+  // A tip force turning the tip of a straight rod by 1 to 1.5 rad, against the elastica (the cold start may need the
+  // continuation in the load scale from the load-free shape).
+  const double EI = 0.05, L = 0.2;
+  Workspace ws;
+  for (double P : {5.0, 15.0}) {
+    Loads l;
+    l.tip_force = Eigen::Vector3d(P, 0.0, 0.0);
+    const Solution s = solve(straightRod(L, EI, 0.0).withLoads(l), rodConfig(), ws);
+    ASSERT_TRUE(s.converged()) << s.summary.message;
+    const ElasticaTip ref = elasticaLarge(EI, L, P);
+    EXPECT_GT(ref.phi, 0.9);
+    EXPECT_NEAR(std::atan2(s.tipTangent().x(), s.tipTangent().z()), ref.phi,
+                1e-4 * ref.phi);  // tip turned by more than ~50 degrees
+    EXPECT_LT(std::hypot(s.tip_position.x() - ref.x, s.tip_position.z() - ref.z) / ref.x, 1e-4);
+  }
 }

@@ -273,6 +273,9 @@ DiagnosisReport diagnose(const Robot& nominal, const io::Recording& full, const 
     base = evaluateModel(nominal, rec, {}, all, fo, ws);
   }
   rep.noise = fo.noise;
+  // Fits that run alone (not beside other fits): their difference and grid points are replayed on every thread.
+  FitOptions fo_alone = fo;
+  fo_alone.threads = o.threads;
   rep.mismatch = locateMismatch(rec, base.prediction, base.residuals, fo.noise, o.mismatch);
   for (const auto& f : rep.mismatch.findings) progress("mismatch: " + f.signature + " " + f.variable + ": " + f.where);
   // BIC difference of model b over model a, on the rows both evaluated (a model that fails on a row is never
@@ -599,9 +602,7 @@ DiagnosisReport diagnose(const Robot& nominal, const io::Recording& full, const 
         for (std::size_t i = 1; i < partners.size(); ++i)
           start.push_back(cands[static_cast<std::size_t>(partners[i])].fit.effects.back());
         const int k = nparams(start);
-        FitOptions po = fo;  // a single fit: its difference points are replayed concurrently
-        po.threads = o.threads;
-        P.fit = fitEffects(nominal, rec, start, all, po, ws, k);  // + intervals, linearisation
+        P.fit = fitEffects(nominal, rec, start, all, fo_alone, ws, k);  // + intervals, linearisation
         rep.evaluations += P.fit.evaluations;
         P.delta_bic = deltaBic(cur.fit.residuals, nparams(cur.fit.effects), P.fit.residuals, k);
         P.bic = cur.bic + P.delta_bic;
@@ -641,9 +642,7 @@ DiagnosisReport diagnose(const Robot& nominal, const io::Recording& full, const 
       // held-out scores at the refined values.
       Candidate& W = cands[static_cast<std::size_t>(best)];
       const int k = nparams(W.fit.effects);
-      FitOptions jo = fo;
-      jo.threads = o.threads;
-      FitResult joint = fitEffects(nominal, rec, W.fit.effects, all, jo, ws, k);
+      FitResult joint = fitEffects(nominal, rec, W.fit.effects, all, fo_alone, ws, k);
       rep.evaluations += joint.evaluations;
       if (deltaBic(W.fit.residuals, k, joint.residuals, k) <= 1e-9) {
         W.fit = std::move(joint);
@@ -736,9 +735,7 @@ DiagnosisReport diagnose(const Robot& nominal, const io::Recording& full, const 
   };
   auto refitWithout = [&](const std::vector<std::size_t>& drop) {
     const std::vector<Effect> reduced = without_effects(drop);
-    FitOptions ro = fo;
-    ro.threads = o.threads;
-    return fitEffects(nominal, rec, reduced, all, ro, ws, nparams(reduced));
+    return fitEffects(nominal, rec, reduced, all, fo_alone, ws, nparams(reduced));
   };
   // Refits of the current model without each of its effects (in parallel); kept for the confounding test (3c)
   // while the current model does not change.
@@ -774,9 +771,7 @@ DiagnosisReport diagnose(const Robot& nominal, const io::Recording& full, const 
             best_d);
     progress("backward elimination: removed " + lab);
     cur.bic += best_d;
-    FitOptions ro = fo;
-    ro.threads = o.threads;
-    cur.fit = fitEffects(nominal, rec, without[static_cast<std::size_t>(drop)].effects, all, ro, ws,
+    cur.fit = fitEffects(nominal, rec, without[static_cast<std::size_t>(drop)].effects, all, fo_alone, ws,
                          nparams(without[static_cast<std::size_t>(drop)].effects));
     rep.evaluations += cur.fit.evaluations;
     without.clear();

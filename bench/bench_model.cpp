@@ -58,26 +58,27 @@ void BM_SolveCold(benchmark::State& st) {
   }
 }
 
-// Warm start that advances with a sweep (0.5 deg per solve of tubes 2 and 3 of the Dupont-lab robot, tip only): a
-// controller or a planner's motion check. BM_SolveWarm above alternates between two fixed configurations, so its warm
-// start never moves (1 Newton iteration instead of 2). kPlanning: the planner's integration settings
-// (docs/planning.md: 40 mm / 0.3 rad steps) instead of the library default (10 mm / 0.12 rad).
-template <bool kPlanning>
-void BM_SolveSweep(benchmark::State& st) {
-  const ctr::Robot robot = loadExample("dupont_lab_3tube.yaml");
+// The planner's integration settings (ctr::plan::planningKinematicsOptions(); the planner is not linked here):
+// RK4 steps of at most 40 mm and 0.3 rad of bending instead of the library default (10 mm / 0.12 rad).
+ctr::KinematicsOptions planningSteps() {
+  ctr::KinematicsOptions o;
+  o.max_step = 0.04;
+  o.max_bending_per_step = 0.3;
+  return o;
+}
+
+// Tip-only solves of the Dupont-lab robot along a sweep (0.5 deg per solve of tubes 2 and 3), each warm-started from
+// the previous one: a controller or a planner's motion check. (BM_SolveWarm above alternates between two fixed
+// configurations, so its warm start never moves: 1 Newton iteration instead of 2.) A full turn restarts cold, untimed.
+void sweepSolves(benchmark::State& st, const ctr::Robot& robot, ctr::KinematicsOptions opt) {
   ctr::Workspace ws;
-  ctr::KinematicsOptions opt;
-  if (kPlanning) {
-    opt.max_step = 0.04;
-    opt.max_bending_per_step = 0.3;
-  }
   opt.record_backbone = false;
   const double d = 0.5 * M_PI / 180.0;
   auto cfg = [&](int k) { return dupontConfig(d * k, -2.0 + 1.3 * d * k); };
   int k = 0;
   ctr::Solution prev = ctr::solve(robot, cfg(k), ws, opt);
   for (auto _ : st) {
-    if (++k == 720) {  // a full turn; restart from a cold solve (not timed)
+    if (++k == 720) {
       st.PauseTiming();
       k = 0;
       prev = ctr::solve(robot, cfg(k), ws, opt);
@@ -90,6 +91,12 @@ void BM_SolveSweep(benchmark::State& st) {
   }
 }
 
+// kPlanning: the planner's integration settings instead of the library default.
+template <bool kPlanning>
+void BM_SolveSweep(benchmark::State& st) {
+  sweepSolves(st, loadExample("dupont_lab_3tube.yaml"), kPlanning ? planningSteps() : ctr::KinematicsOptions{});
+}
+
 // One stick-slip step (1 deg) of the 3-tube robot with mu' = 0.1, warm (the state from the previous step).
 // kPlanning: with the planner's integration settings (40 mm / 0.3 rad steps).
 template <bool kPlanning>
@@ -97,10 +104,7 @@ void BM_StickSlipStep3(benchmark::State& st) {
   const ctr::Robot robot = loadExample("dupont_lab_3tube.yaml").withFriction({0.1, 0.0});
   ctr::Workspace ws;
   ctr::FrictionOptions fo;
-  if (kPlanning) {
-    fo.kinematics.max_step = 0.04;
-    fo.kinematics.max_bending_per_step = 0.3;
-  }
+  if (kPlanning) fo.kinematics = planningSteps();
   fo.kinematics.record_backbone = false;
   double a = 0.5;
   ctr::StepResult cur = ctr::initialState(robot, dupontConfig(a, -a), ws, fo);
@@ -125,29 +129,10 @@ ctr::Robot loadedDupont() {
   return ctr::Robot(r.name(), tubes, r.friction(), l);
 }
 
-// Warm start advancing with a sweep, as BM_SolveSweep<false>: kLoaded false = the same robot without loads.
+// The sweep of BM_SolveSweep<false> (library default steps): kLoaded false = the same robot without loads.
 template <bool kLoaded>
 void BM_LoadedSweep(benchmark::State& st) {
-  const ctr::Robot robot = kLoaded ? loadedDupont() : loadExample("dupont_lab_3tube.yaml");
-  ctr::Workspace ws;
-  ctr::KinematicsOptions opt;
-  opt.record_backbone = false;
-  const double d = 0.5 * M_PI / 180.0;
-  auto cfg = [&](int k) { return dupontConfig(d * k, -2.0 + 1.3 * d * k); };
-  int k = 0;
-  ctr::Solution prev = ctr::solve(robot, cfg(k), ws, opt);
-  for (auto _ : st) {
-    if (++k == 720) {
-      st.PauseTiming();
-      k = 0;
-      prev = ctr::solve(robot, cfg(k), ws, opt);
-      st.ResumeTiming();
-      continue;
-    }
-    ctr::Solution s = ctr::solve(robot, cfg(k), ws, opt, &prev);
-    benchmark::DoNotOptimize(s.tip_position);
-    prev = std::move(s);
-  }
+  sweepSolves(st, kLoaded ? loadedDupont() : loadExample("dupont_lab_3tube.yaml"), ctr::KinematicsOptions{});
 }
 
 void BM_LoadedCold(benchmark::State& st) {

@@ -200,7 +200,7 @@ Robot applyToRobot(const Robot& nominal, const std::vector<Effect>& effects) {
         break;
     }
   }
-  return Robot(nominal.name(), std::move(tubes), f);
+  return Robot(nominal.name(), std::move(tubes), f, nominal.loads());  // the nominal loads are kept
 }
 
 }  // namespace ctr::diagnosis

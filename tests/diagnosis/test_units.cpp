@@ -45,6 +45,11 @@ TEST(Effect, AppliesToRobot) {
   EXPECT_EQ(m.tube(1).curvature, 5.0);
   EXPECT_EQ(m.friction().boundary, 0.1);
   EXPECT_NEAR(nominalValue(r, EffectKind::TorsionalStiffness, 0), 0.6, 1e-12);
+  // A nominal robot's external loads are kept by every effect (they were silently dropped).
+  Loads l;
+  l.tip_force = Eigen::Vector3d(0.01, 0.0, 0.0);
+  const Robot loaded = applyToRobot(r.withLoads(l), {{EffectKind::Precurvature, 2, 5.0}});
+  EXPECT_EQ(loaded.loads().tip_force, l.tip_force);
 }
 
 TEST(Actuation, PlayOperatorAndLatency) {

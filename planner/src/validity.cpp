@@ -53,6 +53,46 @@ long alignedVertex(const Band& prev, const std::vector<ContactSite>& sites, std:
   return static_cast<long>(prev_code) + 1;
 }
 
+const Band* prev_or_null(const Band* p) {
+  static const Band empty;
+  return p ? p : &empty;
+}
+
+// Where a contact site of the previous band vanishes (an end retracting into the actuation unit, a discontinuity
+// passing an end), the torque it held is released at once: the robot jumps from wherever its history put it in the
+// previous band to this band. That is robust only if every shape of the previous band is within the snap threshold
+// of a shape here with the same torque signs at the sites both bands share (a site that appears starts stuck, inside
+// its bounds, so it does not move the robot: any sign of it will do).
+bool releaseIsSmooth(const Band& prev, const Band& cur, double threshold) {
+  if (prev.shapes.size() < 2 || cur.shapes.empty()) return true;
+  std::vector<long> to_cur(prev.sites.size(), -1);  // index in cur.sites of each previous site, -1 if it vanished
+  bool vanished = false;
+  for (std::size_t j = 0; j < prev.sites.size(); ++j) {
+    const auto it = std::find(cur.sites.begin(), cur.sites.end(), prev.sites[j]);
+    if (it == cur.sites.end()) {
+      vanished = true;
+    } else {
+      to_cur[j] = static_cast<long>(it - cur.sites.begin());
+    }
+  }
+  if (!vanished) return true;
+  const std::size_t n_prev = std::size_t(1) << prev.sites.size();
+  const std::size_t n_cur = cur.shapes.size() == 1 ? 1 : (std::size_t(1) << cur.sites.size());
+  for (std::size_t pc = 0; pc < n_prev && pc + 1 < prev.shapes.size(); ++pc) {
+    bool landed = false;
+    for (std::size_t cc = 0; cc < n_cur && !landed; ++cc) {
+      bool same_signs = true;
+      for (std::size_t j = 0; j < prev.sites.size() && same_signs; ++j)
+        if (to_cur[j] >= 0) same_signs = ((pc >> j) & 1u) == ((cc >> static_cast<std::size_t>(to_cur[j])) & 1u);
+      if (!same_signs) continue;
+      const Solution& here = cur.shapes.size() == 1 ? cur.shapes[0] : cur.shapes[cc + 1];
+      landed = !jumped(prev.shapes[pc + 1], here, threshold);
+    }
+    if (!landed) return false;
+  }
+  return true;
+}
+
 bool bandAt(const Context& ctx, const Configuration& q, ThreadScratch& t, const Band* prev, Band& out,
             std::string& why) {
   out.shapes.clear();
@@ -74,7 +114,14 @@ bool bandAt(const Context& ctx, const Configuration& q, ThreadScratch& t, const 
   out.shapes.push_back(std::move(base));
   out.sites = contactSites(robot, q);
   const std::vector<ContactSite>& sites = out.sites;
-  if (robot.friction().boundary <= 0.0 || sites.empty()) return true;
+  if (robot.friction().boundary <= 0.0) return true;
+  if (sites.empty()) {
+    if (!releaseIsSmooth(*prev_or_null(prev), out, thr)) {
+      why = "a contact site vanishes and releases its friction torque (the band jumps)";
+      return false;
+    }
+    return true;
+  }
   const std::size_t k = sites.size();
   std::vector<ContactCondition> cond(k);
   for (std::size_t code = 0; code < (std::size_t(1) << k); ++code) {
@@ -99,6 +146,10 @@ bool bandAt(const Context& ctx, const Configuration& q, ThreadScratch& t, const 
       return false;
     }
     out.shapes.push_back(std::move(s));
+  }
+  if (!releaseIsSmooth(*prev_or_null(prev), out, thr)) {
+    why = "a contact site vanishes and releases its friction torque (the band jumps)";
+    return false;
   }
   return true;
 }

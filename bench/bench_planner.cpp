@@ -6,6 +6,7 @@
 
 #include "ctr/environments/environment_yaml.hpp"
 #include "ctr/io/robot_yaml.hpp"
+#include "ctr/planner/goal.hpp"
 #include "ctr/planner/planner.hpp"
 
 namespace {
@@ -74,8 +75,32 @@ void BM_FrictionMotionStep(benchmark::State& st) {
   st.counters["steps/s"] = benchmark::Counter(static_cast<double>(st.iterations()), benchmark::Counter::kIsRate);
 }
 
+// Goal-pool inverse kinematics (damped least squares on the frictionless model): from a random admissible start to
+// the tip of another random configuration (reachable targets), 40 iterations at most.
+void BM_InverseKinematics(benchmark::State& st) {
+  auto ctx = lungContext();
+  if (!ctx) return st.SkipWithError("../shared/data/med-mpd not found");
+  std::mt19937_64 g(4);
+  Workspace ws;
+  std::vector<std::pair<Configuration, Eigen::Vector3d>> cases;
+  while (cases.size() < 64) {
+    const Configuration target = sampleConfiguration(ctx->robot(), ctx->translationSampler(), g);
+    const Solution s = solve(ctx->frictionlessRobot(), target, ws, ctx->options().friction.kinematics);
+    if (!s.converged()) continue;
+    cases.emplace_back(sampleConfiguration(ctx->robot(), ctx->translationSampler(), g), ctx->basePose() * s.tip_position);
+  }
+  std::size_t k = 0, reached = 0;
+  for (auto _ : st) {
+    const auto& c = cases[k++ % cases.size()];
+    Configuration q = c.first;
+    reached += plan::inverseKinematics(*ctx, c.second, q, static_cast<int>(st.range(0))) < 1e-4;
+  }
+  st.counters["reached_fraction"] = static_cast<double>(reached) / static_cast<double>(st.iterations());
+}
+
 }  // namespace
 
 BENCHMARK(BM_ValidityCold)->Name("planner/lung1/frictionless_validity_cold")->Unit(benchmark::kMicrosecond);
 BENCHMARK(BM_ValidityAlongMotion)->Name("planner/lung1/frictionless_validity_along_motion")->Unit(benchmark::kMicrosecond);
 BENCHMARK(BM_FrictionMotionStep)->Name("planner/lung1/friction_motion_step")->Unit(benchmark::kMicrosecond);
+BENCHMARK(BM_InverseKinematics)->Name("planner/lung1/goal_inverse_kinematics")->Arg(10)->Arg(20)->Arg(40)->Unit(benchmark::kMicrosecond);

@@ -947,7 +947,7 @@ Solution solveLoaded(const Robot& robot, const Configuration& q, const std::vect
 }  // namespace detail
 
 TipJacobian tipJacobian(const Robot& robot, const Solution& solution, Workspace& ws, const KinematicsOptions& options,
-                        bool with_compliance) {
+                        bool with_compliance, bool polish) {
   if (!solution.converged()) throw std::invalid_argument("tipJacobian: the solution did not converge");
   const int n = robot.size();
   if (solution.q.size() != n || solution.base_twist_rate.size() != n)
@@ -971,7 +971,7 @@ TipJacobian tipJacobian(const Robot& robot, const Solution& solution, Workspace&
   int iters = 0;
   double rn = 0.0;
   std::string why;
-  if (!detail::newtonLoaded(W, z, options, options.max_iterations, iters, rn, why)) {
+  if (polish && !detail::newtonLoaded(W, z, options, options.max_iterations, iters, rn, why)) {
     out.message = "the equilibrium could not be re-established for differentiation: " + why;
     out.residual_norm = rn;
     return out;

@@ -35,8 +35,13 @@ struct TipJacobian {
 /// step for `robot`, with or without loads). Contact laws of the solution are held (Stick: relative twist fixed;
 /// Torque: value * mu' * |m| with |m| varying). `options` must be the discretisation used to solve (the map that is
 /// differentiated). `with_compliance = false` skips the compliance (6 fewer derivative directions; it stays zero).
-/// Throws std::invalid_argument for a solution that did not converge or does not match the robot.
+/// `polish = false` differentiates at the solution's own values without first re-establishing the equilibrium of
+/// the differentiated (loaded) map: about half the cost for a solution of the torsion-only solver, whose
+/// discretisation differs from the loaded map's by a scaled residual of ~1e-5, so the derivatives are then accurate
+/// to about that (relative) — enough for iterative uses such as inverse-kinematics steps, not for validation.
+/// (`residual_norm` is then 0.) Throws std::invalid_argument for a solution that did not converge or does not match
+/// the robot.
 TipJacobian tipJacobian(const Robot& robot, const Solution& solution, Workspace& ws,
-                        const KinematicsOptions& options = {}, bool with_compliance = true);
+                        const KinematicsOptions& options = {}, bool with_compliance = true, bool polish = true);
 
 }  // namespace ctr

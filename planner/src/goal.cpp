@@ -197,22 +197,29 @@ bool TipGoal::tryCandidate() const {
   }
   ob::State* st = si_->allocState();
   space_->setConfiguration(st, q);
-  const bool on_target = robust ? band <= spec_.tolerance : distanceGoal(st) <= spec_.tolerance;
-  const bool ok = on_target && si_->isValid(st);
-  if (ok) q = space_->configuration(st);
+  q = space_->configuration(st);  // as the state space stores it (rotations wrapped)
   si_->freeState(st);
-  if (!on_target && !robust) {
-    std::lock_guard<std::mutex> lock(mutex_);
-    ++rejected_goal_;
-  }
-  if (!ok && on_target && !robust) {
-    // Why the goal configuration was rejected (for the one-line reason of an empty pool).
+  bool ok = false;
+  if (robust) {
+    ok = band <= spec_.tolerance && checkRobust(*ctx_, q, scratch()).ok;
+  } else {
+    // One cold solve serves the goal test and the validity check (exact and frictionless modes check a goal
+    // configuration on the frictionless shape, as ValidityChecker::isValid does for a state without history).
     const ConfigurationCheck c = checkFrictionless(*ctx_, q, scratch());
+    const bool on_target =
+        c.shape.converged() && goalDistance(ctx_->basePose() * c.shape.tip_position,
+                                            ctx_->basePose().linear() * c.shape.tipTangent()) <= spec_.tolerance;
+    ok = on_target && c.ok;
     std::lock_guard<std::mutex> lock(mutex_);
-    if (c.reason.rfind("collision", 0) == 0)
-      ++rejected_collision_;
-    else if (c.reason.rfind("elastically unstable", 0) == 0)
-      ++rejected_unstable_;
+    if (!on_target) {
+      ++rejected_goal_;
+    } else if (!ok) {
+      // Why the goal configuration was rejected (for the one-line reason of an empty pool).
+      if (c.reason.rfind("collision", 0) == 0)
+        ++rejected_collision_;
+      else if (c.reason.rfind("elastically unstable", 0) == 0)
+        ++rejected_unstable_;
+    }
   }
   if (!ok) return false;
   std::lock_guard<std::mutex> lock(mutex_);

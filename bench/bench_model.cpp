@@ -58,9 +58,20 @@ void BM_SolveCold(benchmark::State& st) {
   }
 }
 
-// The planner's integration settings (ctr::plan::planningKinematicsOptions(); the planner is not linked here):
-// RK4 steps of at most 40 mm and 0.3 rad of bending instead of the library default (10 mm / 0.12 rad).
+// The planner's solver settings (ctr::plan::planningKinematicsOptions(); the planner is not linked here): RK4 steps
+// of at most 40 mm and 0.3 rad of bending instead of the library default (10 mm / 0.12 rad), tolerance 1e-8 and the
+// secant warm-start predictor.
 ctr::KinematicsOptions planningSteps() {
+  ctr::KinematicsOptions o;
+  o.max_step = 0.04;
+  o.max_bending_per_step = 0.3;
+  o.tolerance = 1e-8;
+  o.extrapolate_warm_start = true;
+  return o;
+}
+
+// The planner's steps only (library tolerance, no predictor): what the planning settings gain from each part.
+ctr::KinematicsOptions planningStepsOnly() {
   ctr::KinematicsOptions o;
   o.max_step = 0.04;
   o.max_bending_per_step = 0.3;
@@ -77,6 +88,7 @@ void sweepSolves(benchmark::State& st, const ctr::Robot& robot, ctr::KinematicsO
   auto cfg = [&](int k) { return dupontConfig(d * k, -2.0 + 1.3 * d * k); };
   int k = 0;
   ctr::Solution prev = ctr::solve(robot, cfg(k), ws, opt);
+  double iterations = 0.0, solves = 0.0;
   for (auto _ : st) {
     if (++k == 720) {
       st.PauseTiming();
@@ -87,14 +99,18 @@ void sweepSolves(benchmark::State& st, const ctr::Robot& robot, ctr::KinematicsO
     }
     ctr::Solution s = ctr::solve(robot, cfg(k), ws, opt, &prev);
     benchmark::DoNotOptimize(s.tip_position);
+    iterations += s.summary.iterations;
+    solves += 1.0;
     prev = std::move(s);
   }
+  st.counters["newton_iterations"] = solves > 0 ? iterations / solves : 0.0;
 }
 
-// kPlanning: the planner's integration settings instead of the library default.
-template <bool kPlanning>
+// kPlanning: 0 library default, 1 the planner's settings, 2 the planner's steps only.
+template <int kPlanning>
 void BM_SolveSweep(benchmark::State& st) {
-  sweepSolves(st, loadExample("dupont_lab_3tube.yaml"), kPlanning ? planningSteps() : ctr::KinematicsOptions{});
+  sweepSolves(st, loadExample("dupont_lab_3tube.yaml"),
+              kPlanning == 1 ? planningSteps() : kPlanning == 2 ? planningStepsOnly() : ctr::KinematicsOptions{});
 }
 
 // One stick-slip step (1 deg) of the 3-tube robot with mu' = 0.1, warm (the state from the previous step).
@@ -185,8 +201,9 @@ BENCHMARK(BM_SolveCold<true, false>)->Name("solve_cold/dupont3/tip");
 BENCHMARK(BM_SolveCold<true, true>)->Name("solve_cold/dupont3/shape100");
 BENCHMARK(BM_StickSlipStep3<false>)->Name("stick_slip_step/dupont3/1deg");
 BENCHMARK(BM_StickSlipStep3<true>)->Name("stick_slip_step/dupont3/1deg/planning");
-BENCHMARK(BM_SolveSweep<false>)->Name("solve_sweep/dupont3/tip/default");
-BENCHMARK(BM_SolveSweep<true>)->Name("solve_sweep/dupont3/tip/planning");
+BENCHMARK(BM_SolveSweep<0>)->Name("solve_sweep/dupont3/tip/default");
+BENCHMARK(BM_SolveSweep<1>)->Name("solve_sweep/dupont3/tip/planning");
+BENCHMARK(BM_SolveSweep<2>)->Name("solve_sweep/dupont3/tip/planning_steps_only");
 BENCHMARK(BM_LoadedSweep<false>)->Name("loads/solve_sweep/dupont3/no_load");
 BENCHMARK(BM_LoadedSweep<true>)->Name("loads/solve_sweep/dupont3/gravity_tip_force");
 BENCHMARK(BM_LoadedCold)->Name("loads/solve_cold/dupont3/gravity_tip_force");

@@ -693,6 +693,28 @@ bool continuation(const std::function<void(double)>& setAt, const Problem& P, Ev
   return true;
 }
 
+// Actuation as one vector for the warm-start history: alpha, then beta in units of 2 cm (~1 rad).
+Eigen::VectorXd historyKey(const Configuration& q) {
+  Eigen::VectorXd v(2 * q.size());
+  v << q.alpha, 50.0 * q.beta;
+  return v;
+}
+
+// Secant (continuation) predictor: when q continues the straight line through the last two solves of the history
+// (within 2.6 deg, at most two of their steps ahead), the base twist rates extrapolated along it.
+bool secantPredictor(const detail::WarmHistory& H, const Eigen::VectorXd& q, Eigen::VectorXd& z) {
+  if (H.q0.size() != q.size() || H.z0.size() != H.z1.size() || z.size() < H.z1.size()) return false;
+  const Eigen::VectorXd d1 = H.q1 - H.q0, d = q - H.q1;
+  const double n1 = d1.squaredNorm(), nd = d.squaredNorm();
+  if (!(n1 > 0.0) || !(nd > 0.0)) return false;
+  const double dot = d.dot(d1);
+  if (dot < 0.999 * std::sqrt(n1 * nd)) return false;  // not (nearly) the same direction
+  const double t = dot / n1;
+  if (t > 2.0) return false;
+  z.head(H.z1.size()) = H.z1 + t * (H.z1 - H.z0);
+  return z.allFinite();
+}
+
 Solution solveImpl(const Robot& robot, const Configuration& q, const std::vector<ContactCondition>* conditions,
                    Workspace& ws, const KinematicsOptions& opt, const Solution* warm) {
   const Admissibility adm = checkAdmissible(robot, q);
@@ -708,7 +730,23 @@ Solution solveImpl(const Robot& robot, const Configuration& q, const std::vector
   // Every path below ends with an evaluation at the returned (P, z) with recording on: the backbone (and the
   // stability) package() returns are that evaluation's.
   const bool rec = opt.record_backbone;
-  bool ok = newton(P, W.eval, W.out, z, opt, iters, rn, why, rec);
+  const bool frictionless = conditions == nullptr;
+  detail::WarmHistory& H = W.history;
+  const Eigen::VectorXd qv = historyKey(q);
+  // Following a path: the warm start is this workspace's last solve.
+  const bool chained = frictionless && warm && H.has1 && warm->q.size() == q.size() &&
+                       historyKey(warm->q) == H.q1 && warm->base_twist_rate == H.z1;
+  bool ok = false;
+  if (opt.extrapolate_warm_start && chained && H.has0) {
+    Eigen::VectorXd zp = z;
+    if (secantPredictor(H, qv, zp)) {
+      int it_p = 0;
+      ok = newton(P, W.eval, W.out, zp, opt, it_p, rn, why, rec);
+      iters += it_p;
+      if (ok) z = zp;
+    }
+  }
+  if (!ok) ok = newton(P, W.eval, W.out, z, opt, iters, rn, why, rec);
   const bool cold = (warm == nullptr);
   int cont_steps = 0;
   if ((!ok || (cold && W.out.stability <= 0.0)) && opt.homotopy) {
@@ -775,6 +813,18 @@ Solution solveImpl(const Robot& robot, const Configuration& q, const std::vector
   }
   Solution sol = package(robot, q, P, W.out, z, ok, iters, rn, why, opt);
   sol.summary.continuation_steps = cont_steps;
+  if (frictionless && ok) {
+    H.has0 = chained;
+    if (chained) {
+      std::swap(H.q0, H.q1);
+      std::swap(H.z0, H.z1);
+    }
+    H.q1 = qv;
+    H.z1 = sol.base_twist_rate;
+    H.has1 = true;
+  } else if (frictionless) {
+    H.has1 = H.has0 = false;
+  }
   return sol;
 }
 

@@ -122,9 +122,18 @@ struct LoadedWork {
   std::vector<ContactCondition::Law> J_laws;
 };
 
+/// The last two converged frictionless torsion-only solves of a workspace, when the second was warm-started from the
+/// first (a path being followed): the secant predictor of KinematicsOptions::extrapolate_warm_start.
+struct WarmHistory {
+  Eigen::VectorXd q1, z1;  ///< Last solve: actuation (alpha, then 50 x beta) and base twist rates.
+  Eigen::VectorXd q0, z0;  ///< The solve before it.
+  bool has1 = false, has0 = false;
+};
+
 }  // namespace detail
 
 struct Workspace::Impl {
+  detail::WarmHistory history;
   detail::Problem problem;
   detail::Evaluator eval;
   detail::Outputs out;

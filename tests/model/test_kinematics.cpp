@@ -339,6 +339,60 @@ TEST(Kinematics, NoSnapBelowThresholdOneBranch) {
   EXPECT_GT(mid.summary.stability, 0.0);
 }
 
+TEST(Kinematics, SecantPredictorFollowsTheSameBranchWithFewerIterations) {
+  // Warm-started solves along a sweep, each from the previous solution, with and without the secant predictor
+  // (KinematicsOptions::extrapolate_warm_start): the same equilibria at every step -- also through the fold and the
+  // snap of the two-branch pair, and over a 3-tube sweep with translations -- in fewer Newton iterations.
+  auto follow = [](const Robot& r, const std::function<Configuration(int)>& q, int steps, bool predictor,
+                   std::vector<Eigen::VectorXd>& twists, std::vector<Eigen::Vector3d>& tips) {
+    Workspace ws;
+    KinematicsOptions o;
+    o.extrapolate_warm_start = predictor;
+    o.refine_below_stability = 0.0;  // the same discretisation everywhere
+    o.tolerance = 1e-8;              // the planner's setting
+    int iterations = 0;
+    Solution prev = solve(r, q(0), ws, o);
+    for (int k = 1; k <= steps; ++k) {
+      Solution s = solve(r, q(k), ws, o, &prev);
+      EXPECT_TRUE(s.converged()) << k << ": " << s.summary.message;
+      iterations += s.summary.iterations;
+      twists.push_back(s.twist);
+      tips.push_back(s.tip_position);
+      prev = std::move(s);
+    }
+    return iterations;
+  };
+  const Robot pair = snapPair(2.0);
+  const auto pair_q = [](int k) { return Configuration(Eigen::Vector2d(0, 2 * M_PI * k / 360), Eigen::Vector2d(0, 0)); };
+  const Tube t1 = makeTube("t1", 0.0, 0.10, 5.0, 0.05, 0.3), t2 = makeTube("t2", 0.0, 0.15, 8.0, 0.03, 0.3),
+             t3 = makeTube("t3", 0.0, 0.22, 15.0, 0.012, 0.3);
+  const Robot three("three", {t1, t2, t3});
+  const auto three_q = [](int k) {
+    const double a = 0.01 * k;
+    return Configuration(Eigen::Vector3d(0.2, 1.0 + a, -2.0 + 1.3 * a),
+                         Eigen::Vector3d(-0.05 + 1e-4 * k, -0.08 + 1.2e-4 * k, -0.11 + 1.5e-4 * k));
+  };
+  for (int c = 0; c < 2; ++c) {
+    const Robot& r = c == 0 ? pair : three;
+    const auto& q = c == 0 ? std::function<Configuration(int)>(pair_q) : std::function<Configuration(int)>(three_q);
+    std::vector<Eigen::VectorXd> tw_plain, tw_pred;
+    std::vector<Eigen::Vector3d> tip_plain, tip_pred;
+    const int it_plain = follow(r, q, 300, false, tw_plain, tip_plain);
+    const int it_pred = follow(r, q, 300, true, tw_pred, tip_pred);
+    ASSERT_EQ(tw_plain.size(), tw_pred.size());
+    double worst_twist = 0.0, worst_tip = 0.0;
+    for (std::size_t k = 0; k < tw_plain.size(); ++k) {
+      worst_twist = std::max(worst_twist, (tw_plain[k] - tw_pred[k]).cwiseAbs().maxCoeff());
+      worst_tip = std::max(worst_tip, (tip_plain[k] - tip_pred[k]).norm());
+    }
+    std::printf("[ measured ] %s: Newton iterations %d plain, %d with the predictor; worst twist diff %.1e rad, tip "
+                "diff %.1e m\n", c == 0 ? "snap pair" : "3 tubes", it_plain, it_pred, worst_twist, worst_tip);
+    EXPECT_LT(worst_twist, 1e-8);
+    EXPECT_LT(worst_tip, 1e-9);
+    EXPECT_LT(it_pred, 0.8 * it_plain);
+  }
+}
+
 TEST(Kinematics, BackboneResamplingHitsRequestedResolution) {
   const Robot robot("pair", {makeTube("outer", 0.05, 0.1, 6.0, 0.03, 0.3), makeTube("inner", 0.08, 0.1, 6.0, 0.03, 0.3)});
   Workspace ws;

@@ -62,6 +62,12 @@ struct KinematicsOptions {
   /// Use the loaded (Cosserat-rod) solver even when the robot has no external load (docs/model.md "External
   /// loads"). It is used anyway whenever robot.loads() is not empty; without load it gives the torsion-only result.
   bool loaded_model = false;
+  /// Continuation predictor for paths: when a frictionless solve is warm-started from the workspace's previous
+  /// solve, and that one was itself warm-started from the solve before it along (nearly) the same straight line in
+  /// actuation space, Newton starts from the secant extrapolation of the two solutions' base twist rates instead of
+  /// the warm solution's (falling back to the warm solution if that fails). Halves the Newton iterations along a
+  /// sweep (docs/performance.md); the converged result is the same equilibrium to the tolerance.
+  bool extrapolate_warm_start = false;
 };
 
 /// @brief Outcome of a solve.

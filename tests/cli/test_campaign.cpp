@@ -186,6 +186,32 @@ TEST(Campaign, BenchCampaignOneProcessAndShardsGiveTheSameRunsAndDatabase) {
   EXPECT_NE(again.out.find("0 run, 1 already recorded"), std::string::npos) << again.out;
 }
 
+TEST(Campaign, CpuTimeCampaignStopsEachRunAfterItsCpuSeconds) {
+  // `cpu_time: true`: the limit and Planner Arena's time axis are process CPU seconds. SST keeps optimising until its
+  // limit, so its run must stop at 1 CPU s (not earlier, not much later), and report that time.
+  const fs::path c = writeCampaign("cpu", "name: cpu\nqueries: [" + query() +
+                                              "]\nplanners: [sst]\nmodes: [exact]\nseeds: [1]\ntime_limit: 1\n"
+                                              "cpu_time: true\n");
+  const fs::path out = workDir() / "cpu";
+  fs::remove_all(out);
+  const Proc a = ctr("bench " + c.string() + " --out " + out.string() + " --quiet");
+  ASSERT_EQ(a.code, 0) << a.err;
+  const json u = readJson(out / "units" / "proc_intracardiac__exact__sst__seed-1.json");
+  EXPECT_EQ(u["clock"], "cpu");
+  ASSERT_EQ(u["runs"].size(), 1u);
+  const json& o = u["runs"][0]["ompl"];
+  const double cpu = std::stod(o["cpu_time REAL"].get<std::string>());
+  const double t = std::stod(o["time REAL"].get<std::string>());
+  EXPECT_EQ(t, cpu) << "the time axis is the CPU clock";
+  EXPECT_GE(cpu, 1.0);
+  EXPECT_LT(cpu, 1.5);
+  const Proc m = ctr("bench merge " + out.string() + " --out " + (out / "merged").string() + " --quiet");
+  ASSERT_EQ(m.code, 0) << m.err;
+  const json sum = readJson(out / "merged" / "summary.json");
+  EXPECT_TRUE(sum["complete"]);
+  EXPECT_NE(sum.dump().find("\"clock\":\"cpu\""), std::string::npos) << sum.dump();
+}
+
 TEST(Campaign, BenchCampaignMergeNamesMissingAndDuplicatedRuns) {
   const fs::path c = smallCampaign();
   const fs::path part = workDir() / "part", other = workDir() / "other", merged = workDir() / "merged_bad";

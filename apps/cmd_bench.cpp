@@ -179,7 +179,7 @@ int benchQuery(const BenchOpts& b) {
   plan::Query q = plan::loadQuery(b.input);
   if (!b.mode.empty()) q.mode = plan::parseMode(b.mode);
   plan::CtrPlanner p(q);
-  checkPlanStart(p);
+  p.checkStart();
   std::vector<std::string> names;
   if (b.planners.empty()) {
     names.push_back(q.planner);
@@ -279,7 +279,7 @@ json runUnit(const Campaign& c, const CampaignUnit& u, LoadedQuery& cache, const
   }
   reseedOmpl(u.seed);
   plan::CtrPlanner p(q, *cache.robot, *cache.environment);
-  checkPlanStart(p);
+  p.checkStart();
   ob::PlannerPtr planner = p.makePlanner(u.planner);
   if (c.cpu_time) planner = std::make_shared<CpuLimited>(planner, c.time_limit);
   const plan::Stopwatch unit_watch;

@@ -1,59 +1,16 @@
 // `ctr plan`: friction-aware motion planning of a query, then the replay of its path (`ctr bench`: cmd_bench.cpp).
 #include <filesystem>
 #include <iostream>
-#include <nlohmann/json.hpp>
 #include <sstream>
 
 #include "commands.hpp"
 #include "ctr/io/recording.hpp"
 #include "ctr/planner/planner.hpp"
+#include "ctr/planner/result_json.hpp"
 #include "html_report.hpp"
 #include "output.hpp"
 
 namespace ctr::cli {
-namespace {
-
-nlohmann::json resultJson(const plan::Query& q, const plan::PlanResult& r) {
-  nlohmann::json j;
-  j["query"] = q.name;
-  j["solved"] = r.solved;
-  j["planner_solved"] = r.planner_solved;
-  j["mode"] = plan::toString(r.mode);
-  j["planner"] = r.planner;
-  j["planning_time"] = r.planning_time;
-  j["planning_wall_time"] = r.planning_wall_time;
-  j["time_limit_clock"] = q.cpu_time_limit ? "cpu" : "wall";
-  j["replay_time"] = r.replay_time;
-  j["path_length"] = r.path_length;
-  j["waypoints"] = r.path.size();
-  j["goal_pool"] = r.goal_pool;
-  j["replay"] = {{"completed", r.replay.completed},
-                 {"collision_free", r.replay.collision_free},
-                 {"stable", r.replay.stable},
-                 {"goal_reached", r.replay.goal_reached},
-                 {"tip_error", r.replay.tip_error},
-                 {"direction_error", r.replay.direction_error},
-                 {"min_clearance", r.replay.min_clearance},
-                 {"steps", r.replay.steps},
-                 {"collisions", r.replay.collisions},
-                 {"snaps", r.replay.snaps},
-                 {"first_failure", r.replay.first_failure}};
-  if (!r.message.empty()) j["message"] = r.message;
-  return j;
-}
-
-}  // namespace
-
-// Checks the start before planning: an invalid start is bad input (exit 2).
-void checkPlanStart(const plan::CtrPlanner& p) {
-  const plan::Context& ctx = *p.context();
-  plan::ThreadScratch& t = plan::scratch();
-  const plan::Query& q = p.query();
-  const std::shared_ptr<const plan::StateCache> c = plan::startCache(ctx, q.start, q.history);
-  if (!c->solution.converged()) throw io::InputError(q.file, q.lineOf("start"), "start", "the model does not converge at the start: " + c->why);
-  const plan::ShapeCheck sc = plan::checkShape(ctx, c->solution, t);
-  if (!sc.ok) throw io::InputError(q.file, q.lineOf("start"), "start", "start configuration is invalid: " + sc.reason);
-}
 
 void registerPlan(CLI::App& app, Action& action) {
   struct Opts {
@@ -86,14 +43,14 @@ void registerPlan(CLI::App& app, Action& action) {
       if (o->seed >= 0) q.seed = static_cast<std::uint64_t>(o->seed);
       if (o->cpu_time) q.cpu_time_limit = true;
       plan::CtrPlanner p(q);
-      checkPlanStart(p);
+      p.checkStart();
       p.makePlanner(q.planner);  // unknown planner: usage error before planning
       std::cerr << "planning '" << q.name << "' (" << plan::toString(q.mode) << ", " << q.planner << ", "
                 << q.time_limit << " s)...\n";
       const plan::PlanResult r = p.solve();
-      const nlohmann::json j = resultJson(q, r);
-      std::cout << j.dump(2) << "\n";
-      if (!o->json.empty()) io::writeFileAtomic(o->json, j.dump(2) + "\n");
+      const std::string j = plan::resultJson(q, r);
+      std::cout << j << "\n";
+      if (!o->json.empty()) io::writeFileAtomic(o->json, j + "\n");
       if (!o->path.empty() && !r.replay.points.empty())
         io::writeFileAtomic(o->path, plan::replayCsv(p.context()->robot(), r.replay));
 #ifdef CTR_WITH_REPORTS
@@ -104,7 +61,7 @@ void registerPlan(CLI::App& app, Action& action) {
         if (wps.empty()) wps.push_back(p.query().start);  // projected onto the admissible set
         reports::PlanningViewOptions vo;
         vo.title = "Plan: " + q.name + " (" + plan::toString(q.mode) + ")";
-        vo.info_json = j.dump();
+        vo.info_json = plan::resultJson(q, r, -1);
         const auto start = plan::startCache(*p.context(), p.query().start, q.history);
         if (start && start->physics_ok) vo.start = start->hysteresis;
         reports::writeHtml(o->html, reports::planningHtml(*p.context(), wps, viewGoal(q), vo));

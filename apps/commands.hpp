@@ -3,18 +3,7 @@
 
 #include "cli_common.hpp"
 
-#ifdef CTR_WITH_PLANNER
-namespace ctr::plan {
-class CtrPlanner;
-}
-#endif
-
 namespace ctr::cli {
-
-#ifdef CTR_WITH_PLANNER
-/// Checks a planner's start before planning (cmd_plan.cpp): an invalid start is bad input (io::InputError, exit 2).
-void checkPlanStart(const plan::CtrPlanner& p);
-#endif
 
 void registerDemo(CLI::App& app, Action& action);
 void registerFk(CLI::App& app, Action& action);

@@ -233,6 +233,17 @@ ob::PlannerPtr CtrPlanner::makePlanner(const std::string& name0) const {
   throw std::invalid_argument("unknown planner '" + name0 + "' for mode " + toString(query_.mode) + " (" + known + ")");
 }
 
+void CtrPlanner::checkStart() const {
+  ThreadScratch& t = scratch();
+  const std::shared_ptr<const StateCache> c = startCache(*ctx_, query_.start, query_.history);
+  if (!c->solution.converged())
+    throw io::InputError(query_.file, query_.lineOf("start"), "start",
+                         "the model does not converge at the start: " + c->why);
+  const ShapeCheck sc = checkShape(*ctx_, c->solution, t);
+  if (!sc.ok)
+    throw io::InputError(query_.file, query_.lineOf("start"), "start", "start configuration is invalid: " + sc.reason);
+}
+
 PlanResult CtrPlanner::solve() {
   return solve(query_.planner, query_.time_limit);
 }

@@ -1,5 +1,6 @@
 // Bindings of ctr::planner: queries, CtrPlanner(...).solve() and the result with its path and replay report.
 #include "ctr/planner/planner.hpp"
+#include "ctr/planner/result_json.hpp"
 #include "common.hpp"
 #include "ctr/io/input_error.hpp"
 
@@ -37,48 +38,9 @@ const char* historyName(plan::StartHistory::Kind k) {
   return "unknown";
 }
 
-/// The `ctr plan --json` object (apps/cmd_plan.cpp resultJson): same keys and values.
-pyb::dict resultDict(const plan::Query& q, const plan::PlanResult& r) {
-  pyb::dict j;
-  j["query"] = q.name;
-  j["solved"] = r.solved;
-  j["planner_solved"] = r.planner_solved;
-  j["mode"] = plan::toString(r.mode);
-  j["planner"] = r.planner;
-  j["planning_time"] = jsonNumber(r.planning_time);
-  j["planning_wall_time"] = jsonNumber(r.planning_wall_time);
-  j["time_limit_clock"] = q.cpu_time_limit ? "cpu" : "wall";
-  j["replay_time"] = jsonNumber(r.replay_time);
-  j["path_length"] = jsonNumber(r.path_length);
-  j["waypoints"] = r.path.size();
-  j["goal_pool"] = r.goal_pool;
-  pyb::dict rep;
-  rep["completed"] = r.replay.completed;
-  rep["collision_free"] = r.replay.collision_free;
-  rep["stable"] = r.replay.stable;
-  rep["goal_reached"] = r.replay.goal_reached;
-  rep["tip_error"] = jsonNumber(r.replay.tip_error);
-  rep["direction_error"] = jsonNumber(r.replay.direction_error);
-  rep["min_clearance"] = jsonNumber(r.replay.min_clearance);
-  rep["steps"] = r.replay.steps;
-  rep["collisions"] = r.replay.collisions;
-  rep["snaps"] = r.replay.snaps;
-  rep["first_failure"] = r.replay.first_failure;
-  j["replay"] = rep;
-  if (!r.message.empty()) j["message"] = r.message;
-  return j;
-}
-
-/// The CLI's check of the start before planning (apps/cmd_plan.cpp): an invalid start is bad input (InputError).
-void checkStart(const plan::CtrPlanner& p) {
-  const plan::Context& ctx = *p.context();
-  plan::ThreadScratch& t = plan::scratch();
-  const plan::Query& q = p.query();
-  const std::shared_ptr<const plan::StateCache> c = plan::startCache(ctx, q.start, q.history);
-  if (!c->solution.converged())
-    throw io::InputError(q.file, q.lineOf("start"), "start", "the model does not converge at the start: " + c->why);
-  const plan::ShapeCheck sc = plan::checkShape(ctx, c->solution, t);
-  if (!sc.ok) throw io::InputError(q.file, q.lineOf("start"), "start", "start configuration is invalid: " + sc.reason);
+/// The `ctr plan --json` object (plan::resultJson, as the CLI writes it): same keys and values.
+pyb::object resultDict(const plan::Query& q, const plan::PlanResult& r) {
+  return pyb::module_::import("json").attr("loads")(plan::resultJson(q, r, -1));
 }
 
 pyb::array_t<double> pathArray(const std::vector<Configuration>& path, int n) {
@@ -371,7 +333,7 @@ void registerPlanner(pyb::module_& m) {
           "check_start",
           [](const plan::CtrPlanner& p) {
             pyb::gil_scoped_release release;
-            checkStart(p);
+            p.checkStart();
           },
           "Raises ctr.InputError when the start does not converge or is invalid (as `ctr plan` before planning).")
       .def(
@@ -383,7 +345,7 @@ void registerPlanner(pyb::module_& m) {
             x.query = p.query();
             {
               pyb::gil_scoped_release release;
-              if (check_start) checkStart(p);
+              if (check_start) p.checkStart();
               if (planner || time_limit) {
                 const std::string name = planner.value_or(p.query().planner);
                 const double t = time_limit.value_or(p.query().time_limit);

@@ -40,6 +40,10 @@ public:
   explicit CtrPlanner(const Query& query);
   /// @brief With a robot and an environment already loaded (query.robot / query.environment are ignored).
   CtrPlanner(const Query& query, Robot robot, env::Environment environment);
+  /// @brief Checks the start before planning, as `ctr plan` does: throws ctr::io::InputError naming the query file,
+  /// the line and key `start` when the model does not converge there or the start configuration is invalid
+  /// (collision, elastic instability). solve() itself reports an invalid start in its result instead.
+  void checkStart() const;
   /// @brief Plans within the query's time limit, then replays the path. Never reports an unreplayed path as solved.
   PlanResult solve();
   /// @brief Plans with another planner / time (for benchmarks); clears previous planner data.

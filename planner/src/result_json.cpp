@@ -1,0 +1,36 @@
+#include "ctr/planner/result_json.hpp"
+
+#include <nlohmann/json.hpp>
+
+namespace ctr::plan {
+
+std::string resultJson(const Query& q, const PlanResult& r, int indent) {
+  nlohmann::json j;
+  j["query"] = q.name;
+  j["solved"] = r.solved;
+  j["planner_solved"] = r.planner_solved;
+  j["mode"] = toString(r.mode);
+  j["planner"] = r.planner;
+  j["planning_time"] = r.planning_time;
+  j["planning_wall_time"] = r.planning_wall_time;
+  j["time_limit_clock"] = q.cpu_time_limit ? "cpu" : "wall";
+  j["replay_time"] = r.replay_time;
+  j["path_length"] = r.path_length;
+  j["waypoints"] = r.path.size();
+  j["goal_pool"] = r.goal_pool;
+  j["replay"] = {{"completed", r.replay.completed},
+                 {"collision_free", r.replay.collision_free},
+                 {"stable", r.replay.stable},
+                 {"goal_reached", r.replay.goal_reached},
+                 {"tip_error", r.replay.tip_error},
+                 {"direction_error", r.replay.direction_error},
+                 {"min_clearance", r.replay.min_clearance},
+                 {"steps", r.replay.steps},
+                 {"collisions", r.replay.collisions},
+                 {"snaps", r.replay.snaps},
+                 {"first_failure", r.replay.first_failure}};
+  if (!r.message.empty()) j["message"] = r.message;
+  return j.dump(indent);
+}
+
+}  // namespace ctr::plan

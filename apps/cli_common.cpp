@@ -50,19 +50,6 @@ void ConfigOptions::add(CLI::App* app) {
   app->add_option("--beta", beta, "Tube translations b1,b2,.. (m, <= 0); default: straight parts retracted");
 }
 
-Configuration defaultConfiguration(const Robot& robot) {
-  const int n = robot.size();
-  Configuration q = Configuration::zeros(n);
-  // beta_i = -straight_length_i, then enforce beta_{i+1} <= beta_i and ordered distal ends.
-  for (int i = 0; i < n; ++i) q.beta[i] = -robot.tube(i).straight_length;
-  for (int i = 1; i < n; ++i) q.beta[i] = std::min(q.beta[i], q.beta[i - 1]);
-  for (int i = 1; i < n; ++i) {
-    const double need = q.beta[i - 1] + robot.tube(i - 1).length() - robot.tube(i).length();
-    if (q.beta[i] < need) q.beta[i] = std::min(need, q.beta[i - 1]);
-  }
-  return q;
-}
-
 Configuration ConfigOptions::resolve(const Robot& robot, int swept_tube, double swept_angle) const {
   const int n = robot.size();
   Configuration q = defaultConfiguration(robot);

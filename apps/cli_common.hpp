@@ -40,9 +40,6 @@ struct ConfigOptions {
   Configuration resolve(const Robot& robot, int swept_tube = -1, double swept_angle = 0.0) const;
 };
 
-/// Default translations: each tube's straight part inside the actuation unit where admissible.
-Configuration defaultConfiguration(const Robot& robot);
-
 /// argv with negative-number values joined to their option ("--beta -0.01,-0.02" -> "--beta=-0.01,-0.02").
 std::vector<std::string> normalizeArguments(int argc, char** argv);
 

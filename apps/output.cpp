@@ -1,5 +1,7 @@
 #include "output.hpp"
 
+#include "ctr/io/solution_json.hpp"
+
 #include <cstdio>
 #include <iomanip>
 #include <sstream>
@@ -12,29 +14,7 @@ std::string num(double v) {
   return buf;
 }
 
-nlohmann::json solutionJson(const Solution& sol) {
-  nlohmann::json j;
-  j["converged"] = sol.converged();
-  j["stable"] = sol.summary.stable;
-  j["status"] = toString(sol.summary.status);
-  j["stability"] = sol.summary.stability;
-  j["iterations"] = sol.summary.iterations;
-  j["tip_position"] = {sol.tip_position.x(), sol.tip_position.y(), sol.tip_position.z()};
-  const Eigen::Vector3d t = sol.tipTangent();
-  j["tip_tangent"] = {t.x(), t.y(), t.z()};
-  j["twist"] = nlohmann::json::array();
-  for (int k = 0; k < sol.twist.size(); ++k) j["twist"].push_back(sol.twist[k]);
-  j["base_twist_rate"] = nlohmann::json::array();
-  for (int k = 0; k < sol.base_twist_rate.size(); ++k) j["base_twist_rate"].push_back(sol.base_twist_rate[k]);
-  j["moments"] = nlohmann::json::array();
-  for (const auto& m : sol.moments)
-    j["moments"].push_back({{"kind", m.kind == MomentKind::TubeEnd ? "tube_end" : "curvature_discontinuity"},
-                            {"tube", m.tube + 1},
-                            {"s", m.s},
-                            {"magnitude", m.magnitude}});
-  if (!sol.summary.message.empty()) j["message"] = sol.summary.message;
-  return j;
-}
+nlohmann::json solutionJson(const Solution& sol) { return nlohmann::json::parse(io::solutionJson(sol)); }
 
 void printSolution(std::ostream& os, const Solution& sol) {
   os << std::setprecision(6);

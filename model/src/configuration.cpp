@@ -128,4 +128,16 @@ Admissibility projectAdmissible(const Robot& robot, Configuration& q, double tol
   return a;
 }
 
+Configuration defaultConfiguration(const Robot& robot) {
+  const int n = robot.size();
+  Configuration q = Configuration::zeros(n);
+  for (int i = 0; i < n; ++i) q.beta[i] = -robot.tube(i).straight_length;
+  for (int i = 1; i < n; ++i) q.beta[i] = std::min(q.beta[i], q.beta[i - 1]);
+  for (int i = 1; i < n; ++i) {
+    const double need = q.beta[i - 1] + robot.tube(i - 1).length() - robot.tube(i).length();
+    if (q.beta[i] < need) q.beta[i] = std::min(need, q.beta[i - 1]);
+  }
+  return q;
+}
+
 }  // namespace ctr

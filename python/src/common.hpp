@@ -31,10 +31,6 @@ Eigen::VectorXd toVector(const pyb::handle& obj, const std::string& what);
 /// @brief Converts an array-like to a rows x cols matrix (a 1-D input of length cols is one row).
 Eigen::MatrixXd toMatrix(const pyb::handle& obj, const std::string& what, int cols);
 
-/// @brief The `ctr` CLI's default configuration: rotations zero, each tube's straight part inside the actuation unit
-/// where the nesting rules allow it (the same rule as `ctr fk` without --alpha/--beta).
-Configuration defaultConfiguration(const Robot& robot);
-
 /// @brief Configuration from Python values: None means the default (as the CLI), else n numbers each. Projected onto
 /// the admissible set within kAdmissibilityTolerance (as the CLI does); a larger violation raises ValueError
 /// "beta: configuration is not admissible: ..." (or alpha). With `swept_tube` >= 0 (0-based) that tube's rotation is

@@ -43,19 +43,6 @@ Eigen::MatrixXd toMatrix(const pyb::handle& obj, const std::string& what, int co
   return out;
 }
 
-Configuration defaultConfiguration(const Robot& robot) {
-  const int n = robot.size();
-  Configuration q = Configuration::zeros(n);
-  // beta_i = -straight_length_i, then beta_{i+1} <= beta_i and ordered distal ends (as the CLI).
-  for (int i = 0; i < n; ++i) q.beta[i] = -robot.tube(i).straight_length;
-  for (int i = 1; i < n; ++i) q.beta[i] = std::min(q.beta[i], q.beta[i - 1]);
-  for (int i = 1; i < n; ++i) {
-    const double need = q.beta[i - 1] + robot.tube(i - 1).length() - robot.tube(i).length();
-    if (q.beta[i] < need) q.beta[i] = std::min(need, q.beta[i - 1]);
-  }
-  return q;
-}
-
 Configuration toConfiguration(const Robot& robot, const pyb::handle& alpha, const pyb::handle& beta, int swept_tube,
                               double swept_angle) {
   const int n = robot.size();

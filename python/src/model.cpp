@@ -2,6 +2,7 @@
 #include <random>
 
 #include "common.hpp"
+#include "ctr/io/solution_json.hpp"
 #include "ctr/io/robot_yaml.hpp"
 #include "ctr/model/backbone.hpp"
 #include "ctr/model/jacobian.hpp"
@@ -164,26 +165,9 @@ pyb::list momentsList(const Solution& sol) {
   return out;
 }
 
-/// The `ctr fk --json` object of a solution (apps/output.cpp solutionJson): same keys and values.
-pyb::dict solutionDict(const Solution& sol) {
-  auto list = [](const auto& v, Eigen::Index n) {
-    pyb::list l;
-    for (Eigen::Index k = 0; k < n; ++k) l.append(jsonNumber(v[k]));
-    return l;
-  };
-  pyb::dict j;
-  j["converged"] = sol.converged();
-  j["stable"] = sol.summary.stable;
-  j["status"] = toString(sol.summary.status);
-  j["stability"] = jsonNumber(sol.summary.stability);
-  j["iterations"] = sol.summary.iterations;
-  j["tip_position"] = list(sol.tip_position, 3);
-  j["tip_tangent"] = list(sol.tipTangent(), 3);
-  j["twist"] = list(sol.twist, sol.twist.size());
-  j["base_twist_rate"] = list(sol.base_twist_rate, sol.base_twist_rate.size());
-  j["moments"] = momentsList(sol);
-  if (!sol.summary.message.empty()) j["message"] = sol.summary.message;
-  return j;
+/// The `ctr fk --json` object of a solution (io::solutionJson, as the CLI writes it): same keys and values.
+pyb::object solutionDict(const Solution& sol) {
+  return pyb::module_::import("json").attr("loads")(io::solutionJson(sol));
 }
 
 /// Rows of a configuration sweep: (K, n) arrays, a 1-D input (or a single row) is repeated over the other's rows.

@@ -50,6 +50,10 @@ inline constexpr double kAdmissibilityTolerance = 1e-6;
 /// unchanged bit for bit.
 Admissibility projectAdmissible(const Robot& robot, Configuration& q, double tolerance = kAdmissibilityTolerance);
 
+/// @brief The default configuration of the command line and the Python module: rotations 0, each tube's straight
+/// part retracted (beta_i = -straight length), then made admissible (beta_{i+1} <= beta_i, ordered distal ends).
+Configuration defaultConfiguration(const Robot& robot);
+
 /// @brief Distal end s_i = beta_i + L_i of tube i (0-based).
 inline double distalEnd(const Robot& robot, const Configuration& q, int i) {
   return q.beta[i] + robot.tube(i).length();

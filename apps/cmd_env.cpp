@@ -10,6 +10,7 @@
 #include <octomap/OcTree.h>
 
 #include "commands.hpp"
+#include "ctr/environments/environment_json.hpp"
 #include "ctr/environments/collision.hpp"
 #include "ctr/environments/environment_yaml.hpp"
 #include "ctr/io/robot_yaml.hpp"
@@ -29,14 +30,6 @@ std::string fmtMm(const Eigen::Vector3d& v) {
   os << std::fixed << std::setprecision(2) << "(" << v.x() * 1e3 << ", " << v.y() * 1e3 << ", " << v.z() * 1e3
      << ") mm";
   return os.str();
-}
-
-const char* occName(env::Occupancy o) {
-  switch (o) {
-    case env::Occupancy::Free: return "free";
-    case env::Occupancy::Occupied: return "occupied";
-    default: return "unknown";
-  }
 }
 
 struct EnvOptions {
@@ -84,55 +77,6 @@ env::Environment buildFrom(const EnvOptions& o, Progress* progress = nullptr) {
   return e;
 }
 
-Json poseJson(const Eigen::Isometry3d& T) {
-  Json m = Json::array();
-  for (int r = 0; r < 4; ++r) {
-    Json row = Json::array();
-    for (int c = 0; c < 4; ++c) row.push_back(T.matrix()(r, c));
-    m.push_back(row);
-  }
-  return {{"position", vec(T.translation())}, {"direction", vec(T.linear().col(2))}, {"matrix", m}};
-}
-
-Json infoJson(const env::Environment& e) {
-  const env::OccupancyStats st = e.stats();
-  Json j;
-  j["name"] = e.name();
-  j["resolution"] = e.resolution();
-  j["bounds"] = {{"min", vec(e.bounds().min)}, {"max", vec(e.bounds().max)}, {"size", vec(e.bounds().size())}};
-  j["nodes"] = st.nodes;
-  j["occupied_leaves"] = st.occupied_leaves;
-  j["free_leaves"] = st.free_leaves;
-  j["occupied_volume"] = st.occupied_volume;
-  j["free_volume"] = st.free_volume;
-  j["memory_bytes"] = st.memory_bytes;
-  j["build_seconds"] = e.buildSeconds();
-  j["base_pose"] = poseJson(e.basePose());
-  j["base_pose"]["source"] = e.basePoseSource();
-  j["base_pose"]["occupancy"] = occName(e.occupancy(e.basePose().translation()));
-  Json starts = Json::array();
-  for (const auto& s : e.starts()) {
-    Json p = poseJson(s.pose);
-    p["name"] = s.name;
-    p["source"] = s.source;
-    starts.push_back(p);
-  }
-  j["starts"] = starts;
-  Json targets = Json::array();
-  for (const auto& t : e.targets())
-    targets.push_back({{"name", t.name},
-                       {"position", vec(t.position)},
-                       {"occupancy", occName(e.occupancy(t.position))},
-                       {"distance_from_base", (t.position - e.basePose().translation()).norm()},
-                       {"source", t.source}});
-  j["targets"] = targets;
-  j["sources"] = e.sources();
-  j["collision"] = {{"safety_margin", e.collisionDefaults().safety_margin},
-                    {"unknown_space", env::toString(e.collisionDefaults().unknown_space)},
-                    {"exclude_proximal", e.collisionDefaults().exclude_proximal}};
-  return j;
-}
-
 void printInfo(std::ostream& os, const env::Environment& e) {
   const env::OccupancyStats st = e.stats();
   const Eigen::Vector3d sz = e.bounds().size();
@@ -148,12 +92,12 @@ void printInfo(std::ostream& os, const env::Environment& e) {
   for (const auto& s : e.sources()) os << "source       " << s << "\n";
   os << "base pose    " << e.basePoseSource() << ": position " << fmtMm(e.basePose().translation())
      << ", direction " << e.basePose().linear().col(2).transpose() << " ("
-     << occName(e.occupancy(e.basePose().translation())) << ")\n";
+     << env::occupancyName(e.occupancy(e.basePose().translation())) << ")\n";
   for (const auto& s : e.starts())
     os << "start        " << s.name << ": position " << fmtMm(s.pose.translation()) << ", direction "
        << s.pose.linear().col(2).transpose() << "\n";
   for (const auto& t : e.targets())
-    os << "target       " << t.name << ": " << fmtMm(t.position) << " (" << occName(e.occupancy(t.position))
+    os << "target       " << t.name << ": " << fmtMm(t.position) << " (" << env::occupancyName(e.occupancy(t.position))
        << ", " << std::setprecision(4) << (t.position - e.basePose().translation()).norm() * 1e3
        << " mm from the base)\n";
   os << "collision    safety margin " << e.collisionDefaults().safety_margin * 1e3 << " mm, unknown space "
@@ -180,7 +124,7 @@ void registerEnv(CLI::App& app, Action& action) {
       action = [o]() {
         const env::Environment e = buildFrom(*o);
         if (o->json)
-          std::cout << infoJson(e).dump(2) << "\n";
+          std::cout << env::infoJson(e, 2) << "\n";
         else
           printInfo(std::cout, e);
         return static_cast<int>(kOk);

@@ -5,6 +5,7 @@
 #include <iostream>
 
 #include "common.hpp"
+#include "ctr/environments/environment_json.hpp"
 #include "ctr/environments/collision.hpp"
 #include "ctr/environments/environment_yaml.hpp"
 
@@ -15,85 +16,15 @@ namespace {
 using pyb::arg;
 using EnvPtr = std::shared_ptr<env::Environment>;
 
-const char* occName(env::Occupancy o) {
-  switch (o) {
-    case env::Occupancy::Free:
-      return "free";
-    case env::Occupancy::Occupied:
-      return "occupied";
-    default:
-      return "unknown";
-  }
-}
-
 pyb::list vec(const Eigen::Vector3d& v) {
   pyb::list l;
   for (int k = 0; k < 3; ++k) l.append(jsonNumber(v[k]));
   return l;
 }
 
-pyb::dict poseDict(const Eigen::Isometry3d& T) {
-  pyb::list rows;
-  for (int r = 0; r < 4; ++r) {
-    pyb::list row;
-    for (int c = 0; c < 4; ++c) row.append(T.matrix()(r, c));
-    rows.append(row);
-  }
-  pyb::dict d;
-  d["position"] = vec(T.translation());
-  d["direction"] = vec(T.linear().col(2));
-  d["matrix"] = rows;
-  return d;
-}
-
-/// The `ctr env info --json` object (apps/cmd_env.cpp).
-pyb::dict infoDict(const env::Environment& e) {
-  const env::OccupancyStats st = e.stats();
-  pyb::dict j;
-  j["name"] = e.name();
-  j["resolution"] = e.resolution();
-  pyb::dict bounds;
-  bounds["min"] = vec(e.bounds().min);
-  bounds["max"] = vec(e.bounds().max);
-  bounds["size"] = vec(e.bounds().size());
-  j["bounds"] = bounds;
-  j["nodes"] = st.nodes;
-  j["occupied_leaves"] = st.occupied_leaves;
-  j["free_leaves"] = st.free_leaves;
-  j["occupied_volume"] = st.occupied_volume;
-  j["free_volume"] = st.free_volume;
-  j["memory_bytes"] = st.memory_bytes;
-  j["build_seconds"] = e.buildSeconds();
-  pyb::dict base = poseDict(e.basePose());
-  base["source"] = e.basePoseSource();
-  base["occupancy"] = occName(e.occupancy(e.basePose().translation()));
-  j["base_pose"] = base;
-  pyb::list starts;
-  for (const auto& s : e.starts()) {
-    pyb::dict p = poseDict(s.pose);
-    p["name"] = s.name;
-    p["source"] = s.source;
-    starts.append(p);
-  }
-  j["starts"] = starts;
-  pyb::list targets;
-  for (const auto& t : e.targets()) {
-    pyb::dict d;
-    d["name"] = t.name;
-    d["position"] = vec(t.position);
-    d["occupancy"] = occName(e.occupancy(t.position));
-    d["distance_from_base"] = (t.position - e.basePose().translation()).norm();
-    d["source"] = t.source;
-    targets.append(d);
-  }
-  j["targets"] = targets;
-  j["sources"] = e.sources();
-  pyb::dict col;
-  col["safety_margin"] = e.collisionDefaults().safety_margin;
-  col["unknown_space"] = env::toString(e.collisionDefaults().unknown_space);
-  col["exclude_proximal"] = e.collisionDefaults().exclude_proximal;
-  j["collision"] = col;
-  return j;
+/// The `ctr env info --json` object (env::infoJson, as the CLI writes it).
+pyb::object infoDict(const env::Environment& e) {
+  return pyb::module_::import("json").attr("loads")(env::infoJson(e));
 }
 
 /// A collision checker with the environment it checks against (kept alive by the Python object).
@@ -212,7 +143,7 @@ void registerEnvironments(pyb::module_& m) {
           [](const env::Environment& e, const pyb::object& p) {
             const Eigen::VectorXd v = toVector(p, "point");
             if (v.size() != 3) throw pyb::value_error("point: expected 3 coordinates");
-            return std::string(occName(e.occupancy(v)));
+            return std::string(env::occupancyName(e.occupancy(v)));
           },
           arg("point"), "'free', 'occupied' or 'unknown' at a world point (m).")
       .def(

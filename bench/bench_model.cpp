@@ -106,6 +106,19 @@ void sweepSolves(benchmark::State& st, const ctr::Robot& robot, ctr::KinematicsO
   st.counters["newton_iterations"] = solves > 0 ? iterations / solves : 0.0;
 }
 
+// Cold tip-only solves of the Dupont-lab robot with the planner's settings (as BM_SolveCold<true, false>).
+void BM_SolveColdPlanning(benchmark::State& st) {
+  const ctr::Robot robot = loadExample("dupont_lab_3tube.yaml");
+  ctr::Workspace ws;
+  ctr::KinematicsOptions opt = planningSteps();
+  opt.record_backbone = false;
+  int k = 0;
+  for (auto _ : st) {
+    const double a = 0.3 + 0.01 * (k++ % 200);
+    benchmark::DoNotOptimize(ctr::solve(robot, dupontConfig(a, -a), ws, opt).tip_position);
+  }
+}
+
 // kPlanning: 0 library default, 1 the planner's settings, 2 the planner's steps only.
 template <int kPlanning>
 void BM_SolveSweep(benchmark::State& st) {
@@ -199,6 +212,7 @@ BENCHMARK(BM_SolveWarm<true, false>)->Name("solve_warm/dupont3/tip");
 BENCHMARK(BM_SolveWarm<true, true>)->Name("solve_warm/dupont3/shape100");
 BENCHMARK(BM_SolveCold<true, false>)->Name("solve_cold/dupont3/tip");
 BENCHMARK(BM_SolveCold<true, true>)->Name("solve_cold/dupont3/shape100");
+BENCHMARK(BM_SolveColdPlanning)->Name("solve_cold/dupont3/tip/planning");
 BENCHMARK(BM_StickSlipStep3<false>)->Name("stick_slip_step/dupont3/1deg");
 BENCHMARK(BM_StickSlipStep3<true>)->Name("stick_slip_step/dupont3/1deg/planning");
 BENCHMARK(BM_SolveSweep<0>)->Name("solve_sweep/dupont3/tip/default");

@@ -53,7 +53,8 @@ long alignedVertex(const Band& prev, const std::vector<ContactSite>& sites, std:
   return static_cast<long>(prev_code) + 1;
 }
 
-const Band* prev_or_null(const Band* p) {
+// The band itself, or an empty band for a motion's first configuration.
+const Band* orEmpty(const Band* p) {
   static const Band empty;
   return p ? p : &empty;
 }
@@ -116,7 +117,7 @@ bool bandAt(const Context& ctx, const Configuration& q, ThreadScratch& t, const 
   const std::vector<ContactSite>& sites = out.sites;
   if (robot.friction().boundary <= 0.0) return true;
   if (sites.empty()) {
-    if (!releaseIsSmooth(*prev_or_null(prev), out, thr)) {
+    if (!releaseIsSmooth(*orEmpty(prev), out, thr)) {
       why = "a contact site vanishes and releases its friction torque (the band jumps)";
       return false;
     }
@@ -147,7 +148,7 @@ bool bandAt(const Context& ctx, const Configuration& q, ThreadScratch& t, const 
     }
     out.shapes.push_back(std::move(s));
   }
-  if (!releaseIsSmooth(*prev_or_null(prev), out, thr)) {
+  if (!releaseIsSmooth(*orEmpty(prev), out, thr)) {
     why = "a contact site vanishes and releases its friction torque (the band jumps)";
     return false;
   }

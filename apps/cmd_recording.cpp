@@ -88,8 +88,10 @@ void registerInject(CLI::App* parent, Action& action) {
   sub->add_option("--dt", o->dt, "Time step of the generated time column (s); 0 = no time column");
   sub->add_option("--max-speed", o->max_speed, "Random-walk rotation speed (rad/s)");
   sub->add_flag("--translate", o->translate, "Also vary the innermost tube's translation");
-  sub->add_option("--effect", o->effects, "Effect to inject, e.g. boundary_friction:mu=0.12 or "
-                                          "actuator_backlash:tube=2,width=12deg (repeatable)");
+  sub->add_option("--effect", o->effects, "Effect to inject, e.g. boundary_friction:mu=0.12, "
+                                          "actuator_backlash:tube=2,width=12deg, tip_load:force=0.05,0,-0.1 (N, base "
+                                          "frame) or gravity:scale=1,direction=0,-1,0 (repeatable; loads are "
+                                          "simulated with the loaded model)");
   sub->add_option("--noise-twist", o->noise_twist, "Twist noise sd (rad or deg suffix)");
   sub->add_option("--noise-position", o->noise_position, "Tip position noise sd per component (m)");
   sub->add_option("--noise-tangent", o->noise_tangent, "Tangent noise sd per component (rad or deg suffix)");
@@ -111,6 +113,9 @@ void registerInject(CLI::App* parent, Action& action) {
           throw UsageError(std::string("--effect: ") + ex.what());
         }
       }
+      for (const auto& e : effects)
+        if (e.kind == diagnosis::EffectKind::Gravity && !diagnosis::gravityUnavailable(robot).empty())
+          throw UsageError("--effect gravity: robot '" + robot.name() + "': " + diagnosis::gravityUnavailable(robot));
       std::vector<Configuration> commands;
       Eigen::VectorXd time;
       if (!o->actuation.empty()) {
@@ -170,8 +175,15 @@ void registerInject(CLI::App* parent, Action& action) {
         nlohmann::json list = nlohmann::json::array();
         for (const auto& e : effects) {
           v.push_back(diagnosis::effectName(e.kind));
-          nlohmann::json x{{"effect", diagnosis::effectName(e.kind)}, {diagnosis::parameterName(e.kind), e.value}};
-          if (diagnosis::isPerTube(e.kind)) x["tube"] = e.tube;
+          nlohmann::json x{{"effect", diagnosis::effectName(e.kind)}};
+          for (const diagnosis::NamedParameter& p : diagnosis::namedParameters(e)) {
+            if (p.name == "tube")
+              x["tube"] = e.tube;
+            else if (p.value.size() == 1)
+              x[p.name] = p.value.front();
+            else
+              x[p.name] = p.value;
+          }
           list.push_back(x);
         }
         t["verdict"] = v;

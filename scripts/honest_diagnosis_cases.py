@@ -176,10 +176,13 @@ class Cases:
 
 
 def fmt_params(j):
+    def val(v):
+        return '(%s)' % ', '.join('%.4g' % x for x in v) if isinstance(v, list) else '%.4g' % v
     out = []
     for e in j['final'].get('effects', []):
-        k = [x for x in e if x not in ('effect', 'tube', 'interval95')][0]
-        out.append('%s%s %s=%.4g' % (e['effect'], '[%d]' % e['tube'] if 'tube' in e else '', k, e[k]))
+        ks = [x for x in e if x not in ('effect', 'tube', 'interval95')]   # gravity: direction, scale; tip_load: force
+        out.append('%s%s %s' % (e['effect'], '[%d]' % e['tube'] if 'tube' in e else '',
+                                ' '.join('%s=%s' % (k, val(e[k])) for k in ks)))
     return '; '.join(out)
 
 

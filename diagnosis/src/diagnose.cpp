@@ -14,6 +14,7 @@
 #include <stdexcept>
 #include <thread>
 
+#include "ctr/diagnosis/load_screen.hpp"
 #include "ctr/diagnosis/statistics.hpp"
 
 namespace ctr::diagnosis {
@@ -48,7 +49,8 @@ struct Candidate {
   double gain = 0.0;
   bool pass = false;
   bool failed = false;
-  bool probed_only = false;  ///< Distributed friction probed at a large coefficient and not fitted.
+  bool probed_only = false;  ///< Not fitted: distributed friction probed at a large coefficient, or a load whose
+                             ///< first-order screen predicts no BIC gain (screenLoads).
   std::string reason;
 };
 
@@ -80,15 +82,25 @@ std::string physics(EffectKind k) {
              "is taken up";
     case EffectKind::TranslationOffset:
       return "a zero error of a linear stage: the tube is translated by a constant amount more or less than commanded";
+    case EffectKind::Gravity:
+      return "the robot's own weight (a distributed dead load on every tube outside the actuation unit, in a fixed "
+             "direction of the base frame), which bends it more where it is long and where its tubes are flexible";
+    case EffectKind::TipLoad:
+      return "a constant external force at the tip (a dead load in the base frame), which bends the robot like a "
+             "weight hung on its tip";
   }
   return "";
 }
 
-std::map<std::string, double> paramsOf(const Effect& e) {
-  std::map<std::string, double> p;
-  if (isPerTube(e.kind)) p["tube"] = e.tube;
-  p[parameterName(e.kind)] = e.value;
-  return p;
+/// Name of fitted coordinate c of an effect, for messages ("mu", "force x", "gravity x" = scale * direction x).
+std::string coordinateLabel(const Effect& e, int c) {
+  if (parameterCount(e.kind) == 1) return parameterName(e.kind);
+  const char* axis[] = {"x", "y", "z"};
+  return std::string(e.kind == EffectKind::Gravity ? "scale*direction " : "force ") + axis[c];
+}
+
+bool isLoad(EffectKind k) {
+  return k == EffectKind::Gravity || k == EffectKind::TipLoad;
 }
 
 }  // namespace
@@ -98,11 +110,7 @@ std::vector<Effect> candidateSlots(const Robot& nominal, const io::Recording& re
   const int n = nominal.size();
   auto add = [&](EffectKind k, int tube) {
     if (!hasKind(o.candidates, k)) return;
-    Effect e;
-    e.kind = k;
-    e.tube = tube;
-    e.value = nominalValue(nominal, k, tube);
-    s.push_back(e);
+    s.push_back(nominalEffect(nominal, k, tube));
   };
   // Does tube i (0-based) rotate (absolute) or translate in the recording?
   auto varies = [&](Eigen::VectorXd Configuration::*joint, int i) {
@@ -136,6 +144,10 @@ std::vector<Effect> candidateSlots(const Robot& nominal, const io::Recording& re
   // tubes moves the tip along z: absorbed by the registration in an unknown frame, observable in the base frame).
   if (any_translation)
     for (int i = 1; i <= n; ++i) add(EffectKind::TranslationOffset, i);
+  // External loads (screened at first order before any loaded fit; diagnose()). Gravity needs a weight: the
+  // description's linear densities, or nitinol's density with the diameters.
+  if (gravityUnavailable(nominal).empty()) add(EffectKind::Gravity, 0);
+  add(EffectKind::TipLoad, 0);
   if (rec.hasTime() && rec.rows() > 2 && rec.time[rec.rows() - 1] > rec.time[0]) add(EffectKind::SensorLatency, 0);
   return s;
 }
@@ -284,7 +296,7 @@ DiagnosisReport diagnose(const Robot& nominal, const io::Recording& full, const 
     const std::vector<char> m = commonRows(a, b, evaluable);
     return bic(rec, b, m, kb) - bic(rec, a, m, ka);
   };
-  auto nparams = [](const std::vector<Effect>& e) { return static_cast<int>(e.size()); };
+  auto nparams = [](const std::vector<Effect>& e) { return coordinateCount(e); };
   Candidate cur;
   cur.fit = base;
   cur.cv = crossValidate(nominal, rec, {}, o.folds, fo, ws, 6, o.threads);
@@ -299,10 +311,13 @@ DiagnosisReport diagnose(const Robot& nominal, const io::Recording& full, const 
   rep.baseline.bic = cur.bic;
   const CrossValidation baseline_cv = cur.cv;
   const std::vector<Effect> slots = candidateSlots(nominal, rec, o);
+  if (hasKind(o.candidates, EffectKind::Gravity) && !gravityUnavailable(nominal).empty())
+    rep.warnings.push_back("gravity was not tried: " + gravityUnavailable(nominal));
   std::map<std::string, Finding> last;                  // latest finding per slot label
   std::map<std::string, std::vector<Rival>> rivals_of;  // accepted label -> look-alikes it cannot be told from
   std::vector<std::string> order;
   const int chunks = std::max(3, std::min(24, rows / 3));
+  std::vector<LoadScreen> load_screens;  // of the current round
   // 2. Forward selection.
   for (int round = 1; static_cast<int>(cur.fit.effects.size()) < o.max_effects; ++round) {
     std::vector<Effect> todo;
@@ -320,6 +335,21 @@ DiagnosisReport diagnose(const Robot& nominal, const io::Recording& full, const 
              modelName(cur.fit.effects));
     std::vector<Candidate> cands(todo.size());
     std::atomic<int> evals{0};
+    {
+      // First-order screen of the loads on top of the current model (shared by the load candidates of the round).
+      std::vector<Effect> loads;
+      for (const Effect& s : todo)
+        if (isLoad(s.kind)) loads.push_back(s);
+      if (!loads.empty()) {
+        try {
+          load_screens = screenLoads(nominal, rec, cur.fit.effects, cur.fit, loads, all, fo_alone, ws);
+        } catch (const std::exception& ex) {
+          load_screens.clear();
+          progress(std::string("  loads: first-order screen failed: ") + ex.what());
+        }
+        rep.evaluations += 1;
+      }
+    }
     // Held-out test of a candidate's model against the current one, on the rows both evaluated: cross-validation
     // (one-step from its linearisation when asked and available), bootstrap p and gain. Returns the replays used.
     auto heldOut = [&](Candidate& c, Workspace& tws, int threads, bool one_step) {
@@ -337,9 +367,7 @@ DiagnosisReport diagnose(const Robot& nominal, const io::Recording& full, const 
       // Accepted look-alikes of the candidate's group are refitted with it (a look-alike accepted earlier may have
       // absorbed part of this one); the others are held.
       std::vector<Effect> start, freed;
-      for (const Effect& e : cur.fit.effects)
-        (isLookAlike(c.slot.kind) && lookAlikeGroup(e.kind) == lookAlikeGroup(c.slot.kind) ? freed : start)
-            .push_back(e);
+      for (const Effect& e : cur.fit.effects) (areLookAlikes(e.kind, c.slot.kind) ? freed : start).push_back(e);
       const int first_free = static_cast<int>(start.size());
       start.insert(start.end(), freed.begin(), freed.end());
       start.push_back(c.slot);
@@ -350,7 +378,7 @@ DiagnosisReport diagnose(const Robot& nominal, const io::Recording& full, const 
         probe.back().value = 0.3;
         FitResult pr = evaluateModel(nominal, rec, probe, all, fo, tws);
         evals += pr.evaluations;
-        const double pb = deltaBic(cur.fit.residuals, nprev, pr.residuals, nparams(start));
+        const double pb = deltaBic(cur.fit.residuals, nparams(cur.fit.effects), pr.residuals, nparams(start));
         if (pb > -0.5 * o.bic_threshold) {
           c.fit = std::move(pr);
           c.bic = cur.bic + pb;
@@ -370,17 +398,44 @@ DiagnosisReport diagnose(const Robot& nominal, const io::Recording& full, const 
       so.function_tolerance = 1e-3;
       so.intervals = false;
       so.gate_bic = 0.5 * o.bic_threshold;
-      c.fit = fitEffects(nominal, rec, start, all, so, tws, nprev);
+      int grid_from = nprev;
+      if (isLoad(c.slot.kind)) {
+        // Loads: the first-order screen (one replay per round for all loads, then warm loaded solves per row)
+        // decides whether the loaded fit is worth its replays, and gives its start (no grid, no gate).
+        const LoadScreen* ls = nullptr;
+        for (const LoadScreen& x : load_screens)
+          if (x.effect.sameSlot(c.slot)) ls = &x;
+        if (!ls || !ls->ok) throw std::runtime_error(ls ? ls->message : "no first-order screen");
+        start.back() = ls->effect;
+        if (ls->predicted_delta_bic > -0.5 * o.bic_threshold) {
+          c.fit.effects = start;
+          c.delta_bic = ls->predicted_delta_bic;
+          c.bic = cur.bic + c.delta_bic;
+          c.probed_only = true;
+          c.reason = fmt("its first-order screen (the model linearised in the load at every row, least squares on "
+                         "the residuals) predicts a BIC change of only %+.1f at ",
+                         ls->predicted_delta_bic) +
+                     ls->effect.valueText() + ", so no loaded fit was run";
+          progress("  " + c.slot.label() + ": first-order " + ls->effect.valueText() +
+                   fmt(", predicted dBIC = %+.1f; not fitted", ls->predicted_delta_bic));
+          return;
+        }
+        progress("  " + c.slot.label() + ": first-order " + ls->effect.valueText() +
+                 fmt(", predicted dBIC = %+.1f; fitting", ls->predicted_delta_bic));
+        so.gate_bic = 0.0;
+        grid_from = static_cast<int>(start.size());
+      }
+      c.fit = fitEffects(nominal, rec, start, all, so, tws, grid_from);
       evals += c.fit.evaluations;
-      c.delta_bic = deltaBic(cur.fit.residuals, nprev, c.fit.residuals, nparams(start));
+      c.delta_bic = deltaBic(cur.fit.residuals, nparams(cur.fit.effects), c.fit.residuals, nparams(start));
       c.bic = cur.bic + c.delta_bic;
       if (c.delta_bic >= -o.bic_threshold)
         c.reason =
             fmt("it does not lower BIC by more than %.0f (change %+.1f): the fit does not improve beyond "
                 "what one more parameter buys by chance",
                 o.bic_threshold, c.delta_bic);
-      progress("  " + c.slot.label() + ": " + parameterName(c.slot.kind) +
-               fmt(" = %.4g, screening dBIC = %+.1f", c.fit.effects.back().value, c.delta_bic));
+      progress("  " + c.slot.label() + ": " + c.fit.effects.back().valueText() +
+               fmt(", screening dBIC = %+.1f", c.delta_bic));
     };
     // Phase 2 (finalists): the linearisation of the screened model in all its parameters (intervals, and the
     // one-step held-out test from it). The winner alone is then refined jointly (below).
@@ -395,8 +450,7 @@ DiagnosisReport diagnose(const Robot& nominal, const io::Recording& full, const 
       if (!c.pass)
         c.reason = fmt("it lowers BIC by %.1f but does not improve the held-out error enough (%.1f %% lower, p = %.2g)",
                        -c.delta_bic, 100 * c.gain, c.heldout_p);
-      progress("  " + c.slot.label() + ": " + parameterName(c.slot.kind) +
-               fmt(" = %.4g, dBIC = %+.1f", c.fit.effects.back().value, c.delta_bic) +
+      progress("  " + c.slot.label() + ": " + c.fit.effects.back().valueText() + fmt(", dBIC = %+.1f", c.delta_bic) +
                fmt(", held-out gain %.1f %%, p = %.2g", 100 * c.gain, c.heldout_p));
     };
     auto guarded = [&](Candidate& c, Workspace& tws, const std::function<void(Candidate&, Workspace&)>& fn) {
@@ -416,6 +470,7 @@ DiagnosisReport diagnose(const Robot& nominal, const io::Recording& full, const 
       c.slot = todo[static_cast<std::size_t>(i)];
       guarded(c, tws, screenCandidate);
     });
+    load_screens.clear();
     // Finalists: the best few by screening BIC (and every one within twice the threshold of the best, so that
     // look-alikes are compared on equal terms); the others cannot win the round.
     std::vector<int> ranked;
@@ -463,8 +518,7 @@ DiagnosisReport diagnose(const Robot& nominal, const io::Recording& full, const 
       std::vector<int> rv;
       for (int i : ranked) {
         const Candidate& c = cands[static_cast<std::size_t>(i)];
-        if (i == best || c.failed ||
-            lookAlikeGroup(c.slot.kind) != lookAlikeGroup(cands[static_cast<std::size_t>(best)].slot.kind))
+        if (i == best || c.failed || !areLookAlikes(c.slot.kind, cands[static_cast<std::size_t>(best)].slot.kind))
           continue;
         if (rv.size() < 4) rv.push_back(i);
       }
@@ -478,7 +532,7 @@ DiagnosisReport diagnose(const Robot& nominal, const io::Recording& full, const 
       const Candidate& W = cands[static_cast<std::size_t>(best)];
       // W's screening model lists the accepted effects outside its group first (screenCandidate).
       int group_start = 0;
-      for (const Effect& e : cur.fit.effects) group_start += lookAlikeGroup(e.kind) != lookAlikeGroup(W.slot.kind);
+      for (const Effect& e : cur.fit.effects) group_start += !areLookAlikes(e.kind, W.slot.kind);
       detail::parallelFor(static_cast<int>(rv.size()), o.threads, ws, [&](int j, Workspace& tws) {
         const Candidate& R = cands[static_cast<std::size_t>(rv[static_cast<std::size_t>(j)])];
         std::vector<Effect> both = W.fit.effects;
@@ -489,11 +543,12 @@ DiagnosisReport diagnose(const Robot& nominal, const io::Recording& full, const 
         // too, so the BIC comparisons are like for like); the group's accepted members, W and R are fitted.
         jo.first_free = group_start;
         try {
-          const FitResult J = fitEffects(nominal, rec, both, all, jo, tws, nparams(both));
+          const FitResult J = fitEffects(nominal, rec, both, all, jo, tws, static_cast<int>(both.size()));
           evals += J.evaluations;
           const int k = nparams(both);
-          enc[static_cast<std::size_t>(j)] = {deltaBic(J.residuals, k, R.fit.residuals, k - 1),
-                                              deltaBic(J.residuals, k, W.fit.residuals, k - 1), true, J};
+          enc[static_cast<std::size_t>(j)] = {deltaBic(J.residuals, k, R.fit.residuals, nparams(R.fit.effects)),
+                                              deltaBic(J.residuals, k, W.fit.residuals, nparams(W.fit.effects)), true,
+                                              J};
         } catch (const std::exception&) {
           enc[static_cast<std::size_t>(j)].ok = false;
         }
@@ -625,9 +680,9 @@ DiagnosisReport diagnose(const Robot& nominal, const io::Recording& full, const 
       const std::size_t k = pair.fit.effects.size(), m = partners.size();
       auto take = [&](Candidate& c, std::size_t at) {
         c.fit.effects.back() = pair.fit.effects[at];
-        if (pair.fit.interval95.size() == k) {
-          c.fit.interval95.assign(c.fit.effects.size(), {0.0, 0.0});
-          c.fit.interval95.back() = pair.fit.interval95[at];
+        if (pair.fit.uncertainty.size() == k) {
+          c.fit.uncertainty.assign(c.fit.effects.size(), EffectUncertainty{});
+          c.fit.uncertainty.back() = pair.fit.uncertainty[at];
         }
         c.delta_bic = pair.delta_bic;
         c.gain = pair.gain;
@@ -646,7 +701,7 @@ DiagnosisReport diagnose(const Robot& nominal, const io::Recording& full, const 
       rep.evaluations += joint.evaluations;
       if (deltaBic(W.fit.residuals, k, joint.residuals, k) <= 1e-9) {
         W.fit = std::move(joint);
-        W.delta_bic = deltaBic(cur.fit.residuals, k - 1, W.fit.residuals, k);
+        W.delta_bic = deltaBic(cur.fit.residuals, nparams(cur.fit.effects), W.fit.residuals, k);
         W.bic = cur.bic + W.delta_bic;
         rep.evaluations += heldOut(W, ws, o.threads, o.one_step_cv);
       }
@@ -663,8 +718,7 @@ DiagnosisReport diagnose(const Robot& nominal, const io::Recording& full, const 
       f.round = round;
       const bool partner = std::find(partners.begin(), partners.end(), static_cast<int>(i)) != partners.end();
       f.accepted = static_cast<int>(i) == best || partner;
-      f.parameters = paramsOf(f.effect);
-      if (!c.fit.interval95.empty()) f.interval95[parameterName(c.slot.kind)] = c.fit.interval95.back();
+      f.parameters = namedParameters(f.effect, c.fit.uncertainty.empty() ? nullptr : &c.fit.uncertainty.back());
       if (c.cv_done) {
         f.heldout_rmse = c.cv.rmse;
         f.heldout_score = c.cv.score;
@@ -859,41 +913,55 @@ DiagnosisReport diagnose(const Robot& nominal, const io::Recording& full, const 
     std::vector<std::size_t> unstable;
     for (std::size_t j = 0; j < cur.fit.effects.size(); ++j) {
       const Effect& e = cur.fit.effects[j];
-      const double size = std::abs(e.value - nominalValue(nominal, e.kind, e.tube));
-      // Time folds.
-      double lo = e.value, hi = e.value;
-      for (const auto& fe : cur.cv.fold_effects)
-        if (j < fe.size()) {
-          lo = std::min(lo, fe[j].value);
-          hi = std::max(hi, fe[j].value);
-        }
-      const double width =
-          j < cur.fit.interval95.size() && std::isfinite(cur.fit.interval95[j][1] - cur.fit.interval95[j][0])
-              ? cur.fit.interval95[j][1] - cur.fit.interval95[j][0]
-              : 0.0;
-      const bool time_unstable = cur.cv.fold_effects.size() >= 2 && hi - lo > std::max(width, 0.25 * size);
-      // Configuration halves.
-      const double va = halves[0].effects[j].value, vb = halves[1].effects[j].value;
-      auto sd = [&](const FitResult& f) {
-        if (j >= f.interval95.size()) return std::numeric_limits<double>::infinity();
-        const double w = f.interval95[j][1] - f.interval95[j][0];
-        return std::isfinite(w) ? w / 3.92 : std::numeric_limits<double>::infinity();
-      };
-      const double z = std::abs(va - vb) / std::max(1e-300, std::hypot(sd(halves[0]), sd(halves[1])));
-      const bool split_unstable = z > 3.0 && std::abs(va - vb) > 0.25 * size;
-      progress("constancy: " + e.label() + fmt(" = %.4g; time folds %.4g .. %.4g; halves by ", e.value, lo, hi) +
-               split_name + fmt(" %.4g vs %.4g (z = %.1f)", va, vb, z));
-      if (time_unstable || split_unstable) {
-        unstable.push_back(j);
-        removed[e.label()] =
-            time_unstable
-                ? fmt("its fitted value changes between held-out blocks in time (%.4g to %.4g, against a 95 %% "
-                      "interval of width %.3g): it absorbs part of a mismatch it does not model, so it is not named",
-                      lo, hi, width)
-                : "its fitted value depends on which rows it is fitted on (" + fmt("%.4g", va) + " with " + split_name +
-                      " below its median, " +
+      const Effect e0 = nominalEffect(nominal, e.kind, e.tube);
+      const int nc = parameterCount(e.kind);
+      // The effect's size: its distance from the nominal over all its coordinates.
+      double size = 0.0;
+      for (int c = 0; c < nc; ++c) size = std::hypot(size, e.coordinate(c) - e0.coordinate(c));
+      bool time_unstable = false, split_unstable = false;
+      std::string why_time, why_split;
+      for (int c = 0; c < nc; ++c) {
+        const std::string cname = coordinateLabel(e, c);
+        // Time folds.
+        double lo = e.coordinate(c), hi = e.coordinate(c);
+        for (const auto& fe : cur.cv.fold_effects)
+          if (j < fe.size()) {
+            lo = std::min(lo, fe[j].coordinate(c));
+            hi = std::max(hi, fe[j].coordinate(c));
+          }
+        auto widthOf = [&](const FitResult& f) {
+          if (j >= f.uncertainty.size() || static_cast<int>(f.uncertainty[j].interval95.size()) <= c)
+            return std::numeric_limits<double>::infinity();
+          const auto& iv = f.uncertainty[j].interval95[static_cast<std::size_t>(c)];
+          return std::isfinite(iv[1] - iv[0]) ? iv[1] - iv[0] : std::numeric_limits<double>::infinity();
+        };
+        const double w0 = widthOf(cur.fit);
+        const double width = std::isfinite(w0) ? w0 : 0.0;
+        const bool tu = cur.cv.fold_effects.size() >= 2 && hi - lo > std::max(width, 0.25 * size);
+        // Configuration halves.
+        const double va = halves[0].effects[j].coordinate(c), vb = halves[1].effects[j].coordinate(c);
+        const double z = std::abs(va - vb) / std::max(1e-300, std::hypot(widthOf(halves[0]) / 3.92,
+                                                                         widthOf(halves[1]) / 3.92));
+        const bool su = z > 3.0 && std::abs(va - vb) > 0.25 * size;
+        progress("constancy: " + e.label() + " " + cname +
+                 fmt(" = %.4g; time folds %.4g .. %.4g; halves by ", e.coordinate(c), lo, hi) + split_name +
+                 fmt(" %.4g vs %.4g (z = %.1f)", va, vb, z));
+        if (tu && !time_unstable)
+          why_time = "its fitted " + cname +
+                     fmt(" changes between held-out blocks in time (%.4g to %.4g, against a 95 %% interval of width "
+                         "%.3g): it absorbs part of a mismatch it does not model, so it is not named",
+                         lo, hi, width);
+        if (su && !split_unstable)
+          why_split = "its fitted " + cname + " depends on which rows it is fitted on (" + fmt("%.4g", va) + " with " +
+                      split_name + " below its median, " +
                       fmt("%.4g above, z = %.1f): it absorbs part of a mismatch it does not ", vb, z) +
                       "model, so it is not named";
+        time_unstable = time_unstable || tu;
+        split_unstable = split_unstable || su;
+      }
+      if (time_unstable || split_unstable) {
+        unstable.push_back(j);
+        removed[e.label()] = time_unstable ? why_time : why_split;
         progress("constancy: " + e.label() + " is not constant over the recording; dropped");
       }
     }
@@ -962,9 +1030,9 @@ DiagnosisReport diagnose(const Robot& nominal, const io::Recording& full, const 
     for (std::size_t j = 0; j < cur.fit.effects.size(); ++j) {
       const FitResult& f = without[j];
       const std::vector<char> m = commonRows(cur.fit.residuals, f.residuals, evaluable);
-      const int k = nparams(cur.fit.effects);
-      const double plain = bic(rec, f.residuals, m, k - 1) - bic(rec, cur.fit.residuals, m, k);
-      const double d = projectedBic(f.residuals, m, k - 1) - projectedBic(cur.fit.residuals, m, k);
+      const int k = nparams(cur.fit.effects), kw = nparams(f.effects);
+      const double plain = bic(rec, f.residuals, m, kw) - bic(rec, cur.fit.residuals, m, k);
+      const double d = projectedBic(f.residuals, m, kw) - projectedBic(cur.fit.residuals, m, k);
       const std::string lab = cur.fit.effects[j].label();
       progress("confounding: " + lab + fmt(" BIC gain %.1f; with a smooth correction along ", plain) + vname +
                fmt(" %.1f", d));
@@ -980,8 +1048,15 @@ DiagnosisReport diagnose(const Robot& nominal, const io::Recording& full, const 
   }
   // 4. Final model: fitted values with intervals (already from its full-data fit).
   rep.final_effects = cur.fit.effects;
-  for (std::size_t j = 0; j < cur.fit.effects.size() && j < cur.fit.interval95.size(); ++j)
-    rep.final_intervals[cur.fit.effects[j].label()] = cur.fit.interval95[j];
+  for (std::size_t j = 0; j < cur.fit.effects.size() && j < cur.fit.uncertainty.size(); ++j)
+    rep.final_uncertainty[cur.fit.effects[j].label()] = cur.fit.uncertainty[j];
+  for (const Effect& e : cur.fit.effects)
+    if (e.kind == EffectKind::Gravity && nominalEffect(nominal, EffectKind::Gravity, 0).vec.isZero() &&
+        !std::any_of(nominal.tubes().begin(), nominal.tubes().end(), [](const Tube& t) { return t.linear_density > 0; }))
+      rep.warnings.push_back(
+          "gravity: the description gives no tube a density, so its weight assumes nitinol (" +
+          fmt("%.0f kg/m^3) with the tubes' diameters; the fitted scale %.3g is relative to that weight", kNitinolDensity,
+              e.gravityScale()));
   rep.registration = cur.fit.registration;
   rep.final.model = modelName(cur.fit.effects);
   rep.final.effects = cur.fit.effects;
@@ -1035,9 +1110,7 @@ DiagnosisReport diagnose(const Robot& nominal, const io::Recording& full, const 
       if (e.label() == key) {
         f.accepted = true;
         f.effect = e;
-        f.parameters = paramsOf(e);
-        f.interval95.clear();
-        if (rep.final_intervals.count(key)) f.interval95[parameterName(e.kind)] = rep.final_intervals[key];
+        f.parameters = namedParameters(e, rep.final_uncertainty.count(key) ? &rep.final_uncertainty[key] : nullptr);
         f.partial = rep.unexplained.present;
         if (removed_partial.count(key)) {
           f.named = false;
@@ -1077,7 +1150,7 @@ DiagnosisReport diagnose(const Robot& nominal, const io::Recording& full, const 
     std::string t;
     for (const Effect& e : cur.fit.effects) {
       if ((confounded.count(e.label()) == 0) != named) continue;
-      t += (t.empty() ? "" : ", ") + e.label() + " (" + parameterName(e.kind) + fmt(" = %.4g", e.value) + ")";
+      t += (t.empty() ? "" : ", ") + e.label() + " (" + e.valueText() + ")";
       const auto& rv = rivals_of[e.label()];
       if (!rv.empty()) {
         t += " or";

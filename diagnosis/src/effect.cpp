@@ -1,7 +1,10 @@
 // Effects: names, parameters, and their action on the robot description.
 #include "ctr/diagnosis/effect.hpp"
 
+#include <algorithm>
 #include <cmath>
+#include <cstdio>
+#include <map>
 #include <sstream>
 #include <stdexcept>
 
@@ -17,23 +20,26 @@ struct KindFacts {
   const char* unit;
   bool per_tube;
   bool stateful;
-  int group;  // 1 = lag, 2 = shift, 0 = none (lookAlikeGroup)
+  int group;        // 1 = lag, 2 = shift, 3 = load, 0 = none (lookAlikeGroup)
+  int coordinates;  // fitted coordinates (parameterCount)
 };
 
 // One row per kind, in the order of formats.md.
 constexpr KindFacts kFacts[] = {
-    {EffectKind::BoundaryFriction, "boundary_friction", "mu", "", false, true, 1},
-    {EffectKind::DistributedFriction, "distributed_friction", "mu", "", false, true, 1},
-    {EffectKind::TorsionalStiffness, "torsional_stiffness", "poisson_ratio", "", false, false, 2},
-    {EffectKind::Precurvature, "precurvature", "curvature", "1/m", true, false, 0},
-    {EffectKind::BendingStiffness, "bending_stiffness", "bending_stiffness", "N m^2", true, false, 0},
-    {EffectKind::ActuatorBacklash, "actuator_backlash", "width", "rad", true, true, 1},
-    {EffectKind::ActuatorOffset, "actuator_offset", "offset", "rad", true, false, 2},
-    {EffectKind::TranslationBacklash, "translation_backlash", "width", "m", true, true, 1},
-    {EffectKind::TranslationOffset, "translation_offset", "offset", "m", true, false, 2},
-    {EffectKind::SensorLatency, "sensor_latency", "delay", "s", false, false, 1},
+    {EffectKind::BoundaryFriction, "boundary_friction", "mu", "", false, true, 1, 1},
+    {EffectKind::DistributedFriction, "distributed_friction", "mu", "", false, true, 1, 1},
+    {EffectKind::TorsionalStiffness, "torsional_stiffness", "poisson_ratio", "", false, false, 2, 1},
+    {EffectKind::Precurvature, "precurvature", "curvature", "1/m", true, false, 0, 1},
+    {EffectKind::BendingStiffness, "bending_stiffness", "bending_stiffness", "N m^2", true, false, 0, 1},
+    {EffectKind::ActuatorBacklash, "actuator_backlash", "width", "rad", true, true, 1, 1},
+    {EffectKind::ActuatorOffset, "actuator_offset", "offset", "rad", true, false, 2, 1},
+    {EffectKind::TranslationBacklash, "translation_backlash", "width", "m", true, true, 1, 1},
+    {EffectKind::TranslationOffset, "translation_offset", "offset", "m", true, false, 2, 1},
+    {EffectKind::Gravity, "gravity", "scale", "", false, false, 3, 3},
+    {EffectKind::TipLoad, "tip_load", "force", "N", false, false, 3, 3},
+    {EffectKind::SensorLatency, "sensor_latency", "delay", "s", false, false, 1, 1},
 };
-static_assert(sizeof(kFacts) / sizeof(kFacts[0]) == static_cast<std::size_t>(EffectKind::TranslationOffset) + 1,
+static_assert(sizeof(kFacts) / sizeof(kFacts[0]) == static_cast<std::size_t>(EffectKind::TipLoad) + 1,
               "one row of facts per EffectKind");
 
 const KindFacts& facts(EffectKind k) {
@@ -68,11 +74,23 @@ bool isPerTube(EffectKind k) {
 bool isStateful(EffectKind k) {
   return facts(k).stateful;
 }
+int parameterCount(EffectKind k) {
+  return facts(k).coordinates;
+}
 int lookAlikeGroup(EffectKind k) {
   return facts(k).group;
 }
+bool areLookAlikes(EffectKind a, EffectKind b) {
+  const int ga = lookAlikeGroup(a), gb = lookAlikeGroup(b);
+  if (ga != 0 && ga == gb) return true;
+  // A load bends the robot as a different precurvature or stiffness would.
+  auto shape = [](EffectKind k) { return k == EffectKind::Precurvature || k == EffectKind::BendingStiffness; };
+  return (ga == 3 && shape(b)) || (gb == 3 && shape(a));
+}
 bool isLookAlike(EffectKind k) {
-  return lookAlikeGroup(k) != 0;
+  for (const KindFacts& f : kFacts)
+    if (areLookAlikes(k, f.kind)) return true;
+  return false;
 }
 
 EffectKind parseEffectKind(const std::string& name) {
@@ -87,6 +105,84 @@ std::string Effect::label() const {
   std::string s = effectName(kind);
   if (isPerTube(kind)) s += "[tube " + std::to_string(tube) + "]";
   return s;
+}
+
+double Effect::coordinate(int i) const {
+  return parameterCount(kind) == 1 ? value : vec[i];
+}
+
+void Effect::setCoordinate(int i, double v) {
+  if (parameterCount(kind) == 1)
+    value = v;
+  else
+    vec[i] = v;
+}
+
+Eigen::Vector3d Effect::gravityDirection() const {
+  const double s = vec.norm();
+  return s > 0 ? Eigen::Vector3d(vec / s) : Eigen::Vector3d(0, 0, -1);
+}
+
+namespace {
+std::string g4(double v) {
+  char b[64];
+  std::snprintf(b, sizeof b, "%.4g", std::abs(v) < 5e-13 ? 0.0 : v);
+  return b;
+}
+std::string vec3(const Eigen::Vector3d& v) {
+  return "(" + g4(v.x()) + ", " + g4(v.y()) + ", " + g4(v.z()) + ")";
+}
+}  // namespace
+
+std::string Effect::valueText() const {
+  switch (kind) {
+    case EffectKind::Gravity:
+      return "scale = " + g4(gravityScale()) + ", direction = " + vec3(gravityDirection());
+    case EffectKind::TipLoad:
+      return "force = " + vec3(vec) + " N";
+    default:
+      return std::string(parameterName(kind)) + " = " + g4(value);
+  }
+}
+
+std::vector<NamedParameter> namedParameters(const Effect& e, const EffectUncertainty* u) {
+  std::vector<NamedParameter> out;
+  if (isPerTube(e.kind)) out.push_back({"tube", {static_cast<double>(e.tube)}, {}});
+  const bool have = u && !u->empty();
+  switch (e.kind) {
+    case EffectKind::TipLoad: {
+      NamedParameter f{"force", {e.vec.x(), e.vec.y(), e.vec.z()}, {}};
+      if (have && u->interval95.size() == 3) f.interval95 = u->interval95;
+      out.push_back(f);
+      break;
+    }
+    case EffectKind::Gravity: {
+      // scale = |w|, direction = w / |w| for w = scale * direction; intervals by the delta method.
+      const double s = e.gravityScale();
+      const Eigen::Vector3d d = e.gravityDirection();
+      NamedParameter sc{"scale", {s}, {}}, dir{"direction", {d.x(), d.y(), d.z()}, {}};
+      if (have && u->covariance.rows() == 3 && u->covariance.cols() == 3 && s > 0) {
+        const Eigen::Matrix3d C = u->covariance;
+        const double sd_s = std::sqrt(std::max(0.0, d.dot(C * d)));
+        sc.interval95.push_back({std::max(0.0, s - 1.96 * sd_s), s + 1.96 * sd_s});
+        const Eigen::Matrix3d J = (Eigen::Matrix3d::Identity() - d * d.transpose()) / s;
+        const Eigen::Matrix3d Cd = J * C * J.transpose();
+        for (int i = 0; i < 3; ++i) {
+          const double h = 1.96 * std::sqrt(std::max(0.0, Cd(i, i)));
+          dir.interval95.push_back({std::max(-1.0, d[i] - h), std::min(1.0, d[i] + h)});
+        }
+      }
+      out.push_back(sc);
+      out.push_back(dir);
+      break;
+    }
+    default: {
+      NamedParameter p{parameterName(e.kind), {e.value}, {}};
+      if (have) p.interval95.push_back(u->interval95.front());
+      out.push_back(p);
+    }
+  }
+  return out;
 }
 
 namespace {
@@ -114,27 +210,61 @@ Effect parseEffect(const std::string& text) {
   const auto colon = text.find(':');
   Effect e;
   e.kind = parseEffectKind(text.substr(0, colon));
-  bool have_value = false;
+  // Keys of the kind and how many numbers each takes.
+  auto arity = [&](const std::string& key) -> int {
+    if (key == "tube") return 1;
+    if (e.kind == EffectKind::TipLoad) return key == "force" ? 3 : 0;
+    if (e.kind == EffectKind::Gravity) return key == "scale" ? 1 : key == "direction" ? 3 : 0;
+    return key == parameterName(e.kind) ? 1 : 0;
+  };
+  auto expected = [&]() -> std::string {
+    std::string t = isPerTube(e.kind) ? "tube and " : "";
+    if (e.kind == EffectKind::TipLoad) return t + "force=FX,FY,FZ (N)";
+    if (e.kind == EffectKind::Gravity) return t + "direction=X,Y,Z and optionally scale (default 1)";
+    return t + parameterName(e.kind);
+  };
+  std::map<std::string, std::vector<double>> got;
   if (colon != std::string::npos) {
     std::stringstream ss(text.substr(colon + 1));
-    std::string item;
+    std::string item, key;  // key: the vector key still taking numbers
     while (std::getline(ss, item, ',')) {
       const auto eq = item.find('=');
-      if (eq == std::string::npos)
-        throw std::invalid_argument("effect '" + text + "': expected key=value, got '" + item + "'");
-      const std::string key = item.substr(0, eq), val = item.substr(eq + 1);
-      if (key == "tube") {
-        e.tube = static_cast<int>(parseValue(val, "tube"));
-      } else if (key == parameterName(e.kind)) {
-        e.value = parseValue(val, key);
-        have_value = true;
-      } else {
-        throw std::invalid_argument("effect '" + text + "': unknown key '" + key + "' (expected " +
-                                    (isPerTube(e.kind) ? "tube and " : "") + parameterName(e.kind) + ")");
+      if (eq == std::string::npos) {
+        if (key.empty() || static_cast<int>(got[key].size()) >= arity(key))
+          throw std::invalid_argument("effect '" + text + "': expected key=value, got '" + item + "'");
+        got[key].push_back(parseValue(item, key));
+        continue;
       }
+      if (!key.empty() && static_cast<int>(got[key].size()) != arity(key))
+        throw std::invalid_argument("effect '" + text + "': " + key + " needs " + std::to_string(arity(key)) +
+                                    " comma-separated numbers");
+      key = item.substr(0, eq);
+      const std::string val = item.substr(eq + 1);
+      if (arity(key) == 0)
+        throw std::invalid_argument("effect '" + text + "': unknown key '" + key + "' (expected " + expected() + ")");
+      if (got.count(key)) throw std::invalid_argument("effect '" + text + "': " + key + " given twice");
+      got[key].push_back(parseValue(val, key));
     }
+    if (!key.empty() && static_cast<int>(got[key].size()) != arity(key))
+      throw std::invalid_argument("effect '" + text + "': " + key + " needs " + std::to_string(arity(key)) +
+                                  " comma-separated numbers");
   }
-  if (!have_value) throw std::invalid_argument("effect '" + text + "': missing " + std::string(parameterName(e.kind)));
+  if (got.count("tube")) e.tube = static_cast<int>(got["tube"][0]);
+  if (e.kind == EffectKind::TipLoad) {
+    if (!got.count("force")) throw std::invalid_argument("effect '" + text + "': missing force=FX,FY,FZ");
+    e.vec = Eigen::Vector3d(got["force"][0], got["force"][1], got["force"][2]);
+  } else if (e.kind == EffectKind::Gravity) {
+    if (!got.count("direction")) throw std::invalid_argument("effect '" + text + "': missing direction=X,Y,Z");
+    const Eigen::Vector3d d(got["direction"][0], got["direction"][1], got["direction"][2]);
+    if (!(d.norm() > 0)) throw std::invalid_argument("effect '" + text + "': direction must not be zero");
+    const double scale = got.count("scale") ? got["scale"][0] : 1.0;
+    if (scale < 0) throw std::invalid_argument("effect '" + text + "': scale must be >= 0");
+    e.vec = scale * d.normalized();
+  } else if (!got.count(parameterName(e.kind))) {
+    throw std::invalid_argument("effect '" + text + "': missing " + std::string(parameterName(e.kind)));
+  } else {
+    e.value = got[parameterName(e.kind)][0];
+  }
   if (isPerTube(e.kind) && e.tube < 1) throw std::invalid_argument("effect '" + text + "': missing tube=K (1-based)");
   if (!isPerTube(e.kind)) e.tube = 0;
   return e;
@@ -156,9 +286,39 @@ double nominalValue(const Robot& nominal, EffectKind kind, int tube) {
   }
 }
 
+namespace {
+bool anyDensity(const Robot& r) {
+  for (const Tube& t : r.tubes())
+    if (t.linear_density > 0) return true;
+  return false;
+}
+}  // namespace
+
+Effect nominalEffect(const Robot& nominal, EffectKind kind, int tube) {
+  Effect e;
+  e.kind = kind;
+  e.tube = isPerTube(kind) ? tube : 0;
+  if (kind == EffectKind::Gravity)
+    e.vec = anyDensity(nominal) ? Eigen::Vector3d(nominal.loads().gravity / kStandardGravity)
+                                : Eigen::Vector3d::Zero();
+  else if (kind == EffectKind::TipLoad)
+    e.vec = nominal.loads().tip_force;
+  else
+    e.value = nominalValue(nominal, kind, tube);
+  return e;
+}
+
+std::string gravityUnavailable(const Robot& nominal) {
+  if (anyDensity(nominal)) return "";
+  for (const Tube& t : nominal.tubes())
+    if (t.outer_diameter > t.inner_diameter) return "";
+  return "no tube has a linear density, a density or diameters to compute its weight from";
+}
+
 Robot applyToRobot(const Robot& nominal, const std::vector<Effect>& effects) {
   std::vector<Tube> tubes = nominal.tubes();
   FrictionCoefficients f = nominal.friction();
+  Loads loads = nominal.loads();  // the nominal loads are kept unless an effect replaces them
   const int n = nominal.size();
   auto check = [&](const Effect& e) {
     if (e.tube < 1 || e.tube > n)
@@ -198,9 +358,22 @@ Robot applyToRobot(const Robot& nominal, const std::vector<Effect>& effects) {
         break;
       case EffectKind::SensorLatency:
         break;
+      case EffectKind::TipLoad:
+        loads.tip_force = e.vec;
+        break;
+      case EffectKind::Gravity:
+        loads.gravity = kStandardGravity * e.vec;
+        // A weightless description: each tube weighs nitinol's density times its cross-section (an assumption;
+        // the fitted scale absorbs a different density).
+        if (!anyDensity(nominal))
+          for (Tube& t : tubes)
+            if (t.outer_diameter > t.inner_diameter)
+              t.linear_density = kNitinolDensity * M_PI / 4 *
+                                 (t.outer_diameter * t.outer_diameter - t.inner_diameter * t.inner_diameter);
+        break;
     }
   }
-  return Robot(nominal.name(), std::move(tubes), f, nominal.loads());  // the nominal loads are kept
+  return Robot(nominal.name(), std::move(tubes), f, loads);
 }
 
 }  // namespace ctr::diagnosis

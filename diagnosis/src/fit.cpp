@@ -15,7 +15,14 @@
 
 namespace ctr::diagnosis {
 
-ParameterRange parameterRange(const Robot& nominal, const io::Recording& rec, EffectKind kind, int tube) {
+int coordinateCount(const std::vector<Effect>& effects) {
+  int k = 0;
+  for (const Effect& e : effects) k += parameterCount(e.kind);
+  return k;
+}
+
+ParameterRange parameterRange(const Robot& nominal, const io::Recording& rec, EffectKind kind, int tube,
+                              int coordinate) {
   ParameterRange r;
   switch (kind) {
     case EffectKind::BoundaryFriction:
@@ -66,6 +73,25 @@ ParameterRange parameterRange(const Robot& nominal, const io::Recording& rec, Ef
       r = {0.0, 20.0 * dt, {0.5 * dt, dt, 2 * dt, 4 * dt, 8 * dt, 14 * dt}};
       break;
     }
+    case EffectKind::Gravity: {
+      // Each component of scale * direction, up to 3 g around the nominal (a weight up to 3x the assumed one).
+      const double c = nominalEffect(nominal, kind, tube).vec[coordinate];
+      r = {c - 3.0, c + 3.0, {c - 1.0, c - 0.3, c + 0.3, c + 1.0}};
+      break;
+    }
+    case EffectKind::TipLoad: {
+      // Each force component up to the force that deflects a cantilever as stiff as all tubes together and as long
+      // as the robot by 30 % of its length (F L^3 / 3 EI = 0.3 L), around the nominal force.
+      double ei = 0.0, len = 0.0;
+      for (const Tube& t : nominal.tubes()) {
+        ei += t.bending_stiffness;
+        len = std::max(len, t.length());
+      }
+      const double fmax = len > 0 ? 0.9 * ei / (len * len) : 1.0;
+      const double c = nominal.loads().tip_force[coordinate];
+      r = {c - fmax, c + fmax, {c - 0.3 * fmax, c - 0.1 * fmax, c + 0.1 * fmax, c + 0.3 * fmax}};
+      break;
+    }
   }
   return r;
 }
@@ -108,14 +134,24 @@ class Model {
         ws_(ws),
         layout_(makeLayout(rec, use_)) {
     for (int j = std::max(0, o.first_free); j < static_cast<int>(effects_.size()); ++j) {
-      free_.push_back(j);
       const Effect& e = effects_[static_cast<std::size_t>(j)];
-      ranges_.push_back(parameterRange(nominal, rec, e.kind, e.tube));
+      for (int c = 0; c < parameterCount(e.kind); ++c) {
+        free_.push_back(j);
+        coord_.push_back(c);
+        ranges_.push_back(parameterRange(nominal, rec, e.kind, e.tube, c));
+      }
     }
   }
+  /// Free parameters: the coordinates of the free effects (parameterCount each).
   int parameters() const { return static_cast<int>(free_.size()); }
   /// Index into the effect list of free parameter j.
   int effectIndex(int j) const { return free_[static_cast<std::size_t>(j)]; }
+  /// Coordinate of its effect that free parameter j is.
+  int coordinateIndex(int j) const { return coord_[static_cast<std::size_t>(j)]; }
+  /// Start value of free parameter j.
+  double startValue(int j) const {
+    return effects_[static_cast<std::size_t>(effectIndex(j))].coordinate(coordinateIndex(j));
+  }
   int residuals() const { return static_cast<int>(layout_.rows.size()) * layout_.components; }
   int componentsPerRow() const { return layout_.components; }
   const std::vector<int>& rows() const { return layout_.rows; }
@@ -132,7 +168,8 @@ class Model {
   const ParameterRange& range(int j) const { return ranges_[static_cast<std::size_t>(j)]; }
   std::vector<Effect> effectsAt(const double* x) const {
     std::vector<Effect> e = effects_;
-    for (int j = 0; j < parameters(); ++j) e[static_cast<std::size_t>(effectIndex(j))].value = toValue(j, x[j]);
+    for (int j = 0; j < parameters(); ++j)
+      e[static_cast<std::size_t>(effectIndex(j))].setCoordinate(coordinateIndex(j), toValue(j, x[j]));
     return e;
   }
   /// Full evaluation (prediction, registration, residuals), with the caller's workspace.
@@ -269,7 +306,7 @@ class Model {
   Workspace& ws_;
   Layout layout_;
   std::vector<ParameterRange> ranges_;
-  std::vector<int> free_;
+  std::vector<int> free_, coord_;
   std::vector<std::pair<std::vector<double>, FitResult>> recent_;
 };
 
@@ -316,15 +353,30 @@ void addLinearisation(Model& m, const std::vector<double>& x, FitResult& f) {
   f.components = m.componentsPerRow();
   f.x = x;
   f.interval_serial_correlation = hac.rho;
-  const double nan = std::numeric_limits<double>::quiet_NaN();
-  f.interval95.assign(f.effects.size(), {nan, nan});
-  for (int j = 0; j < k; ++j) {
-    const double var = std::max(C(j, j), hac.covariance(j, j));
-    const double sd = std::sqrt(std::max(0.0, var)) * m.span(j);
-    const double v = f.effects[static_cast<std::size_t>(m.effectIndex(j))].value;
-    const double half = H(j, j) > 0 ? 1.96 * sd : std::numeric_limits<double>::infinity();
-    f.interval95[static_cast<std::size_t>(m.effectIndex(j))] = {std::max(m.range(j).lo, v - half),
-                                                                std::min(m.range(j).hi, v + half)};
+  f.uncertainty.assign(f.effects.size(), EffectUncertainty{});
+  // Per effect: the block of its coordinates, the HAC covariance scaled so that no variance is below the classical
+  // one (its correlations kept), in coordinate units.
+  for (int j0 = 0; j0 < k;) {
+    const int e = m.effectIndex(j0);
+    int j1 = j0;
+    while (j1 < k && m.effectIndex(j1) == e) ++j1;
+    const int nb = j1 - j0;
+    const Eigen::MatrixXd Hc = hac.covariance.block(j0, j0, nb, nb), Cc = C.block(j0, j0, nb, nb);
+    bool hac_ok = true;
+    for (int a = 0; a < nb; ++a) hac_ok = hac_ok && Hc(a, a) > 0;
+    Eigen::VectorXd d(nb);
+    for (int a = 0; a < nb; ++a)
+      d[a] = m.span(j0 + a) * (hac_ok ? std::sqrt(std::max(1.0, Cc(a, a) / Hc(a, a))) : 1.0);
+    EffectUncertainty& u = f.uncertainty[static_cast<std::size_t>(e)];
+    u.covariance = d.asDiagonal() * (hac_ok ? Hc : Cc) * d.asDiagonal();
+    for (int a = 0; a < nb; ++a) {
+      const int j = j0 + a;
+      const double sd = std::sqrt(std::max(0.0, u.covariance(a, a)));
+      const double v = f.effects[static_cast<std::size_t>(e)].coordinate(m.coordinateIndex(j));
+      const double half = H(j, j) > 0 ? 1.96 * sd : std::numeric_limits<double>::infinity();
+      u.interval95.push_back({std::max(m.range(j).lo, v - half), std::min(m.range(j).hi, v + half)});
+    }
+    j0 = j1;
   }
 }
 
@@ -345,12 +397,11 @@ FitResult fitEffects(const Robot& nominal, const io::Recording& rec, const std::
   const int k = m.parameters();
   if (k == 0) return evaluateModel(nominal, rec, start, use, o, ws);
   std::vector<double> x(static_cast<std::size_t>(k));
-  for (int j = 0; j < k; ++j)
-    x[static_cast<std::size_t>(j)] = m.toX(j, start[static_cast<std::size_t>(m.effectIndex(j))].value);
+  for (int j = 0; j < k; ++j) x[static_cast<std::size_t>(j)] = m.toX(j, m.startValue(j));
   // Coarse grid scan of the new effects (one at a time, others held), keeping the start value if best.
   if (o.grid_search) {
     for (int j = 0; j < k; ++j) {
-      if (m.effectIndex(j) < grid_from) continue;
+      if (m.effectIndex(j) < grid_from || m.range(j).grid.empty()) continue;
       std::vector<std::vector<double>> pts(1, x);  // the start, then the grid (replayed concurrently)
       for (double v : m.range(j).grid) {
         pts.push_back(x);
@@ -425,8 +476,7 @@ FitResult linearizeModel(const Robot& nominal, const io::Recording& rec, const s
                          const std::vector<char>& use, const FitOptions& options, Workspace& ws) {
   Model m(nominal, rec, effects, use, options, ws);
   std::vector<double> x(static_cast<std::size_t>(m.parameters()));
-  for (int j = 0; j < m.parameters(); ++j)
-    x[static_cast<std::size_t>(j)] = m.toX(j, effects[static_cast<std::size_t>(m.effectIndex(j))].value);
+  for (int j = 0; j < m.parameters(); ++j) x[static_cast<std::size_t>(j)] = m.toX(j, m.startValue(j));
   FitResult f = m.evaluate(m.effectsAt(x.data()));
   f.cost = m.cost(f);
   if (m.parameters() > 0) addLinearisation(m, x, f);
@@ -459,9 +509,10 @@ CrossValidation crossValidate(const Robot& nominal, const io::Recording& rec, co
     cv.heldout.of(q) = Eigen::MatrixXd::Constant(rows, M.cols(), std::numeric_limits<double>::quiet_NaN());
   }
   std::vector<FitResult> fits(static_cast<std::size_t>(nf));
+  const int ncoord = coordinateCount(start);
   const bool one_step =
-      full && !start.empty() && full->jacobian.cols() == static_cast<Eigen::Index>(start.size()) &&
-      full->x.size() == start.size() && full->components > 0 &&
+      full && !start.empty() && full->jacobian.cols() == ncoord &&
+      full->x.size() == static_cast<std::size_t>(ncoord) && full->components > 0 &&
       full->jacobian.rows() == static_cast<Eigen::Index>(full->jacobian_rows.size()) * full->components;
   auto fitFold = [&](int f, Workspace& w) {
     std::vector<char> train(static_cast<std::size_t>(rows));
@@ -470,7 +521,7 @@ CrossValidation crossValidate(const Robot& nominal, const io::Recording& rec, co
       fits[static_cast<std::size_t>(f)] = evaluateModel(nominal, rec, start, train, o, w);
     } else if (one_step) {
       // One Gauss-Newton step from the full-data optimum using the training rows' part of its linearisation.
-      const int C = full->components, k = static_cast<int>(start.size());
+      const int C = full->components, k = ncoord;
       Eigen::MatrixXd H = Eigen::MatrixXd::Zero(k, k);
       Eigen::VectorXd g = Eigen::VectorXd::Zero(k);
       for (std::size_t i = 0; i < full->jacobian_rows.size(); ++i) {
@@ -482,12 +533,14 @@ CrossValidation crossValidate(const Robot& nominal, const io::Recording& rec, co
       H.diagonal().array() += 1e-9 * std::max(1e-300, H.diagonal().maxCoeff());
       const Eigen::VectorXd dx = -H.ldlt().solve(g);
       std::vector<Effect> e = start;
-      for (int j = 0; j < k; ++j) {
-        const ParameterRange pr =
-            parameterRange(nominal, rec, e[static_cast<std::size_t>(j)].kind, e[static_cast<std::size_t>(j)].tube);
-        const double xj = std::clamp(full->x[static_cast<std::size_t>(j)] + (dx.allFinite() ? dx[j] : 0.0), 0.0, 1.0);
-        e[static_cast<std::size_t>(j)].value = pr.lo + xj * (pr.hi - pr.lo);
-      }
+      int j = 0;
+      for (Effect& ef : e)
+        for (int c = 0; c < parameterCount(ef.kind); ++c, ++j) {
+          const ParameterRange pr = parameterRange(nominal, rec, ef.kind, ef.tube, c);
+          const double xj =
+              std::clamp(full->x[static_cast<std::size_t>(j)] + (dx.allFinite() ? dx[j] : 0.0), 0.0, 1.0);
+          ef.setCoordinate(c, pr.lo + xj * (pr.hi - pr.lo));
+        }
       fits[static_cast<std::size_t>(f)] = evaluateModel(nominal, rec, e, train, o, w);
     } else {
       fits[static_cast<std::size_t>(f)] = fitEffects(nominal, rec, start, train, o, w);

@@ -150,6 +150,7 @@ Prediction predict(const Robot& nominal, const std::vector<Configuration>& comma
   p.moment.setConstant(rows, nan);
   p.ok.assign(static_cast<std::size_t>(rows), 0);
   p.reason.assign(static_cast<std::size_t>(rows), std::string());
+  if (options.keep_solutions) p.solutions.assign(static_cast<std::size_t>(rows), Solution{});
   if (rows == 0) return p;
   auto fail = [&](int k, const std::string& why) {
     ++p.failures;
@@ -162,6 +163,7 @@ Prediction predict(const Robot& nominal, const std::vector<Configuration>& comma
     if (snapped)
       return fail(k, "snapped (the equilibrium branch ended; the quasi-static model cannot follow the jump)");
     p.ok[static_cast<std::size_t>(k)] = 1;
+    if (options.keep_solutions) p.solutions[static_cast<std::size_t>(k)] = s;
     if (s.twist.size() == n - 1) p.twist.row(k) = s.twist.transpose();
     p.tip_position.row(k) = s.tip_position.transpose();
     p.tip_tangent.row(k) = s.tipTangent().transpose();

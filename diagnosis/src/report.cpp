@@ -21,12 +21,6 @@ json mapJson(const std::map<std::string, double>& m) {
   return j;
 }
 
-json intervalJson(const std::map<std::string, std::array<double, 2>>& m) {
-  json j = json::object();
-  for (const auto& kv : m) j[kv.first] = json::array({num(kv.second[0]), num(kv.second[1])});
-  return j;
-}
-
 json scoreJson(const ModelScore& s) {
   json j;
   j["model"] = s.model;
@@ -73,11 +67,57 @@ json binsJson(const std::vector<BinSummary>& bins) {
   return a;
 }
 
-std::map<std::string, double> paramsOfEffect(const Effect& e) {
-  std::map<std::string, double> p;
-  if (isPerTube(e.kind)) p["tube"] = e.tube;
-  p[parameterName(e.kind)] = e.value;
-  return p;
+// A parameter's value: a number, or an array for a vector parameter (force, direction).
+json paramValueJson(const NamedParameter& p) {
+  if (p.name == "tube") return json(static_cast<int>(p.value.front()));
+  if (p.value.size() == 1) return num(p.value.front());
+  json a = json::array();
+  for (double v : p.value) a.push_back(num(v));
+  return a;
+}
+
+// A parameter's 95 % interval: [lo, hi], or one [lo, hi] per component of a vector parameter.
+json paramIntervalJson(const NamedParameter& p) {
+  auto iv = [](const std::array<double, 2>& x) { return json::array({num(x[0]), num(x[1])}); };
+  if (p.interval95.size() == 1) return iv(p.interval95.front());
+  json a = json::array();
+  for (const auto& x : p.interval95) a.push_back(iv(x));
+  return a;
+}
+
+json parametersJson(const std::vector<NamedParameter>& ps) {
+  json j = json::object();
+  for (const NamedParameter& p : ps) j[p.name] = paramValueJson(p);
+  return j;
+}
+
+json intervalsJson(const std::vector<NamedParameter>& ps) {
+  json j = json::object();
+  for (const NamedParameter& p : ps)
+    if (!p.interval95.empty()) j[p.name] = paramIntervalJson(p);
+  return j;
+}
+
+// "mu=0.118" / "force=(0.05, 0, -0.1)" / "tube=2".
+std::string paramText(const NamedParameter& p) {
+  char b[64];
+  std::string t = p.name + "=";
+  if (p.value.size() > 1) t += "(";
+  for (std::size_t i = 0; i < p.value.size(); ++i) {
+    std::snprintf(b, sizeof b, "%.4g", p.value[i]);
+    t += (i ? ", " : "") + std::string(b);
+  }
+  return t + (p.value.size() > 1 ? ")" : "");
+}
+
+std::string intervalText(const NamedParameter& p) {
+  char b[128];
+  std::string t;
+  for (std::size_t i = 0; i < p.interval95.size(); ++i) {
+    std::snprintf(b, sizeof b, "[%.4g, %.4g]", p.interval95[i][0], p.interval95[i][1]);
+    t += (i ? " " : "") + std::string(b);
+  }
+  return t;
 }
 
 std::string f4(double v) {
@@ -94,11 +134,17 @@ std::string reportToJson(const DiagnosisReport& r) {
   json fin = scoreJson(r.final);
   json effects = json::array();
   for (const Effect& e : r.final_effects) {
-    json x{{"effect", effectName(e.kind)}, {parameterName(e.kind), num(e.value)}};
-    if (isPerTube(e.kind)) x["tube"] = e.tube;
-    if (r.final_intervals.count(e.label())) {
-      const auto& iv = r.final_intervals.at(e.label());
-      x["interval95"] = json::array({num(iv[0]), num(iv[1])});
+    const auto u = r.final_uncertainty.find(e.label());
+    const std::vector<NamedParameter> ps = namedParameters(e, u != r.final_uncertainty.end() ? &u->second : nullptr);
+    json x{{"effect", effectName(e.kind)}};
+    for (const NamedParameter& p : ps) x[p.name] = paramValueJson(p);
+    // One-parameter kinds: "interval95": [lo, hi] (as before); kinds with several parameters: one per parameter,
+    // {"scale": [lo, hi], "direction": [[lo, hi], [lo, hi], [lo, hi]]} or {"force": [[lo, hi], x3]}.
+    if (parameterCount(e.kind) == 1) {
+      for (const NamedParameter& p : ps)
+        if (p.name != "tube" && !p.interval95.empty()) x["interval95"] = paramIntervalJson(p);
+    } else if (!intervalsJson(ps).empty()) {
+      x["interval95"] = intervalsJson(ps);
     }
     effects.push_back(x);
   }
@@ -116,8 +162,8 @@ std::string reportToJson(const DiagnosisReport& r) {
     x["effect"] = effectName(f.effect.kind);
     x["accepted"] = f.accepted;
     x["round"] = f.round;
-    x["parameters"] = mapJson(f.parameters);
-    x["interval95"] = intervalJson(f.interval95);
+    x["parameters"] = parametersJson(f.parameters);
+    x["interval95"] = intervalsJson(f.parameters);
     x["heldout_rmse"] = mapJson(f.heldout_rmse);
     x["heldout_p"] = num(f.heldout_p);
     x["delta_bic"] = num(f.delta_bic);
@@ -133,7 +179,7 @@ std::string reportToJson(const DiagnosisReport& r) {
     if (!f.ambiguous_with.empty()) {
       json a = json::array();
       for (const Rival& rv : f.ambiguous_with) {
-        json y{{"effect", effectName(rv.effect.kind)}, {"parameters", mapJson(paramsOfEffect(rv.effect))},
+        json y{{"effect", effectName(rv.effect.kind)}, {"parameters", parametersJson(namedParameters(rv.effect))},
                {"delta_bic", num(rv.delta_bic)},       {"heldout_rmse", mapJson(rv.heldout_rmse)},
                {"heldout_p", num(rv.heldout_p)},       {"why", rv.why}};
         a.push_back(y);
@@ -274,9 +320,11 @@ std::string reportToMarkdown(const DiagnosisReport& r, const io::Recording& full
        "|\n|---|---|---|---|---|---|---|\n";
   for (const Finding& f : r.findings) {
     o << "| " << f.effect.label() << " | " << (f.accepted ? "**yes**" : "no") << " | ";
-    for (const auto& kv : f.parameters) o << kv.first << "=" << f4(kv.second) << " ";
+    for (const NamedParameter& p : f.parameters) o << paramText(p) << " ";
     o << " | ";
-    for (const auto& kv : f.interval95) o << "[" << f4(kv.second[0]) << ", " << f4(kv.second[1]) << "]";
+    for (const NamedParameter& p : f.parameters)
+      if (!p.interval95.empty())
+        o << (parameterCount(f.effect.kind) > 1 ? p.name + " " : std::string()) << intervalText(p) << " ";
     o << " | " << f4(f.delta_bic) << " | " << f4(f.heldout_p) << " | " << f.explanation << " |\n";
   }
   o << "\n## Held-out error before and after\n\n| quantity | nominal | " << r.final.model << " |\n|---|---|---|\n";
@@ -291,11 +339,18 @@ std::string reportToMarkdown(const DiagnosisReport& r, const io::Recording& full
   if (!r.final_effects.empty()) {
     o << "## Fitted parameters (all rows)\n\n| effect | parameter | value | 95 % interval |\n|---|---|---|---|\n";
     for (const Effect& e : r.final_effects) {
-      o << "| " << e.label() << " | " << parameterName(e.kind) << " (" << parameterUnit(e.kind) << ") | " << f4(e.value)
-        << " | ";
-      if (r.final_intervals.count(e.label()))
-        o << "[" << f4(r.final_intervals.at(e.label())[0]) << ", " << f4(r.final_intervals.at(e.label())[1]) << "]";
-      o << " |\n";
+      const auto u = r.final_uncertainty.find(e.label());
+      for (const NamedParameter& p : namedParameters(e, u != r.final_uncertainty.end() ? &u->second : nullptr)) {
+        if (p.name == "tube") continue;
+        const std::string unit = p.name == "direction" ? "unit vector, base frame"
+                                 : p.name == "scale"   ? "x 9.81 m/s^2"
+                                 : p.name == "force"   ? "N, base frame"
+                                                       : parameterUnit(e.kind);
+        std::string value = paramText(p);
+        value = value.substr(value.find('=') + 1);
+        o << "| " << e.label() << " | " << p.name << " (" << unit << ") | " << value << " | " << intervalText(p)
+          << " |\n";
+      }
     }
     o << "\nIntervals: Gauss-Newton with a pre-whitened Newey-West (HAC) covariance over rows, robust to serially "
          "correlated model error (never narrower than the independent-residual interval).\n\n";

@@ -10,10 +10,19 @@ const app = document.getElementById('app');
 const quantities = Object.keys(rep.baseline.heldout_rmse || {});
 const noiseOf = (q) => (rep.noise || {})[q];
 
+// A parameter is a number or a 3-vector (tip_load force, gravity direction); its interval [lo, hi] or one per
+// component.
+function valueText(v) {
+  return Array.isArray(v) ? `(${v.map((x) => fmt(x)).join(', ')})` : fmt(v);
+}
+function intervalText(iv) {
+  if (!iv) return '';
+  return Array.isArray(iv[0]) ? iv.map((x) => `[${fmt(x[0])}, ${fmt(x[1])}]`).join(' ') : `[${fmt(iv[0])}, ${fmt(iv[1])}]`;
+}
 function paramText(params, intervals) {
   return Object.entries(params || {}).map(([k, v]) => {
     const iv = (intervals || {})[k];
-    return `${k} = ${fmt(v)}` + (iv ? ` [${fmt(iv[0])}, ${fmt(iv[1])}]` : '');
+    return `${k} = ${valueText(v)}` + (iv ? ` ${intervalText(iv)}` : '');
   }).join('; ');
 }
 function rmseText(m) {
@@ -63,11 +72,14 @@ if ((rep.failed_rows || []).length) {
 // Fitted parameters.
 const eff = (rep.final && rep.final.effects) || [];
 if (eff.length) {
-  const rows = eff.map((e) => {
+  // One row per parameter: one-parameter effects carry "interval95": [lo, hi]; gravity (scale, direction) and
+  // tip_load (force) carry one interval per parameter name.
+  const rows = eff.flatMap((e) => {
     const keys = Object.keys(e).filter((k) => !['effect', 'tube', 'interval95'].includes(k));
-    const k = keys[0];
-    return [e.effect + (e.tube !== undefined ? ` (tube ${e.tube})` : ''), k || '', fmt(e[k]),
-      e.interval95 ? `[${fmt(e.interval95[0])}, ${fmt(e.interval95[1])}]` : '–'];
+    return keys.map((k) => {
+      const iv = e.interval95 && !Array.isArray(e.interval95) ? e.interval95[k] : e.interval95;
+      return [e.effect + (e.tube !== undefined ? ` (tube ${e.tube})` : ''), k, valueText(e[k]), iv ? intervalText(iv) : '–'];
+    });
   });
   app.appendChild(h('section', { class: 'card', id: 'parameters' }, h('h2', {}, 'Fitted parameters (all rows)'),
     table(['effect', 'parameter', 'value', '95 % interval'], rows, { class: 'params' }),

@@ -70,8 +70,9 @@ struct Finding {
   std::vector<Effect> model;                   ///< The full model it was fitted in.
   bool accepted = false;
   int round = 0;                               ///< Selection round (1-based).
-  std::map<std::string, double> parameters;    ///< e.g. {"mu": 0.118} (+ "tube").
-  std::map<std::string, std::array<double, 2>> interval95;
+  /// The reported parameters with their 95 % intervals (namedParameters): e.g. `mu` (+ `tube`); `force` (3-vector)
+  /// for tip_load; `scale` and `direction` for gravity.
+  std::vector<NamedParameter> parameters;
   std::map<std::string, double> heldout_rmse;
   double heldout_score = 0.0;
   double heldout_p = 1.0;                      ///< One-sided p of the held-out improvement.
@@ -118,7 +119,7 @@ struct DiagnosisReport {
   std::vector<FailedRow> failed_rows; ///< Rows excluded because a model could not evaluate them.
   bool reliable = true;               ///< False when more than unreliable_fraction of the rows failed.
   std::vector<Effect> final_effects;  ///< With fitted values.
-  std::map<std::string, std::array<double, 2>> final_intervals;  ///< Keyed by Effect::label().
+  std::map<std::string, EffectUncertainty> final_uncertainty;  ///< Intervals and covariance, by Effect::label().
   ModelScore baseline, final;
   MismatchReport mismatch;            ///< Of the baseline.
   std::vector<Finding> findings;      ///< Every candidate tried.

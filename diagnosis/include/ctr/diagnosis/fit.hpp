@@ -21,8 +21,13 @@ struct ParameterRange {
   std::vector<double> grid;
 };
 
-/// @brief Range of the parameter of (kind, tube) for a robot and recording.
-ParameterRange parameterRange(const Robot& nominal, const io::Recording& rec, EffectKind kind, int tube);
+/// @brief Range of fitted coordinate `coordinate` of (kind, tube) for a robot and recording (the vector kinds:
+/// each component of the force, or of scale * direction, around its nominal value).
+ParameterRange parameterRange(const Robot& nominal, const io::Recording& rec, EffectKind kind, int tube,
+                              int coordinate = 0);
+
+/// @brief Fitted coordinates of a model: the sum of parameterCount over its effects (the k of its BIC).
+int coordinateCount(const std::vector<Effect>& effects);
 
 /// @brief Options of fitEffects().
 struct FitOptions {
@@ -52,8 +57,10 @@ struct FitOptions {
 /// @brief A fitted model evaluated on every row.
 struct FitResult {
   std::vector<Effect> effects;                        ///< Fitted values.
-  std::vector<std::array<double, 2>> interval95;      ///< Per effect (empty when not computed): Gauss-Newton with
-                                                      ///< the pre-whitened HAC covariance over rows (serial correlation).
+  /// Per effect (empty when not computed; an effect held in the fit has an empty entry): 95 % intervals of its
+  /// coordinates and their covariance, Gauss-Newton with the pre-whitened HAC covariance over rows (serial
+  /// correlation).
+  std::vector<EffectUncertainty> uncertainty;
   double interval_serial_correlation = 0.0;           ///< AR(1) coefficient of the row scores behind the intervals.
   Registration registration;                          ///< Sensor registration (FrameMode::Unknown).
   Prediction prediction;                              ///< All rows, in the sensor frame.
@@ -64,7 +71,8 @@ struct FitResult {
   std::string message;
   /// Linearisation at the optimum (filled when intervals are computed): Jacobian of the noise-normalised residuals
   /// of the fit rows (row blocks of `components` entries, rows listed in `jacobian_rows`) with respect to the
-  /// parameters scaled to [0, 1] over their ranges (`x`). Used by the one-step cross-validation.
+  /// fitted coordinates (effect by effect, parameterCount each) scaled to [0, 1] over their ranges (`x`). Used by
+  /// the one-step cross-validation.
   Eigen::MatrixXd jacobian;
   Eigen::VectorXd weighted_residuals;
   std::vector<int> jacobian_rows;

@@ -36,6 +36,8 @@ struct PredictOptions {
   /// the start), so a row whose coarse pass converges without a snap equals the fine replay (tests/diagnosis checks
   /// this to 1e-8); other rows, where the return mapping is path dependent, always use the fine sub-steps.
   double coarse_rotation_step = 0.175;  // 10 deg
+  /// Keep each row's equilibrium (Prediction::solutions), e.g. to linearise the model around it (load screen).
+  bool keep_solutions = false;
   PredictOptions() {
     friction.max_rotation_step = 0.035;  // 2 deg
     friction.kinematics.record_backbone = false;
@@ -60,6 +62,9 @@ struct Prediction {
   std::vector<std::string> reason;  ///< Why a row failed ("" when ok).
   int failures = 0;              ///< Rows with ok = 0.
   int restarts = 0;              ///< Stateful replay restarted at rest after a failure (memory lost).
+  /// Each row's equilibrium (with its contact laws) when PredictOptions::keep_solutions; an unconverged Solution on
+  /// failed rows. Empty otherwise.
+  std::vector<Solution> solutions;
   int rows() const { return static_cast<int>(ok.size()); }
 };
 

@@ -279,6 +279,48 @@ TEST(Cli, SweepAndSimulateUnderLoads) {
   EXPECT_NE(readRows(o0), readRows(o1));
 }
 
+TEST(Cli, InjectedTipLoadIsSimulatedWithTheLoadedModel) {
+  // `ctr recording inject --effect tip_load:...` (no noise, frictionless): every row's tip is the loaded model's, as
+  // `ctr fk --tip-force` gives it, and the truth file carries the force.
+  const fs::path act = tmp("act_load.csv"), out = tmp("rec_load.csv"), truth = tmp("rec_load.truth.json");
+  {
+    std::ofstream a(act);
+    a << "alpha_1,alpha_2,beta_1,beta_2\n";
+    for (int k = 0; k < 4; ++k) a << "0," << 0.4 * k << ",-0.018,-0.018\n";
+  }
+  const Proc r = run("recording inject --robot " + robot("tube_pair_B.yaml") + " --actuation " + act.string() +
+                     " --effect tip_load:force=0.1,-0.05,0 --noise-position 0 --noise-twist 0 --noise-tangent 0"
+                     " --measure tip_position --out " + out.string() + " --truth " + truth.string());
+  ASSERT_EQ(r.code, 0) << r.err;
+  std::ifstream in(out);
+  std::string line;
+  std::getline(in, line);
+  ASSERT_EQ(line, "alpha_1,alpha_2,beta_1,beta_2,tip_x,tip_y,tip_z");
+  int rows = 0;
+  double moved = 0.0;
+  while (std::getline(in, line)) {
+    std::vector<double> v;
+    std::stringstream ss(line);
+    for (std::string c; std::getline(ss, c, ',');) v.push_back(std::stod(c));
+    ASSERT_EQ(v.size(), 7u) << line;
+    const std::string cfg = " --alpha 0," + std::to_string(v[1]) + " --beta -0.018,-0.018 --json";
+    const std::vector<double> loaded = tipOf(run("fk --robot " + robot("tube_pair_B.yaml") + cfg +
+                                                 " --tip-force 0.1,-0.05,0").out);
+    const std::vector<double> free = tipOf(run("fk --robot " + robot("tube_pair_B.yaml") + cfg).out);
+    ASSERT_EQ(loaded.size(), 3u);
+    for (int k = 0; k < 3; ++k) EXPECT_NEAR(v[static_cast<std::size_t>(4 + k)], loaded[static_cast<std::size_t>(k)], 1e-9);
+    moved = std::max(moved, std::hypot(loaded[0] - free[0], loaded[1] - free[1]));
+    ++rows;
+  }
+  EXPECT_EQ(rows, 4);
+  EXPECT_GT(moved, 1e-3);  // the load is visible (mm), so the comparison above tells the models apart
+  std::ifstream tj(truth);
+  const auto j = nlohmann::json::parse(tj);
+  ASSERT_EQ(j.at("effects").size(), 1u);
+  EXPECT_EQ(j["effects"][0]["effect"], "tip_load");
+  EXPECT_EQ(j["effects"][0]["force"], nlohmann::json::array({0.1, -0.05, 0.0}));
+}
+
 TEST(Cli, SimulateWritesARecordingAndNothingOnBadInput) {
   const fs::path act = tmp("act.csv"), out = tmp("rec.csv");
   {

@@ -64,7 +64,8 @@ void registerPlan(CLI::App& app, Action& action) {
         vo.info_json = plan::resultJson(q, r, -1);
         const auto start = plan::startCache(*p.context(), p.query().start, q.history);
         if (start && start->physics_ok) vo.start = start->hysteresis;
-        reports::writeHtml(o->html, reports::planningHtml(*p.context(), wps, viewGoal(q), vo));
+        // p.query(): the goal with a named target resolved to its position in the environment.
+        reports::writeHtml(o->html, reports::planningHtml(*p.context(), wps, viewGoal(p.query()), vo));
         std::cerr << "wrote " << o->html << "\n";
       }
 #endif

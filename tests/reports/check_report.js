@@ -4,7 +4,10 @@
 // moving the robot), and a PNG screenshot kept as a test artefact. Registered by tests/reports/CMakeLists.txt.
 //
 // Usage: node check_report.js --kind diagnosis|sweep|planning|bench --html OUT.html --png OUT.png
-//          [--metrics OUT.json] [--make-path SPEC] [--min-series N] [--accept-exit 0,1] -- COMMAND...
+//          [--metrics OUT.json] [--make-path SPEC] [--min-series N] [--accept-exit 0,1]
+//          [--min-robot-pixels F] -- COMMAND...
+// Planning viewer: the first frame (before any interaction) is kept as OUT.first.png, and the fraction of its canvas
+// pixels drawn in the robot's colours (tubes 1-3, or the collision red) must be at least F (default 0.002).
 'use strict';
 const fs = require('fs');
 const os = require('os');
@@ -17,7 +20,7 @@ function fail(msg) {
 }
 
 const argv = process.argv.slice(2);
-const opt = { accept: [0], minSeries: 1 };
+const opt = { accept: [0], minSeries: 1, minRobotPixels: 0.002 };
 let cmd = [];
 for (let i = 0; i < argv.length; ++i) {
   const a = argv[i];
@@ -30,6 +33,7 @@ for (let i = 0; i < argv.length; ++i) {
   else if (a === '--make-path') opt.makePath = v;
   else if (a === '--min-series') opt.minSeries = Number(v);
   else if (a === '--accept-exit') opt.accept = v.split(',').map(Number);
+  else if (a === '--min-robot-pixels') opt.minRobotPixels = Number(v);
   else fail('unknown option ' + a);
 }
 if (!opt.kind || !opt.html || !opt.png) fail('--kind, --html and --png are required');
@@ -162,6 +166,49 @@ if (/<script[^>]+src=|<link[^>]+href=["']?https?:/i.test(htmlText)) fail('the re
       Object.assign(metrics, { rows: d.rows.length, runs: d.runs });
     }
     if (opt.kind === 'planning') {
+      // The first frame, as the page opened: the robot must be visible (not hidden behind the anatomy). Counted on
+      // the WebGL canvas: pixels of the colours of tubes 1-3 (hue within 12 deg, saturation >= 3/4 of the colour's:
+      // the translucent goal over the anatomy, hue ~25 deg, is paler than the orange tube) or of the collision red
+      // (saturation >= 0.75; the anatomy's red, ~0.45, is paler). Nothing else in the scene has these colours.
+      const firstPng = opt.png.replace(/\.png$/, '') + '.first.png';
+      await page.locator('#viewport canvas').screenshot({ path: firstPng });
+      const first = await page.evaluate(() => {
+        const c = window.ctrReport;
+        const canvas = document.querySelector('#viewport canvas');
+        const w = canvas.width, hgt = canvas.height;
+        const cv = document.createElement('canvas');
+        cv.width = w; cv.height = hgt;
+        const g = cv.getContext('2d');
+        g.drawImage(canvas, 0, 0);
+        const px = g.getImageData(0, 0, w, hgt).data;
+        const hsv = (r, gr, b) => {
+          const mx = Math.max(r, gr, b), mn = Math.min(r, gr, b), dd = mx - mn;
+          let hue = 0;
+          if (dd > 0) hue = mx === r ? ((gr - b) / dd) % 6 : mx === gr ? (b - r) / dd + 2 : (r - gr) / dd + 4;
+          return [(hue * 60 + 360) % 360, mx > 0 ? dd / mx : 0, mx / 255];
+        };
+        // The viewer's colours of tubes 1-3 (planning.js tubeColor).
+        const tubes = ['#4a7fb5', '#e8a33d', '#5fb35f'].slice(0, window.ctrReport.tubeCount || 3)
+          .map((x) => hsv(parseInt(x.slice(1, 3), 16), parseInt(x.slice(3, 5), 16), parseInt(x.slice(5, 7), 16)));
+        let tube = 0, red = 0;
+        for (let k = 0; k < px.length; k += 4) {
+          const [hue, sat, val] = hsv(px[k], px[k + 1], px[k + 2]);
+          if (val < 0.15) continue;
+          if (tubes.some(([th, ts]) => Math.min(Math.abs(hue - th), 360 - Math.abs(hue - th)) <= 12 && sat >= 0.75 * ts)) ++tube;
+          else if ((hue <= 12 || hue >= 348) && sat >= 0.75 && val >= 0.3) ++red;
+        }
+        return { w, h: hgt, tube, red, fraction: (tube + red) / (w * hgt), current: c.current(), colors: c.tubeColors,
+          firstView: c.firstView || null };
+      });
+      check(!first.colors || ['#4a7fb5', '#e8a33d', '#5fb35f'].every((x, i) => i >= first.colors.length || first.colors[i] === x),
+        `the viewer's tube colours ${first.colors} are not the ones this test counts`);
+      check(first.fraction >= opt.minRobotPixels,
+        `the robot is hardly visible in the first frame: ${first.tube + first.red} of ${first.w}x${first.h} canvas pixels ` +
+        `(${(100 * first.fraction).toFixed(3)} %, need ${(100 * opt.minRobotPixels).toFixed(3)} %); see ${firstPng}`);
+      Object.assign(metrics, { first_frame_robot_pixels: first.tube + first.red, first_frame_robot_fraction: first.fraction,
+        first_frame_waypoint: first.current, first_view: first.firstView });
+      console.log(`first frame: ${first.tube} tube + ${first.red} collision-red pixels of ${first.w}x${first.h} ` +
+        `(${(100 * first.fraction).toFixed(3)} %), waypoint ${first.current}; ${firstPng}`);
       const r = await page.evaluate(async () => {
         const c = window.ctrReport;
         const n = c.waypoints;

@@ -22,6 +22,7 @@ const chkBand = h('input', { type: 'checkbox', checked: true, id: 'show-band' })
 const chkCut = h('input', { type: 'checkbox', checked: true, id: 'cutaway' });
 const opacity = h('input', { type: 'range', min: 5, max: 100, value: 100, id: 'anatomy-opacity' });
 const resetBtn = h('button', { type: 'button', id: 'reset-view' }, 'frame robot');
+const wholeBtn = h('button', { type: 'button', id: 'whole-view' }, 'whole anatomy');
 const info = d.info || {};
 const solvedText = info.solved === undefined ? '' : info.solved ? 'solved' : 'not solved';
 const panel = h('aside', { class: 'side card' },
@@ -40,9 +41,9 @@ const panel = h('aside', { class: 'side card' },
     d.bands.length ? h('li', {}, h('span', { class: 'sw', style: 'background:#7b3294' }), 'friction band (ghost shapes)') : null),
   h('h3', {}, 'Waypoint'), label, status, cfgBox,
   h('h3', {}, 'Display'),
-  h('label', {}, chkAnat, ' anatomy'), h('label', { title: 'Hide the anatomy between the camera and the robot' }, chkCut, ' cut away the near side'),
+  h('label', {}, chkAnat, ' anatomy'), h('label', { title: 'Hide the anatomy between the camera and the robot or its tip path (and just around them)' }, chkCut, ' cut away around the robot'),
   h('label', {}, ' opacity ', opacity),
-  d.bands.length ? h('label', {}, chkBand, ' friction band') : null, resetBtn,
+  d.bands.length ? h('label', {}, chkBand, ' friction band') : null, h('div', { class: 'view-buttons' }, resetBtn, ' ', wholeBtn),
   h('p', { class: 'note' }, 'Drag to orbit, right-drag to pan, wheel to zoom. Keys ← → step through the path.'));
 app.appendChild(header(d.title || 'Planning viewer', `${d.robot} in ${d.environment} — mode ${d.mode}`));
 app.appendChild(h('div', { class: 'viewer' }, h('div', { class: 'view-col' }, view, h('div', { class: 'controls' }, play, slider)), panel));
@@ -53,6 +54,7 @@ function tubeColor(i) { return ['#4a7fb5', '#e8a33d', '#5fb35f', '#a05fb3', '#b3
 const renderer = new THREE.WebGLRenderer({ antialias: true, preserveDrawingBuffer: true });
 renderer.localClippingEnabled = true;
 renderer.setPixelRatio(Math.min(window.devicePixelRatio || 1, 2));
+renderer.setClearColor(0x000000, 0);  // render targets (the cutaway pass); the scene has its own background
 view.appendChild(renderer.domElement);
 const scene = new THREE.Scene();
 scene.background = new THREE.Color(0xf4f5f7);
@@ -60,47 +62,172 @@ scene.add(new THREE.HemisphereLight(0xffffff, 0x8899aa, 1.6));
 const sun = new THREE.DirectionalLight(0xffffff, 1.6);
 scene.add(sun);
 const camera = new THREE.PerspectiveCamera(40, 1, 1e-4, 10);
+camera.up.set(0, 0, 1);  // before the controls are made: their orbit axis is the camera's up
 scene.add(camera);
 camera.add(sun);
 sun.position.set(0.3, 0.5, 1);
 const controls = new OrbitControls(camera, renderer.domElement);
 controls.enableDamping = false;
 
-// Bounds of the robot path (+ goal) for framing.
+// Bounds of the robot path (+ goal).
 const lo = new THREE.Vector3(...d.bounds.lo), hi = new THREE.Vector3(...d.bounds.hi);
-const center = lo.clone().add(hi).multiplyScalar(0.5);
 const size = Math.max(hi.clone().sub(lo).length(), 0.03);
-camera.near = size / 500; camera.far = size * 200; camera.updateProjectionMatrix();
-function frame() {
-  const base = new THREE.Vector3(...d.base.z).normalize();
-  // Look from the side of the insertion axis, slightly from above.
-  let side = new THREE.Vector3(0, 0, 1).cross(base);
-  if (side.lengthSq() < 1e-6) side = new THREE.Vector3(1, 0, 0);
-  side.normalize();
-  const dir = side.multiplyScalar(1).add(base.clone().multiplyScalar(-0.35)).add(new THREE.Vector3(0, 0, 0.45)).normalize();
-  camera.position.copy(center.clone().add(dir.multiplyScalar(size * 1.5)));
-  camera.up.set(0, 0, 1);
-  controls.target.copy(center);
-  controls.update();
-}
-
-// Anatomy: surface voxels as one instanced mesh.
 const vox = d.voxels;
 const nv = vox.length / 4;
-// Cutaway: a clipping plane through the path's centre, facing the camera, hides the anatomy on the near side.
+const tips = d.shapes.map((p) => (p.length >= 3 ? [p[p.length - 3], p[p.length - 2], p[p.length - 1]] : [0, 0, 0]));
+
+// The first view frames the robot's backbone at the first and the last waypoint, the tip path and the goal.
+const framePts = [];
+for (const k of new Set([0, N - 1])) framePts.push(...pointsOf(d.shapes[k]));
+for (const t of tips) framePts.push(new THREE.Vector3(...t));
+if (d.goal) framePts.push(new THREE.Vector3(...d.goal.position));
+if (!framePts.length) framePts.push(lo.clone(), hi.clone());
+// The anatomy's extent (the "whole anatomy" view).
+const anatLo = lo.clone(), anatHi = hi.clone();
+for (let k = 0; k < nv; ++k) {
+  const h2 = vox[4 * k + 3] / 2;
+  for (let c = 0; c < 3; ++c) {
+    anatLo.setComponent(c, Math.min(anatLo.getComponent(c), vox[4 * k + c] - h2));
+    anatHi.setComponent(c, Math.max(anatHi.getComponent(c), vox[4 * k + c] + h2));
+  }
+}
+const anatSize = Math.max(size, anatHi.clone().sub(anatLo).length());
+camera.near = size / 500; camera.far = anatSize * 20; camera.updateProjectionMatrix();
+
+// Anatomy cells on a hash grid (cell: the smallest drawn voxel), to count what lies between a camera and the robot.
+const occ = (() => {
+  let cell = Infinity;
+  for (let k = 0; k < nv; ++k) cell = Math.min(cell, vox[4 * k + 3]);
+  if (!(cell > 0 && Number.isFinite(cell))) return null;
+  const key = (i, j, l) => ((i + 65536) * 131072 + (j + 65536)) * 131072 + (l + 65536);
+  const cells = new Set();
+  for (let k = 0; k < nv; ++k) {
+    const s = vox[4 * k + 3], m = Math.min(8, Math.max(1, Math.round(s / cell)));
+    for (let a = 0; a < m; ++a) for (let b = 0; b < m; ++b) for (let c = 0; c < m; ++c) {
+      cells.add(key(Math.floor((vox[4 * k] + ((a + 0.5) / m - 0.5) * s) / cell),
+        Math.floor((vox[4 * k + 1] + ((b + 0.5) / m - 0.5) * s) / cell),
+        Math.floor((vox[4 * k + 2] + ((c + 0.5) / m - 0.5) * s) / cell)));
+    }
+  }
+  return { cell, has: (p) => cells.has(key(Math.floor(p.x / cell), Math.floor(p.y / cell), Math.floor(p.z / cell))) };
+})();
+
+// Camera basis for a view direction `dir` (unit, from the target towards the camera), up = +z.
+function viewBasis(dir) {
+  const right = new THREE.Vector3(0, 0, 1).cross(dir);
+  if (right.lengthSq() < 1e-9) right.set(1, 0, 0);
+  right.normalize();
+  return { right, up: dir.clone().cross(right).normalize() };
+}
+// Spread of the framed points seen along `dir` (sum of the standard deviations in the image plane): larger is a
+// more side-on, less foreshortened view of the path.
+function spreadAlong(dir) {
+  const { right, up } = viewBasis(dir);
+  let sx = 0, sy = 0, sxx = 0, syy = 0, sxy = 0;
+  for (const p of framePts) {
+    const x = p.dot(right), y = p.dot(up);
+    sx += x; sy += y; sxx += x * x; syy += y * y; sxy += x * y;
+  }
+  const n = framePts.length;
+  const a = sxx / n - (sx / n) ** 2, c = syy / n - (sy / n) ** 2, b = sxy / n - (sx / n) * (sy / n);
+  const tr = a + c, det = a * c - b * b, disc = Math.sqrt(Math.max(0, tr * tr / 4 - det));
+  return Math.sqrt(Math.max(0, tr / 2 + disc)) + Math.sqrt(Math.max(0, tr / 2 - disc));
+}
+// Anatomy cells crossed by rays from points of the robot and the path towards a camera at `dist` along `dir`
+// (mean per ray; cells within `skip` of the point are not counted: the cutaway removes them anyway).
+const rayPts = framePts.filter((p, i) => i % Math.max(1, Math.floor(framePts.length / 96)) === 0);
+function occludersAlong(dir, dist, skip) {
+  if (!occ) return 0;
+  const step = Math.max(occ.cell, dist / 600);
+  let n = 0;
+  const q = new THREE.Vector3();
+  for (const p of rayPts)
+    for (let t = skip; t < dist; t += step) if (occ.has(q.copy(p).addScaledVector(dir, t))) ++n;
+  return n / rayPts.length;
+}
+// Candidate directions: the cube's faces, edges and corners (not straight along ±z, the orbit axis). Among the
+// side-on ones (spread >= 60 % of the best), the one with the fewest anatomy cells in front of the robot and path.
+const cutRadius = Math.max(4 * Math.max(...d.tubes.map((t) => t.outer_diameter)), 0.04 * size);
+function chooseView() {
+  const c = [];
+  for (let x = -1; x <= 1; ++x) for (let y = -1; y <= 1; ++y) for (let z = -1; z <= 1; ++z)
+    if ((x || y) && (x || y || z)) c.push(new THREE.Vector3(x, y, z).normalize());
+  const scored = c.map((dir) => ({ dir, spread: spreadAlong(dir) }));
+  const best = Math.max(...scored.map((s) => s.spread));
+  const side = scored.filter((s) => s.spread >= 0.6 * best);
+  for (const s of side) s.occluders = occludersAlong(s.dir, 1.5 * size, cutRadius);
+  side.sort((a, b) => a.occluders - b.occluders || b.spread - a.spread);
+  return side[0];
+}
+// Puts the camera on `dir` so that every point is in view with a margin.
+function frameOn(points, dir, margin = 1.12) {
+  const { right, up } = viewBasis(dir);
+  const bmin = new THREE.Vector3(Infinity, Infinity, Infinity), bmax = bmin.clone().negate();
+  for (const p of points) { bmin.min(p); bmax.max(p); }
+  const c0 = bmin.clone().add(bmax).multiplyScalar(0.5);
+  let x0 = Infinity, x1 = -Infinity, y0 = Infinity, y1 = -Infinity;
+  for (const p of points) {
+    const x = p.clone().sub(c0).dot(right), y = p.clone().sub(c0).dot(up);
+    x0 = Math.min(x0, x); x1 = Math.max(x1, x); y0 = Math.min(y0, y); y1 = Math.max(y1, y);
+  }
+  const target = c0.clone().addScaledVector(right, (x0 + x1) / 2).addScaledVector(up, (y0 + y1) / 2);
+  const tv = Math.tan((camera.fov * Math.PI) / 360), th = tv * camera.aspect;
+  let dist = 0;
+  for (const p of points) {
+    const q = p.clone().sub(target);
+    dist = Math.max(dist, (margin * Math.abs(q.dot(right))) / th + q.dot(dir), (margin * Math.abs(q.dot(up))) / tv + q.dot(dir));
+  }
+  dist = Math.max(dist, size / 20);
+  camera.position.copy(target).addScaledVector(dir, dist);
+  controls.target.copy(target);
+  controls.update();
+}
+let firstView = null;
+function frame() {
+  const t = performance.now();
+  if (!firstView) firstView = chooseView();
+  frameOn(framePts, firstView.dir);
+  firstView.ms = firstView.ms || performance.now() - t;
+}
+function frameAnatomy() {
+  const pts = [];
+  for (let k = 0; k < 8; ++k)
+    pts.push(new THREE.Vector3(k & 1 ? anatHi.x : anatLo.x, k & 2 ? anatHi.y : anatLo.y, k & 4 ? anatHi.z : anatLo.z));
+  frameOn(pts, camera.position.clone().sub(controls.target).normalize(), 1.02);
+}
+
+// Anatomy: surface voxels as one instanced mesh. Opaque by default (cheap: hidden voxels are depth-rejected); the
+// opacity slider makes it translucent.
+// Cutaway, following the camera: (1) a clipping plane facing the camera hides the anatomy nearer than the robot, its
+// tip path and the goal (less `cutRadius`): the outer wall of a chamber; (2) what lies in front of the robot and the
+// path as seen from the camera, or within `cutRadius` of them, is not drawn: a first pass draws the far side of "halo"
+// spheres (radius cutRadius) strung along the robot and the path into a texture (packed depth, 0 where there is no
+// halo), and the anatomy's fragment shader discards fragments nearer than it. The rest stays as context.
 const cutPlane = new THREE.Plane(new THREE.Vector3(0, 0, -1), 0);
-// Opaque by default (cheap: hidden voxels are depth-rejected); the opacity slider makes it translucent.
+const cutTarget = new THREE.WebGLRenderTarget(1, 1, { minFilter: THREE.NearestFilter, magFilter: THREE.NearestFilter });
+const cut = { cutTex: { value: cutTarget.texture }, cutSize: { value: new THREE.Vector2(1, 1) }, cutOn: { value: 1 } };
 const anatMat = new THREE.MeshLambertMaterial({ color: 0xc9706b, transparent: false, opacity: 1, depthWrite: true,
   clippingPlanes: [cutPlane], side: THREE.DoubleSide });
 function updateCut() {
-  const n = camera.position.clone().sub(center).normalize().negate();
-  // Keep points p with n.p + c >= 0, i.e. behind the centre (+ a margin of a tenth of the view size) as seen from the camera.
-  cutPlane.setFromNormalAndCoplanarPoint(n, center.clone().addScaledVector(n, -0.1 * size));
+  const fwd = camera.getWorldDirection(new THREE.Vector3());
+  let near = Infinity;
+  const q = new THREE.Vector3();
+  for (const p of rayPts) near = Math.min(near, q.copy(p).sub(camera.position).dot(fwd));
+  for (const p of robotPts) near = Math.min(near, q.copy(p).sub(camera.position).dot(fwd));
+  cutPlane.setFromNormalAndCoplanarPoint(fwd, camera.position.clone().addScaledVector(fwd, near - cutRadius));
   if ((anatMat.clippingPlanes.length > 0) !== chkCut.checked) {
     anatMat.clippingPlanes = chkCut.checked ? [cutPlane] : [];
     anatMat.needsUpdate = true;
   }
 }
+anatMat.onBeforeCompile = (sh) => {
+  Object.assign(sh.uniforms, cut);
+  sh.fragmentShader = 'uniform sampler2D cutTex;\nuniform vec2 cutSize;\nuniform float cutOn;\n' +
+    sh.fragmentShader.replace('#include <clipping_planes_fragment>', '#include <clipping_planes_fragment>\n' +
+      '  if (cutOn > 0.5 && gl_FragCoord.z < unpackRGBAToDepth(texture2D(cutTex, gl_FragCoord.xy / cutSize))) discard;')
+    // Inner faces (seen where the cut opens a voxel, or through translucent anatomy) darker: the cut reads as a section.
+    .replace('#include <color_fragment>', '#include <color_fragment>\n  if (!gl_FrontFacing) diffuseColor.rgb *= 0.55;');
+};
 const anatomy = new THREE.InstancedMesh(new THREE.BoxGeometry(1, 1, 1), anatMat, Math.max(1, nv));
 {
   const m = new THREE.Matrix4();
@@ -114,6 +241,45 @@ const anatomy = new THREE.InstancedMesh(new THREE.BoxGeometry(1, 1, 1), anatMat,
   anatomy.renderOrder = 2;
 }
 scene.add(anatomy);
+const haloScene = new THREE.Scene();
+const haloMat = new THREE.ShaderMaterial({
+  side: THREE.BackSide,
+  vertexShader: '#include <common>\nvoid main() {\n#include <begin_vertex>\n#include <project_vertex>\n}',
+  fragmentShader: '#include <packing>\nvoid main() { gl_FragColor = packDepthToRGBA(gl_FragCoord.z); }',
+});
+const haloGeo = new THREE.SphereGeometry(cutRadius, 12, 8);
+// Spheres every half radius along a polyline (at most `cap`).
+function haloCentres(pts, cap) {
+  let len = 0;
+  for (let k = 1; k < pts.length; ++k) len += pts[k].distanceTo(pts[k - 1]);
+  const step = Math.max(cutRadius / 2, len / cap);
+  const out = pts.length ? [pts[0]] : [];
+  let acc = 0;
+  for (let k = 1; k < pts.length; ++k) {
+    const a = pts[k - 1], seg = pts[k].distanceTo(a);
+    for (let s = step - acc; s <= seg; s += step) out.push(a.clone().lerp(pts[k], s / seg));
+    acc = (acc + seg) % step;
+  }
+  if (pts.length > 1) out.push(pts[pts.length - 1]);
+  return out;
+}
+function haloMesh(centres, cap) {
+  const mesh = new THREE.InstancedMesh(haloGeo, haloMat, cap + 2);
+  mesh.frustumCulled = false;
+  setHalo(mesh, centres);
+  haloScene.add(mesh);
+  return mesh;
+}
+function setHalo(mesh, centres) {
+  const m = new THREE.Matrix4();
+  const n = Math.min(centres.length, mesh.instanceMatrix.count);
+  for (let k = 0; k < n; ++k) mesh.setMatrixAt(k, m.makeTranslation(centres[k].x, centres[k].y, centres[k].z));
+  mesh.count = n;
+  mesh.instanceMatrix.needsUpdate = true;
+}
+haloMesh(haloCentres(tips.map((t) => new THREE.Vector3(...t)), 300), 300);
+const robotHalo = haloMesh([], 200);
+if (d.goal) haloMesh([new THREE.Vector3(...d.goal.position)], 1);
 
 // Goal.
 if (d.goal) {
@@ -127,7 +293,6 @@ if (d.goal) {
 }
 
 // Tip trajectory, coloured red where the waypoint is invalid.
-const tips = d.shapes.map((p) => (p.length >= 3 ? [p[p.length - 3], p[p.length - 2], p[p.length - 1]] : [0, 0, 0]));
 {
   const pos = new Float32Array(N * 3), col = new Float32Array(N * 3);
   for (let k = 0; k < N; ++k) {
@@ -178,6 +343,7 @@ function upTo(pts, len, end) {
   return clean;
 }
 let current = -1;
+let robotPts = [];
 let geometrySignature = 0;
 function showWaypoint(k) {
   k = Math.max(0, Math.min(N - 1, Math.round(k)));
@@ -200,6 +366,8 @@ function showWaypoint(k) {
     const p = geo.attributes.position.array;
     for (let q = 0; q < p.length; q += 97) geometrySignature += p[q];
   }
+  robotPts = upTo(pts, len, Math.max(...d.ends[k]));
+  setHalo(robotHalo, haloCentres(robotPts, 200));
   const tip = pts[pts.length - 1];
   if (tip) {
     tipMarker.position.copy(tip);
@@ -240,6 +408,9 @@ function updateBand(k) {
 function resize() {
   const w = view.clientWidth || 800, hgt = view.clientHeight || 600;
   renderer.setSize(w, hgt, false);
+  const db = renderer.getDrawingBufferSize(new THREE.Vector2());
+  cutTarget.setSize(db.x, db.y);
+  cut.cutSize.value.copy(db);
   renderer.domElement.style.width = '100%';
   renderer.domElement.style.height = '100%';
   camera.aspect = w / hgt;
@@ -249,7 +420,19 @@ function resize() {
 let frames = 0;
 // Renders at most once per animation frame (slider drags and playback request many updates).
 let pending = false;
-function draw() { pending = false; updateCut(); renderer.render(scene, camera); ++frames; }
+function draw() {
+  pending = false;
+  cut.cutOn.value = chkCut.checked ? 1 : 0;
+  updateCut();
+  if (chkCut.checked && anatomy.visible) {
+    camera.updateMatrixWorld();
+    renderer.setRenderTarget(cutTarget);
+    renderer.render(haloScene, camera);
+    renderer.setRenderTarget(null);
+  }
+  renderer.render(scene, camera);
+  ++frames;
+}
 function render() {
   if (pending) return;
   pending = true;
@@ -293,11 +476,14 @@ opacity.addEventListener('input', () => {
   if (anatMat.transparent === solid) { anatMat.transparent = !solid; anatMat.depthWrite = solid; anatMat.needsUpdate = true; }
   render();
 });
-resetBtn.addEventListener('click', () => { frame(); render(); });
+// "frame robot": the first view again (cutaway on); "whole anatomy": all of it from the current side (cutaway off).
+resetBtn.addEventListener('click', () => { chkCut.checked = true; frame(); render(); });
+wholeBtn.addEventListener('click', () => { chkCut.checked = false; frameAnatomy(); render(); });
 
-frame();
+// First view: the robot at the last waypoint (at the goal, when the plan solved) with its whole path, framed.
 resize();
-showWaypoint(0);
+frame();
+showWaypoint(N - 1);
 draw();
 const loadMs = performance.now() - t0;
 publish('planning', {
@@ -313,4 +499,8 @@ publish('planning', {
   robotMaterials: () => robot.children.map((c) => (c.material === badMat ? 'collision' : 'ok')),
   bandVisible: () => bandGroup.visible && bandGroup.children.length,
   bands: d.bands.map((b) => b.waypoint),
+  firstView: { waypoint: N - 1, direction: firstView.dir.toArray(), spread: firstView.spread,
+    occluders: firstView.occluders, ms: firstView.ms, cutRadius },
+  tubeColors: d.tubes.map((t, i) => tubeColor(i)),
+  tubeCount: nt,
 });

@@ -136,7 +136,18 @@ if (/<script[^>]+src=|<link[^>]+href=["']?https?:/i.test(htmlText)) fail('the re
       check(!(d.report.failed_rows || []).length || await page.locator('#failed-rows').count() === 1, 'no failed-rows section');
       check(info.charts.some((c) => /residual vs/.test(c.title)), 'no residual-vs-configuration chart');
       check(info.charts.some((c) => /Tip position error|twist/i.test(c.title)), 'no measured-vs-model chart');
-      if (d.report.final.effects.length) check(await page.locator('#parameters tbody tr').count() === d.report.final.effects.length, 'parameters table rows');
+      // One row per fitted parameter of the final (full-data) model, each with its 95 % interval shown (issue #16).
+      const finalParams = d.report.final.effects.flatMap((e) =>
+        Object.keys(e).filter((k) => !['effect', 'tube', 'interval95'].includes(k)).map((k) => `${e.effect} ${k}`));
+      if (finalParams.length) {
+        const prow = await page.locator('#parameters tbody tr').evaluateAll((rs) =>
+          rs.map((r) => [...r.querySelectorAll('td')].map((c) => c.textContent.trim())));
+        check(prow.length === finalParams.length, `parameters table has ${prow.length} rows, expected ${finalParams.length}`);
+        for (const r of prow)
+          check(/^\[[^\]]*\d[^\]]*\]/.test(r[3] || '') && !/–/.test(r[3]),
+            `no 95 % interval shown for ${r[0]} ${r[1]} in the parameters table: '${r[3]}'`);
+        metrics.parameter_rows = prow.map((r) => r.join(' | '));
+      }
       metrics.candidate_rows = rows;
       metrics.recording_rows = d.recording_rows;
       metrics.plot_rows = d.plot.rows;

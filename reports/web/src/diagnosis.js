@@ -19,6 +19,11 @@ function intervalText(iv) {
   if (!iv) return '';
   return Array.isArray(iv[0]) ? iv.map((x) => `[${fmt(x[0])}, ${fmt(x[1])}]`).join(' ') : `[${fmt(iv[0])}, ${fmt(iv[1])}]`;
 }
+// An interval with finite bounds: [lo, hi], or one [lo, hi] per component.
+function hasInterval(iv) {
+  if (!Array.isArray(iv) || !iv.length) return false;
+  return (Array.isArray(iv[0]) ? iv : [iv]).every((x) => Array.isArray(x) && x.length === 2 && x.every(Number.isFinite));
+}
 function paramText(params, intervals) {
   return Object.entries(params || {}).map(([k, v]) => {
     const iv = (intervals || {})[k];
@@ -74,11 +79,19 @@ const eff = (rep.final && rep.final.effects) || [];
 if (eff.length) {
   // One row per parameter: one-parameter effects carry "interval95": [lo, hi]; gravity (scale, direction) and
   // tip_load (force) carry one interval per parameter name.
+  // Where a final effect carries no usable interval, the accepted finding of the same effect (and tube) reports the
+  // same final joint fit with its intervals by parameter name (report.findings[].interval95).
+  const finding = (e) => rep.findings.find((f) => f.accepted && f.effect === e.effect &&
+    (e.tube === undefined || (f.parameters || {}).tube === e.tube));
   const rows = eff.flatMap((e) => {
     const keys = Object.keys(e).filter((k) => !['effect', 'tube', 'interval95'].includes(k));
     return keys.map((k) => {
-      const iv = e.interval95 && !Array.isArray(e.interval95) ? e.interval95[k] : e.interval95;
-      return [e.effect + (e.tube !== undefined ? ` (tube ${e.tube})` : ''), k, valueText(e[k]), iv ? intervalText(iv) : '–'];
+      let iv = e.interval95 && !Array.isArray(e.interval95) ? e.interval95[k] : e.interval95;
+      if (!hasInterval(iv)) {
+        const f = finding(e);
+        if (f && f.interval95 && hasInterval(f.interval95[k])) iv = f.interval95[k];
+      }
+      return [e.effect + (e.tube !== undefined ? ` (tube ${e.tube})` : ''), k, valueText(e[k]), hasInterval(iv) ? intervalText(iv) : '–'];
     });
   });
   app.appendChild(h('section', { class: 'card', id: 'parameters' }, h('h2', {}, 'Fitted parameters (all rows)'),

@@ -10,18 +10,6 @@ namespace ctr::diagnosis {
 
 namespace {
 
-Configuration defaultConfig(const Robot& robot) {
-  const int n = robot.size();
-  Configuration q(Eigen::VectorXd::Zero(n), Eigen::VectorXd::Zero(n));
-  for (int i = 0; i < n; ++i) q.beta[i] = -robot.tube(i).straight_length;
-  for (int i = 1; i < n; ++i) q.beta[i] = std::min(q.beta[i], q.beta[i - 1]);
-  for (int i = 1; i < n; ++i) {
-    const double need = q.beta[i - 1] + robot.tube(i - 1).length() - robot.tube(i).length();
-    if (q.beta[i] < need) q.beta[i] = std::min(need, q.beta[i - 1]);
-  }
-  return q;
-}
-
 /// Admissible interval of the innermost tube's translation with the others at q (shrunk by a margin).
 std::pair<double, double> innerRange(const Robot& robot, const Configuration& q) {
   const int n = robot.size();
@@ -45,7 +33,7 @@ void makeActuation(const Robot& robot, const ActuationOptions& o, std::vector<Co
                    Eigen::VectorXd& time) {
   const int n = robot.size();
   commands.clear();
-  const Configuration q0 = defaultConfig(robot);
+  const Configuration q0 = defaultConfiguration(robot);
   const auto range = innerRange(robot, q0);
   std::mt19937_64 rng(o.seed);
   std::uniform_real_distribution<double> U(0.0, 1.0);

@@ -66,6 +66,17 @@ Result run(const Robot& believed, const std::vector<Effect>& truth, ActuationOpt
   return r;
 }
 
+// A random walk of the joints without time column (rows, seed; the inner tube translating or not).
+ActuationOptions randomWalk(int rows, std::uint64_t seed, bool translate = true) {
+  ActuationOptions a;
+  a.pattern = ActuationPattern::RandomWalk;
+  a.rows = rows;
+  a.translate = translate;
+  a.dt = 0;
+  a.seed = seed;
+  return a;
+}
+
 const Effect* find(const DiagnosisReport& rep, EffectKind k) {
   for (const Effect& e : rep.final_effects)
     if (e.kind == k) return &e;
@@ -178,12 +189,7 @@ TEST(LoadsDiagnosis, ConcealedWeightIsNamedAsGravity) {
   // The robot is bent sideways by its own weight (gravity along -y, perpendicular to the base axis); the
   // description has no density and no gravity. The inner tube translates, so the weight's distribution changes.
   const Robot r = floppyPair();
-  ActuationOptions a;
-  a.pattern = ActuationPattern::RandomWalk;
-  a.rows = 80;
-  a.translate = true;
-  a.dt = 0;
-  a.seed = 31;
+  const ActuationOptions a = randomWalk(80, 31);
   SimulationOptions s;
   s.seed = 32;
   const Effect truth = parseEffect("gravity:scale=1,direction=0,-1,0");
@@ -214,12 +220,7 @@ TEST(LoadsDiagnosis, ConcealedWeightIsNamedAsGravity) {
 
 TEST(LoadsDiagnosis, ConcealedTipForceIsNamedAsTipLoad) {
   const Robot r = floppyPair();
-  ActuationOptions a;
-  a.pattern = ActuationPattern::RandomWalk;
-  a.rows = 80;
-  a.translate = true;
-  a.dt = 0;
-  a.seed = 41;
+  const ActuationOptions a = randomWalk(80, 41);
   SimulationOptions s;
   s.seed = 42;
   const Effect truth = parseEffect("tip_load:force=0.01,0.02,-0.01");
@@ -239,39 +240,26 @@ TEST(LoadsDiagnosis, ConcealedTipForceIsNamedAsTipLoad) {
 
 TEST(LoadsDiagnosis, NoLoadIsInventedOnLoadFreeData) {
   const Robot r = floppyPair();
-  ActuationOptions a;
-  a.pattern = ActuationPattern::RandomWalk;
-  a.rows = 80;
-  a.translate = true;
-  a.dt = 0;
-  a.seed = 51;
+  const ActuationOptions a = randomWalk(80, 51);
   SimulationOptions s;
   s.seed = 52;
   // Noise only.
   const Result null = run(r, {}, a, s, true);
   EXPECT_TRUE(null.rep.verdict.empty()) << null.rep.summary;
   // Friction only.
-  a.rows = 60;
-  a.seed = 53;
   s.seed = 54;
-  const Result fr = run(r, {parseEffect("boundary_friction:mu=0.1")}, a, s, false);
+  const Result fr = run(r, {parseEffect("boundary_friction:mu=0.1")}, randomWalk(60, 53), s, false);
   EXPECT_FALSE(names(fr.rep, "gravity")) << fr.rep.summary;
   EXPECT_FALSE(names(fr.rep, "tip_load")) << fr.rep.summary;
   EXPECT_TRUE(names(fr.rep, "boundary_friction")) << fr.rep.summary;
 }
-
 
 TEST(LoadsDiagnosis, WeightSeenFromOneSideHasHonestIntervals) {
   // Only tube 2 turns: the robot's outer tube always bends in the x-z plane, so a weight along its mean axis hardly
   // bends it. The direction is then poorly determined along that axis -- the fit may land anywhere in that valley,
   // but the reported intervals must say so and contain the truth.
   const Robot r = floppyPair();
-  ActuationOptions a;
-  a.pattern = ActuationPattern::RandomWalk;
-  a.rows = 80;
-  a.translate = true;
-  a.dt = 0;
-  a.seed = 31;
+  const ActuationOptions a = randomWalk(80, 31);
   SimulationOptions s;
   s.seed = 31;
   const Effect truth = parseEffect("gravity:scale=1,direction=0,-1,0");
@@ -298,12 +286,7 @@ TEST(LoadsDiagnosis, GravityAndTipLoadTheRecordingCannotSeparateAreAmbiguous) {
   // No translation: the robot's length and weight distribution never change, so its weight and a constant tip
   // force bend it alike; with noisy positions only, the diagnosis must not pick one of them.
   const Robot r = floppyPair();
-  ActuationOptions a;
-  a.pattern = ActuationPattern::RandomWalk;
-  a.rows = 60;
-  a.translate = false;
-  a.dt = 0;
-  a.seed = 61;
+  const ActuationOptions a = randomWalk(60, 61, false);
   SimulationOptions s;
   s.seed = 62;
   s.twist = s.tip_tangent = false;

@@ -79,18 +79,12 @@ const eff = (rep.final && rep.final.effects) || [];
 if (eff.length) {
   // One row per parameter: one-parameter effects carry "interval95": [lo, hi]; gravity (scale, direction) and
   // tip_load (force) carry one interval per parameter name.
-  // Where a final effect carries no usable interval, the accepted finding of the same effect (and tube) reports the
-  // same final joint fit with its intervals by parameter name (report.findings[].interval95).
-  const finding = (e) => rep.findings.find((f) => f.accepted && f.effect === e.effect &&
-    (e.tube === undefined || (f.parameters || {}).tube === e.tube));
+  // A parameter without a usable interval of the final fit shows '–' (a finding's interval is that of its own
+  // round's fit, not of the final joint fit, so it is not borrowed).
   const rows = eff.flatMap((e) => {
     const keys = Object.keys(e).filter((k) => !['effect', 'tube', 'interval95'].includes(k));
     return keys.map((k) => {
-      let iv = e.interval95 && !Array.isArray(e.interval95) ? e.interval95[k] : e.interval95;
-      if (!hasInterval(iv)) {
-        const f = finding(e);
-        if (f && f.interval95 && hasInterval(f.interval95[k])) iv = f.interval95[k];
-      }
+      const iv = e.interval95 && !Array.isArray(e.interval95) ? e.interval95[k] : e.interval95;
       return [e.effect + (e.tube !== undefined ? ` (tube ${e.tube})` : ''), k, valueText(e[k]), hasInterval(iv) ? intervalText(iv) : '–'];
     });
   });

@@ -29,7 +29,7 @@ RELIABILITY_BUILD=${CTR_RELIABILITY_BUILD_DIR:-build-asan}
 # planner tests and by hand with longer limits) and the five concealed diagnosis cases (5.6 min under ASan; they
 # passed under ASan when run by hand); docs/reliability.md ("Sanitizers"). The time-limited benchmark campaigns
 # (Campaign.BenchCampaign*) and the Slurm job-array test (label slurm) run once, in the normal build.
-export CTR_CTEST_ARGS=${CTR_CTEST_ARGS:--LE test_diagnosis_concealed|slurm -E Planning\.ExactMode|Planning\.FrictionlessMode|Planning\.RobustModeSolves|Planning\.Portfolio|Planning\.InfeasibleLung|Cli\.BenchWrites|Cli\.BenchFills|Cli\.DemoPlans|Campaign\.BenchCampaign}
+export CTR_CTEST_ARGS=${CTR_CTEST_ARGS:--LE test_diagnosis_concealed|slurm -E Planning\.ExactMode|Planning\.FrictionlessMode|Planning\.RobustModeSolves|Planning\.Portfolio|Planning\.InfeasibleLung|Cli\.BenchWrites|Cli\.BenchFills|Cli\.DemoPlans|Campaign\.|LoadsDiagnosis\.}
 if [ "${CI:-}" = true ] || [ "${CTR_SKIP_SANITIZERS:-0}" != 1 ]; then
   scripts/run-sanitizers.sh "$RELIABILITY_BUILD"
 fi

@@ -53,19 +53,15 @@ long alignedVertex(const Band& prev, const std::vector<ContactSite>& sites, std:
   return static_cast<long>(prev_code) + 1;
 }
 
-// The band itself, or an empty band for a motion's first configuration.
-const Band* orEmpty(const Band* p) {
-  static const Band empty;
-  return p ? p : &empty;
-}
-
 // Where a contact site of the previous band vanishes (an end retracting into the actuation unit, a discontinuity
 // passing an end), the torque it held is released at once: the robot jumps from wherever its history put it in the
 // previous band to this band. That is robust only if every shape of the previous band is within the snap threshold
 // of a shape here with the same torque signs at the sites both bands share (a site that appears starts stuck, inside
 // its bounds, so it does not move the robot: any sign of it will do).
-bool releaseIsSmooth(const Band& prev, const Band& cur, double threshold) {
-  if (prev.shapes.size() < 2 || cur.shapes.empty()) return true;
+// No previous band (a motion's first configuration): nothing is released.
+bool releaseIsSmooth(const Band* previous, const Band& cur, double threshold) {
+  if (!previous || previous->shapes.size() < 2 || cur.shapes.empty()) return true;
+  const Band& prev = *previous;
   std::vector<long> to_cur(prev.sites.size(), -1);  // index in cur.sites of each previous site, -1 if it vanished
   bool vanished = false;
   for (std::size_t j = 0; j < prev.sites.size(); ++j) {
@@ -117,7 +113,7 @@ bool bandAt(const Context& ctx, const Configuration& q, ThreadScratch& t, const 
   const std::vector<ContactSite>& sites = out.sites;
   if (robot.friction().boundary <= 0.0) return true;
   if (sites.empty()) {
-    if (!releaseIsSmooth(*orEmpty(prev), out, thr)) {
+    if (!releaseIsSmooth(prev, out, thr)) {
       why = "a contact site vanishes and releases its friction torque (the band jumps)";
       return false;
     }
@@ -148,7 +144,7 @@ bool bandAt(const Context& ctx, const Configuration& q, ThreadScratch& t, const 
     }
     out.shapes.push_back(std::move(s));
   }
-  if (!releaseIsSmooth(*orEmpty(prev), out, thr)) {
+  if (!releaseIsSmooth(prev, out, thr)) {
     why = "a contact site vanishes and releases its friction torque (the band jumps)";
     return false;
   }

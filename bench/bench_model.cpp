@@ -61,15 +61,6 @@ void BM_SolveCold(benchmark::State& st) {
 // The planner's solver settings (ctr::plan::planningKinematicsOptions(); the planner is not linked here): RK4 steps
 // of at most 40 mm and 0.3 rad of bending instead of the library default (10 mm / 0.12 rad), tolerance 1e-8 and the
 // secant warm-start predictor.
-ctr::KinematicsOptions planningSteps() {
-  ctr::KinematicsOptions o;
-  o.max_step = 0.04;
-  o.max_bending_per_step = 0.3;
-  o.tolerance = 1e-8;
-  o.extrapolate_warm_start = true;
-  return o;
-}
-
 // The planner's steps only (library tolerance, no predictor): what the planning settings gain from each part.
 ctr::KinematicsOptions planningStepsOnly() {
   ctr::KinematicsOptions o;
@@ -77,6 +68,15 @@ ctr::KinematicsOptions planningStepsOnly() {
   o.max_bending_per_step = 0.3;
   return o;
 }
+
+ctr::KinematicsOptions planningSteps() {
+  ctr::KinematicsOptions o = planningStepsOnly();
+  o.tolerance = 1e-8;
+  o.extrapolate_warm_start = true;
+  return o;
+}
+
+
 
 // Tip-only solves of the Dupont-lab robot along a sweep (0.5 deg per solve of tubes 2 and 3), each warm-started from
 // the previous one: a controller or a planner's motion check. (BM_SolveWarm above alternates between two fixed
@@ -106,11 +106,9 @@ void sweepSolves(benchmark::State& st, const ctr::Robot& robot, ctr::KinematicsO
   st.counters["newton_iterations"] = solves > 0 ? iterations / solves : 0.0;
 }
 
-// Cold tip-only solves of the Dupont-lab robot with the planner's settings (as BM_SolveCold<true, false>).
-void BM_SolveColdPlanning(benchmark::State& st) {
-  const ctr::Robot robot = loadExample("dupont_lab_3tube.yaml");
+// Cold tip-only solves of a 3-tube robot over 200 configurations (as BM_SolveCold<true, false>).
+void coldSolves(benchmark::State& st, const ctr::Robot& robot, ctr::KinematicsOptions opt) {
   ctr::Workspace ws;
-  ctr::KinematicsOptions opt = planningSteps();
   opt.record_backbone = false;
   int k = 0;
   for (auto _ : st) {
@@ -118,6 +116,9 @@ void BM_SolveColdPlanning(benchmark::State& st) {
     benchmark::DoNotOptimize(ctr::solve(robot, dupontConfig(a, -a), ws, opt).tip_position);
   }
 }
+
+// Cold solves of the Dupont-lab robot with the planner's settings.
+void BM_SolveColdPlanning(benchmark::State& st) { coldSolves(st, loadExample("dupont_lab_3tube.yaml"), planningSteps()); }
 
 // kPlanning: 0 library default, 1 the planner's settings, 2 the planner's steps only.
 template <int kPlanning>
@@ -164,17 +165,7 @@ void BM_LoadedSweep(benchmark::State& st) {
   sweepSolves(st, kLoaded ? loadedDupont() : loadExample("dupont_lab_3tube.yaml"), ctr::KinematicsOptions{});
 }
 
-void BM_LoadedCold(benchmark::State& st) {
-  const ctr::Robot robot = loadedDupont();
-  ctr::Workspace ws;
-  ctr::KinematicsOptions opt;
-  opt.record_backbone = false;
-  int k = 0;
-  for (auto _ : st) {
-    const double a = 0.3 + 0.01 * (k++ % 200);
-    benchmark::DoNotOptimize(ctr::solve(robot, dupontConfig(a, -a), ws, opt).tip_position);
-  }
-}
+void BM_LoadedCold(benchmark::State& st) { coldSolves(st, loadedDupont(), ctr::KinematicsOptions{}); }
 
 // Exact tip Jacobian (6 x 6 actuation) with / without the 6 x 6 compliance at a loaded equilibrium.
 template <bool kCompliance>

@@ -2,7 +2,6 @@
 // same runs from one process and from shards, the Planner Arena database, completeness checks, bad campaign files,
 // progress lines. Runs the real `ctr` executable.
 #include <gtest/gtest.h>
-#include <sys/wait.h>
 #include <unistd.h>
 
 #include <array>
@@ -15,15 +14,14 @@
 #include <sstream>
 #include <string>
 
+#include "run_process.hpp"
+
 namespace fs = std::filesystem;
 using nlohmann::json;
 
 namespace {
 
-struct Proc {
-  int code = -1;
-  std::string out, err;
-};
+using ctr_test::Proc;
 
 fs::path workDir() {
   const fs::path d = fs::temp_directory_path() / ("ctr_campaign_" + std::to_string(::getpid()));
@@ -31,20 +29,7 @@ fs::path workDir() {
   return d;
 }
 
-Proc shell(const std::string& cmd) {
-  const std::string errf = (workDir() / "stderr.txt").string();
-  Proc r;
-  FILE* p = ::popen((cmd + " 2>" + errf).c_str(), "r");
-  std::array<char, 4096> buf{};
-  while (p && std::fgets(buf.data(), buf.size(), p)) r.out += buf.data();
-  const int st = p ? ::pclose(p) : -1;
-  r.code = WIFEXITED(st) ? WEXITSTATUS(st) : -1;
-  std::ifstream e(errf);
-  std::stringstream ss;
-  ss << e.rdbuf();
-  r.err = ss.str();
-  return r;
-}
+Proc shell(const std::string& cmd) { return ctr_test::runShell(cmd, workDir()); }
 
 Proc ctr(const std::string& args) {
   return shell("CTR_PROGRESS=plain " + std::string(CTR_EXE) + " " + args);

@@ -1,7 +1,6 @@
 // Runs the `ctr` executable: output formats, exit codes, negative-number lists, no partial output files.
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
-#include <sys/wait.h>
 
 #include <array>
 #include <cmath>
@@ -12,31 +11,17 @@
 #include <string>
 #include <vector>
 
+#include "run_process.hpp"
+
 namespace fs = std::filesystem;
 
 namespace {
 
-struct Proc {
-  int code = -1;
-  std::string out, err;
-};
+using ctr_test::Proc;
 
 Proc run(const std::string& args) {
-  const fs::path dir = fs::temp_directory_path() / ("ctr_cli_" + std::to_string(::getpid()));
-  fs::create_directories(dir);
-  const std::string errf = (dir / "stderr.txt").string();
-  const std::string cmd = std::string(CTR_EXE) + " " + args + " 2>" + errf;
-  Proc r;
-  FILE* p = ::popen(cmd.c_str(), "r");
-  std::array<char, 4096> buf{};
-  while (p && std::fgets(buf.data(), buf.size(), p)) r.out += buf.data();
-  const int st = p ? ::pclose(p) : -1;
-  r.code = WIFEXITED(st) ? WEXITSTATUS(st) : -1;
-  std::ifstream e(errf);
-  std::stringstream ss;
-  ss << e.rdbuf();
-  r.err = ss.str();
-  return r;
+  return ctr_test::runShell(std::string(CTR_EXE) + " " + args,
+                        fs::temp_directory_path() / ("ctr_cli_" + std::to_string(::getpid())));
 }
 
 std::string robot(const std::string& name) { return std::string(CTR_SOURCE_DIR) + "/examples/robots/" + name; }

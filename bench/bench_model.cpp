@@ -139,11 +139,17 @@ void BM_StickSlipStep3(benchmark::State& st) {
   double a = 0.5;
   ctr::StepResult cur = ctr::initialState(robot, dupontConfig(a, -a), ws, fo);
   int k = 0;
+  double trials = 0.0, iterations = 0.0;
   for (auto _ : st) {
     a += ((k++ / 90) % 2 ? -1.0 : 1.0) * M_PI / 180.0;
     cur = ctr::step(robot, cur.state, dupontConfig(a, -a), ws, fo);
     benchmark::DoNotOptimize(cur.solution.tip_position);
+    trials += cur.summary.active_set_iterations;
+    iterations += cur.solution.summary.iterations;
   }
+  // Contact-mode trials (equilibrium solves) per step, Newton iterations of the accepted solve.
+  st.counters["mode_trials"] = k > 0 ? trials / k : 0.0;
+  st.counters["newton_iterations"] = k > 0 ? iterations / k : 0.0;
 }
 
 // External loads (issue #15): the Dupont-lab robot with nitinol tubes (density 6450 kg/m^3 over its diameters),

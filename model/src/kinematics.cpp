@@ -518,9 +518,14 @@ bool allFinite(const Eigen::VectorXd& v) { return v.allFinite(); }
 
 // Newton from z; returns true on convergence. z, ws outputs updated to the last evaluated point (with `record`, every
 // evaluation records the backbone, so that it is at hand for the returned point without another pass).
+// Below this |stability|, a solution reached by a value-only evaluation is evaluated once more with the Jacobian
+// (the stability's sign and the refinement test then use the exact Jacobian at the solution, as near a fold).
+constexpr double kExactStabilityBelow = 0.25;
+
 bool newton(const Problem& P, Evaluator& E, Outputs& out, Eigen::VectorXd& z, const KinematicsOptions& opt,
             int& iterations, double& res_norm, std::string& why, bool record) {
   E.evaluate(P, z, true, record, out);
+  bool jac_at_z = true;  // E.J (and out.stability) belong to z
   double nr = maxAbs(E.r);
   double merit = E.r.squaredNorm();  // Newton directions descend on the 2-norm (not on the max-norm)
   const double step_cap = 4.0 * M_PI / std::max(P.s_tip, 1e-3);  // limit on a base twist rate change (1/m)
@@ -531,8 +536,16 @@ bool newton(const Problem& P, Evaluator& E, Outputs& out, Eigen::VectorXd& z, co
       return false;
     }
     if (nr < opt.tolerance) {
+      // Converged on a value-only evaluation: the Jacobian (stability) of the previous iterate, within ~|dz| of the
+      // exact one, is kept unless the stability is small enough for its sign or the refinement test to depend on it.
+      const double limit = std::max(kExactStabilityBelow, 2.0 * opt.refine_below_stability);
+      if (!jac_at_z && !(std::abs(out.stability) > limit)) E.evaluate(P, z, true, record, out);
       res_norm = nr;
       return true;
+    }
+    if (!jac_at_z) {  // the value-only evaluation did not converge after all: the Jacobian at z
+      E.evaluate(P, z, true, record, out);
+      jac_at_z = true;
     }
     ++iterations;
     Eigen::PartialPivLU<Eigen::MatrixXd> lu(E.J);
@@ -549,12 +562,15 @@ bool newton(const Problem& P, Evaluator& E, Outputs& out, Eigen::VectorXd& z, co
     }
     const double big = maxAbs(dz.head(P.n));
     if (big > step_cap) dz *= step_cap / big;
+    // Newton's quadratic convergence (residual ~ nr^2 after the step) predicts the step converges: evaluate the
+    // trial points without the Jacobian (its sensitivities are most of an evaluation's cost).
+    const bool value_only = nr * nr < 10.0 * opt.tolerance;
     double t = 1.0;
     Eigen::VectorXd zt;
     bool accepted = false;
     for (int ls = 0; ls < 12; ++ls) {
       zt = z + t * dz;
-      E.evaluate(P, zt, true, record, out);
+      E.evaluate(P, zt, !value_only, record, out);
       const double mt = E.r.squaredNorm();
       if (allFinite(E.r) && mt < (1.0 - 1e-4 * t) * merit) {
         accepted = true;
@@ -565,6 +581,7 @@ bool newton(const Problem& P, Evaluator& E, Outputs& out, Eigen::VectorXd& z, co
       t *= 0.5;
     }
     z = zt;
+    jac_at_z = !value_only;
     if (!accepted) {
       nr = maxAbs(E.r);
       merit = E.r.squaredNorm();
@@ -576,7 +593,10 @@ bool newton(const Problem& P, Evaluator& E, Outputs& out, Eigen::VectorXd& z, co
     }
   }
   res_norm = nr;
-  if (nr < opt.tolerance) return true;
+  if (nr < opt.tolerance) {
+    if (!jac_at_z) E.evaluate(P, z, true, record, out);
+    return true;
+  }
   std::ostringstream os;
   os << "no convergence in " << opt.max_iterations << " Newton iterations (residual " << nr << ")";
   why = os.str();
@@ -700,18 +720,38 @@ Eigen::VectorXd historyKey(const Configuration& q) {
   return v;
 }
 
-// Secant (continuation) predictor: when q continues the straight line through the last two solves of the history
-// (within 2.6 deg, at most two of their steps ahead), the base twist rates extrapolated along it.
-bool secantPredictor(const detail::WarmHistory& H, const Eigen::VectorXd& q, Eigen::VectorXd& z) {
-  if (H.q0.size() != q.size() || H.z0.size() != H.z1.size() || z.size() < H.z1.size()) return false;
-  const Eigen::VectorXd d1 = H.q1 - H.q0, d = q - H.q1;
-  const double n1 = d1.squaredNorm(), nd = d.squaredNorm();
-  if (!(n1 > 0.0) || !(nd > 0.0)) return false;
-  const double dot = d.dot(d1);
-  if (dot < 0.999 * std::sqrt(n1 * nd)) return false;  // not (nearly) the same direction
-  const double t = dot / n1;
-  if (t > 2.0) return false;
-  z.head(H.z1.size()) = H.z1 + t * (H.z1 - H.z0);
+// Continuation predictor: when q continues the straight line through the last solves of the chain (each step
+// within 2.6 deg of the line's direction, q at most two steps ahead), the base twist rates extrapolated along it by
+// the polynomial through up to four of them (Lagrange, in the arc length along the line). A higher-order term larger
+// than a quarter of the secant's step (a fold ahead) falls back to the secant.
+bool continuationPredictor(const detail::WarmHistory& H, const Eigen::VectorXd& q, Eigen::VectorXd& z) {
+  if (H.count < 2 || H.q[0].size() != q.size() || z.size() < H.z[0].size()) return false;
+  const Eigen::VectorXd d = q - H.q[0];
+  const double ahead = d.norm();
+  if (!(ahead > 0.0)) return false;
+  const Eigen::VectorXd u = d / ahead;
+  double s[detail::WarmHistory::kDepth] = {0.0};
+  int points = 1;
+  for (int k = 1; k < H.count; ++k) {
+    if (H.q[k].size() != q.size() || H.z[k].size() != H.z[0].size()) break;
+    const Eigen::VectorXd step = H.q[k - 1] - H.q[k];
+    const double len = step.norm(), along = step.dot(u);
+    if (!(len > 0.0) || along < 0.999 * len) break;  // not (nearly) the same direction
+    s[k] = s[k - 1] - along;
+    ++points;
+  }
+  if (points < 2 || ahead > 2.0 * -s[1]) return false;
+  const Eigen::VectorXd secant = H.z[0] + (ahead / -s[1]) * (H.z[0] - H.z[1]);
+  Eigen::VectorXd pred = Eigen::VectorXd::Zero(H.z[0].size());
+  for (int i = 0; i < points; ++i) {
+    double w = 1.0;
+    for (int j = 0; j < points; ++j)
+      if (j != i) w *= (ahead - s[j]) / (s[i] - s[j]);
+    pred += w * H.z[i];
+  }
+  const double secant_step = (secant - H.z[0]).cwiseAbs().maxCoeff();
+  const bool smooth = pred.allFinite() && (pred - secant).cwiseAbs().maxCoeff() <= 0.25 * secant_step;
+  z.head(H.z[0].size()) = smooth ? pred : secant;
   return z.allFinite();
 }
 
@@ -734,12 +774,12 @@ Solution solveImpl(const Robot& robot, const Configuration& q, const std::vector
   detail::WarmHistory& H = W.history;
   const Eigen::VectorXd qv = historyKey(q);
   // Following a path: the warm start is this workspace's last solve.
-  const bool chained = frictionless && warm && H.has1 && warm->q.size() == q.size() &&
-                       historyKey(warm->q) == H.q1 && warm->base_twist_rate == H.z1;
+  const bool chained = frictionless && warm && H.count > 0 && warm->q.size() == q.size() &&
+                       historyKey(warm->q) == H.q[0] && warm->base_twist_rate == H.z[0];
   bool ok = false;
-  if (opt.extrapolate_warm_start && chained && H.has0) {
+  if (opt.extrapolate_warm_start && chained && H.count >= 2) {
     Eigen::VectorXd zp = z;
-    if (secantPredictor(H, qv, zp)) {
+    if (continuationPredictor(H, qv, zp)) {
       int it_p = 0;
       ok = newton(P, W.eval, W.out, zp, opt, it_p, rn, why, rec);
       iters += it_p;
@@ -814,16 +854,16 @@ Solution solveImpl(const Robot& robot, const Configuration& q, const std::vector
   Solution sol = package(robot, q, P, W.out, z, ok, iters, rn, why, opt);
   sol.summary.continuation_steps = cont_steps;
   if (frictionless && ok) {
-    H.has0 = chained;
-    if (chained) {
-      std::swap(H.q0, H.q1);
-      std::swap(H.z0, H.z1);
+    if (!chained) H.count = 0;
+    for (int k = std::min(H.count, detail::WarmHistory::kDepth - 1); k > 0; --k) {
+      std::swap(H.q[k], H.q[k - 1]);
+      std::swap(H.z[k], H.z[k - 1]);
     }
-    H.q1 = qv;
-    H.z1 = sol.base_twist_rate;
-    H.has1 = true;
+    H.q[0] = qv;
+    H.z[0] = sol.base_twist_rate;
+    H.count = std::min(H.count + 1, detail::WarmHistory::kDepth);
   } else if (frictionless) {
-    H.has1 = H.has0 = false;
+    H.count = 0;
   }
   return sol;
 }

@@ -122,12 +122,13 @@ struct LoadedWork {
   std::vector<ContactCondition::Law> J_laws;
 };
 
-/// The last two converged frictionless torsion-only solves of a workspace, when the second was warm-started from the
-/// first (a path being followed): the secant predictor of KinematicsOptions::extrapolate_warm_start.
+/// The last converged frictionless torsion-only solves of a workspace that form a chain, each warm-started from the
+/// one before it (a path being followed): the continuation predictor of KinematicsOptions::extrapolate_warm_start.
 struct WarmHistory {
-  Eigen::VectorXd q1, z1;  ///< Last solve: actuation (alpha, then 50 x beta) and base twist rates.
-  Eigen::VectorXd q0, z0;  ///< The solve before it.
-  bool has1 = false, has0 = false;
+  static constexpr int kDepth = 4;  ///< Solves kept: up to a cubic extrapolation.
+  std::array<Eigen::VectorXd, kDepth> q;  ///< q[0] the last solve: actuation (alpha, then 50 x beta).
+  std::array<Eigen::VectorXd, kDepth> z;  ///< Its base twist rates.
+  int count = 0;                          ///< Entries of the chain (0: none).
 };
 
 }  // namespace detail

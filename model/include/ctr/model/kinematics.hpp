@@ -64,9 +64,11 @@ struct KinematicsOptions {
   bool loaded_model = false;
   /// Continuation predictor for paths: when a frictionless solve is warm-started from the workspace's previous
   /// solve, and that one was itself warm-started from the solve before it along (nearly) the same straight line in
-  /// actuation space, Newton starts from the secant extrapolation of the two solutions' base twist rates instead of
-  /// the warm solution's (falling back to the warm solution if that fails). Halves the Newton iterations along a
-  /// sweep (docs/performance.md); the converged result is the same equilibrium to the tolerance.
+  /// actuation space, Newton starts from the extrapolation of the chain's base twist rates along the line (the
+  /// polynomial through up to the last four solves; the secant when the higher-order term is large, e.g. before a
+  /// fold) instead of the warm solution's, falling back to the warm solution if that fails. Roughly halves the
+  /// Newton iterations along a sweep (docs/performance.md); the converged result is the same equilibrium to the
+  /// tolerance.
   bool extrapolate_warm_start = false;
 };
 

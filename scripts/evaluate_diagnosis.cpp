@@ -1,11 +1,12 @@
 // Evaluation of `ctr diagnose` on concealed cases built with the injection path: random actuation order, noise as
 // large as the effect in single samples, position-only recordings in an unknown frame, 3-tube robots with
 // translations, two effects at once, sensor latency, null cases. Prints a per-case table and a confusion table
-// (Markdown). Build target: ctr_evaluate_diagnosis. Usage: ctr_evaluate_diagnosis [--quick] [--out FILE.md]
+// (Markdown). Build target: ctr_evaluate_diagnosis. Usage: ctr_evaluate_diagnosis [--quick] [--verbose] [--out FILE.md]
 #include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
+#include <cstdlib>
 #include <fstream>
 #include <iostream>
 #include <map>
@@ -74,6 +75,12 @@ std::vector<Case> cases(bool quick) {
     add({"latency+friction_walk_B", "tube_pair_B", {{EffectKind::SensorLatency, 0, 0.3}, {EffectKind::BoundaryFriction, 0, 0.05}}, ActuationPattern::RandomWalk, 120, false, true, 1, false, 24});
     add({"toffset_walk_3tube", "three_tube_generic", {{EffectKind::TranslationOffset, 3, 0.004}}, ActuationPattern::RandomWalk, 120, true, false, 2, false, 25});
     add({"tbacklash_walk_3tube_posonly", "three_tube_generic", {{EffectKind::TranslationBacklash, 3, 0.003}}, ActuationPattern::RandomWalk, 150, true, false, 1, true, 26});
+    // External loads (issue #15): the descriptions have no density and no load; gravity weighs nitinol tubes. The
+    // Dupont-lab robot sags 0.1-0.2 mm under its weight (three_tube_generic: 4 um, invisible at any noise here).
+    add({"gravity_walk_dupont", "dupont_lab_3tube", {parseEffect("gravity:scale=1,direction=0,-1,0")}, ActuationPattern::RandomWalk, 150, true, false, 1, false, 27});
+    add({"gravity_random_dupont_noisy", "dupont_lab_3tube", {parseEffect("gravity:scale=1,direction=1,0,0")}, ActuationPattern::Random, 100, true, false, 2, false, 28});
+    add({"tipload_random_B_noisy", "tube_pair_B", {parseEffect("tip_load:force=0.02,-0.03,0.01")}, ActuationPattern::Random, 80, false, false, 4, false, 29});
+    add({"tipload+offset_walk_dupont", "dupont_lab_3tube", {parseEffect("tip_load:force=-0.02,0.02,0"), {EffectKind::ActuatorOffset, 2, 6 * deg}}, ActuationPattern::RandomWalk, 120, true, false, 2, false, 30});
   }
   return c;
 }
@@ -81,16 +88,20 @@ std::vector<Case> cases(bool quick) {
 }  // namespace
 
 int main(int argc, char** argv) {
-  bool quick = false;
+  bool quick = false, verbose = false;
+  int max_effects = DiagnoseOptions{}.max_effects;
   std::string out, only, robots = std::string(CTR_SOURCE_DIR_EVAL) + "/examples/robots";
   for (int i = 1; i < argc; ++i) {
     const std::string a = argv[i];
     if (a == "--quick") quick = true;
+    else if (a == "--verbose") verbose = true;
+    else if (a == "--max-effects" && i + 1 < argc) max_effects = std::atoi(argv[++i]);
     else if (a == "--out" && i + 1 < argc) out = argv[++i];
     else if (a == "--only" && i + 1 < argc) only = argv[++i];
     else if (a == "--robots" && i + 1 < argc) robots = argv[++i];
     else {
-      std::cerr << "usage: ctr_evaluate_diagnosis [--quick] [--out FILE.md] [--only NAME_SUBSTRING] [--robots DIR]\n";
+      std::cerr << "usage: ctr_evaluate_diagnosis [--quick] [--verbose] [--max-effects N] [--out FILE.md] [--only NAME_SUBSTRING] "
+                   "[--robots DIR]\n";
       return 2;
     }
   }
@@ -100,7 +111,7 @@ int main(int argc, char** argv) {
         << "|---|---|---|---|---|---|---|\n";
   std::map<std::string, std::map<std::string, int>> confusion;  // truth label -> verdict label -> count
   std::map<std::string, std::array<int, 3>> per_effect;          // kind -> {true positives, misses, false positives}
-  int correct = 0, total = 0, params_ok = 0, params_total = 0;
+  int correct = 0, total = 0, params_ok = 0, params_total = 0, ambiguous_with_truth = 0;
   for (const Case& k : cases(quick)) {
     if (!only.empty() && k.name.find(only) == std::string::npos) continue;
     const Robot robot = io::loadRobot(dir + k.robot + ".yaml");
@@ -119,6 +130,8 @@ int main(int argc, char** argv) {
     s.tangent_sd *= k.noise;
     s.seed = k.seed + 100;
     DiagnoseOptions o;
+    o.max_effects = max_effects;
+    if (verbose) o.progress = [](const std::string& m) { std::cerr << "  " << m << "\n"; };
     if (k.position_only) {
       s.twist = s.tip_tangent = false;
       Registration reg;
@@ -138,12 +151,39 @@ int main(int argc, char** argv) {
     }
     const DiagnosisReport rep = diagnose(robot, rec, o);
     const double secs = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+    if (verbose) {
+      std::cerr << "---- " << k.name << "\n" << rep.summary << "\n";
+      for (const Finding& f : rep.findings)
+        std::cerr << "  round " << f.round << (f.accepted ? " accepted " : " rejected ") << f.effect.label() << " ("
+                  << f.effect.valueText() << ") dBIC " << f.delta_bic << " held-out p " << f.heldout_p << "\n";
+    }
     std::vector<std::string> truth;
     for (const Effect& e : k.effects) truth.push_back(effectName(e.kind));
     const std::string tl = label(truth), vl = label(rep.verdict);
     const bool ok = tl == vl;
+    // Not exact but honest: every verdict entry ("X or Y": the recording cannot tell) contains a true effect and
+    // every true effect is in an entry.
+    bool covers = !ok && !rep.verdict.empty();
+    std::set<std::string> covered;
+    for (const std::string& entry : rep.verdict) {
+      bool has_truth = false;
+      std::size_t from = 0;
+      while (true) {
+        const std::size_t at = entry.find(" or ", from);
+        const std::string alt = entry.substr(from, at == std::string::npos ? std::string::npos : at - from);
+        if (std::find(truth.begin(), truth.end(), alt) != truth.end()) {
+          has_truth = true;
+          covered.insert(alt);
+        }
+        if (at == std::string::npos) break;
+        from = at + 4;
+      }
+      covers = covers && has_truth;
+    }
+    covers = covers && covered.size() == std::set<std::string>(truth.begin(), truth.end()).size();
     ++total;
     correct += ok;
+    ambiguous_with_truth += covers;
     confusion[tl][vl]++;
     std::set<std::string> ts(truth.begin(), truth.end()), vs(rep.verdict.begin(), rep.verdict.end());
     for (const auto& t : ts) per_effect[t][vs.count(t) ? 0 : 1]++;
@@ -153,11 +193,18 @@ int main(int argc, char** argv) {
     for (const Effect& e : k.effects) {
       for (const Effect& f : rep.final_effects)
         if (f.kind == e.kind && (!isPerTube(e.kind) || f.tube == e.tube)) {
-          const bool good = std::abs(f.value - e.value) <= 0.2 * std::abs(e.value);
+          // Vector kinds (tip_load, gravity): the fitted vector within 20 % of the true one's length.
+          const bool vector = parameterCount(e.kind) == 3;
+          const bool good = vector ? (f.vec - e.vec).norm() <= 0.2 * e.vec.norm()
+                                   : std::abs(f.value - e.value) <= 0.2 * std::abs(e.value);
           params_total++;
           params_ok += good;
-          char b[160];
-          std::snprintf(b, sizeof b, "%s %.4g -> %.4g%s; ", parameterName(e.kind), e.value, f.value, good ? "" : " (off)");
+          char b[240];
+          if (vector)
+            std::snprintf(b, sizeof b, "%s -> %s%s; ", e.valueText().c_str(), f.valueText().c_str(), good ? "" : " (off)");
+          else
+            std::snprintf(b, sizeof b, "%s %.4g -> %.4g%s; ", parameterName(e.kind), e.value, f.value,
+                          good ? "" : " (off)");
           par << b;
         }
     }
@@ -171,13 +218,15 @@ int main(int argc, char** argv) {
     char sec[32];
     std::snprintf(sec, sizeof sec, "%.1f", secs);
     table << "| " << k.name << " | " << tl << " | " << vl << " | " << par.str() << " | " << ho.str() << " | " << sec
-          << " | " << (ok ? "yes" : "**no**") << " |\n";
-    std::cerr << k.name << ": truth " << tl << ", verdict " << vl << (ok ? "  OK" : "  WRONG") << " (" << sec << " s)\n";
+          << " | " << (ok ? "yes" : covers ? "ambiguous, truth included" : "**no**") << " |\n";
+    std::cerr << k.name << ": truth " << tl << ", verdict " << vl << (ok ? "  OK" : covers ? "  AMBIGUOUS" : "  WRONG")
+              << " (" << sec << " s)\n";
   }
   std::ostringstream md;
   md << "## Concealed-case evaluation (" << (quick ? "quick" : "full") << ")\n\n" << table.str() << "\n";
-  md << "Verdict exactly right: " << correct << " / " << total << "; parameters within 20 %: " << params_ok << " / "
-     << params_total << ".\n\n### Confusion table (rows: truth, columns: verdict)\n\n";
+  md << "Verdict exactly right: " << correct << " / " << total << "; ambiguous with the truth among the alternatives: "
+     << ambiguous_with_truth << "; wrong: " << total - correct - ambiguous_with_truth << "; parameters within 20 %: "
+     << params_ok << " / " << params_total << ".\n\n### Confusion table (rows: truth, columns: verdict)\n\n";
   std::set<std::string> cols;
   for (const auto& r : confusion)
     for (const auto& c : r.second) cols.insert(c.first);

@@ -497,11 +497,36 @@ DiagnosisReport diagnose(const Robot& nominal, const io::Recording& full, const 
       guarded(cands[static_cast<std::size_t>(finalists[static_cast<std::size_t>(i)])], tws, refineCandidate);
     });
     rep.evaluations += evals;
-    // Best passing candidate by BIC.
+    // Best passing candidate by BIC ...
     int best = -1;
     for (std::size_t i = 0; i < cands.size(); ++i)
       if (cands[i].pass && (best < 0 || cands[i].bic < cands[static_cast<std::size_t>(best)].bic))
         best = static_cast<int>(i);
+    // ... unless another passing candidate predicts the held-out rows significantly better: in-sample BIC and
+    // held-out prediction disagree when a candidate with more parameters mimics the left-out physics on this path
+    // (e.g. a large tip load plus a precurvature standing in for a torsional stiffness), and the held-out test is the
+    // one the verdict rests on.
+    if (best >= 0 && cands[static_cast<std::size_t>(best)].cv_done) {
+      const Candidate& W = cands[static_cast<std::size_t>(best)];
+      int better = -1;
+      double better_p = o.heldout_p;
+      for (std::size_t i = 0; i < cands.size(); ++i) {
+        const Candidate& c = cands[i];
+        if (static_cast<int>(i) == best || !c.pass || !c.cv_done || !(c.gain > W.gain)) continue;
+        const double p = stats::chunkedBootstrapTest(W.cv.row_score, c.cv.row_score, chunks);
+        if (p < better_p) {
+          better = static_cast<int>(i);
+          better_p = p;
+        }
+      }
+      if (better >= 0) {
+        const Candidate& c = cands[static_cast<std::size_t>(better)];
+        progress("held-out: " + c.slot.label() + " predicts the held-out rows better than " + W.slot.label() +
+                 fmt(" (gain %.1f %% vs %.1f %%, p = %.2g) though its BIC is %.1f higher; it wins the round", 100 * c.gain,
+                     100 * W.gain, better_p, c.bic - W.bic));
+        best = better;
+      }
+    }
     // Look-alikes: before accepting the best of the group, test it against the best screened rivals of its group
     // with encompassing fits: both together, then does each add on top of the other? Only the one that
     // adds is named; when neither adds, the recording cannot tell them apart; when both add, both are present and

@@ -211,8 +211,8 @@ void Evaluator::resize(int n, int m) {
 }
 
 // dY = F(Y) on one segment. Also returns the backbone bending curvature u0.
-void Evaluator::deriv(const Segment& sg, const double* Yin, double* dY, bool sens, Eigen::Vector2d& u0) {
-  const int n = n_, m = m_;
+void Evaluator::deriv(const Segment& sg, const double* Yin, double* dY, int columns, Eigen::Vector2d& u0) {
+  const int n = n_;
   const double* th = Yin;
   const double* u = Yin + n;
   double A = 0.0, B = 0.0;
@@ -231,11 +231,11 @@ void Evaluator::deriv(const Segment& sg, const double* Yin, double* dY, bool sen
     dY[i] = sg.present[static_cast<std::size_t>(i)] ? u[i] : 0.0;
     dY[n + i] = sg.a[i] != 0.0 ? sg.a[i] * (sn[i] * A - cs[i] * B) : 0.0;
   }
-  if (!sens) return;
+  if (columns == 0) return;
   const double* S = Yin + 2 * n;
   double* dS = dY + 2 * n;
   const int ld = 2 * n;
-  for (int c = 0; c < m; ++c) {
+  for (int c = 0; c < columns; ++c) {
     const double* Sc = S + c * ld;
     double* dSc = dS + c * ld;
     double Cc = 0.0, Sc_ = 0.0;
@@ -322,7 +322,10 @@ void Evaluator::evaluate(const Problem& P, const Eigen::VectorXd& z, bool jac, b
   const int n = P.n, m = P.m;
   resize(n, m);
   const int ld = 2 * n;
-  const int dim = jac ? 2 * n + 2 * n * m : 2 * n;
+  // Sensitivity columns carried: the twist-rate columns from s = 0, a contact's column from its site on (before it,
+  // it is zero: its point torque is applied there). Columns below `active` that are still zero stay zero.
+  int active = jac ? n : 0;
+  int dim = 2 * n + 2 * n * active;
   Y.setZero();
   for (int i = 0; i < n; ++i) {
     Y[i] = P.alpha[i] - P.beta[i] * z[i];
@@ -382,16 +385,16 @@ void Evaluator::evaluate(const Problem& P, const Eigen::VectorXd& z, bool jac, b
       Eigen::Vector2d u01, u02, u03, u04;
       double* y = Y.data();
       double* yt = Ytmp.data();
-      deriv(sg, y, K[0].data(), jac, u01);
+      deriv(sg, y, K[0].data(), active, u01);
       // Node at the start of the step (the segment's first node is after the previous breakpoint's events: both
       // sides of a jump are kept).
       if (record) pushNode(sg.s0 + st * h, sg, u01, st == 0);
       for (int d = 0; d < dim; ++d) yt[d] = y[d] + 0.5 * h * K[0][d];
-      deriv(sg, yt, K[1].data(), jac, u02);
+      deriv(sg, yt, K[1].data(), active, u02);
       for (int d = 0; d < dim; ++d) yt[d] = y[d] + 0.5 * h * K[1][d];
-      deriv(sg, yt, K[2].data(), jac, u03);
+      deriv(sg, yt, K[2].data(), active, u03);
       for (int d = 0; d < dim; ++d) yt[d] = y[d] + h * K[2][d];
-      deriv(sg, yt, K[3].data(), jac, u04);
+      deriv(sg, yt, K[3].data(), active, u04);
       for (int d = 0; d < dim; ++d) y[d] += h / 6.0 * (K[0][d] + 2.0 * K[1][d] + 2.0 * K[2][d] + K[3][d]);
       // Backbone pose: 4th-order commutator-free Lie group step on SE(3) with the RK4 stage curvatures
       // (exact for constant curvature, stays on SO(3)).
@@ -485,6 +488,10 @@ void Evaluator::evaluate(const Problem& P, const Eigen::VectorXd& z, bool jac, b
       } else {
         Y[n + b] -= z[col];
         if (jac) Y[2 * n + col * ld + n + b] -= 1.0;
+      }
+      if (jac && col >= active) {
+        active = col + 1;
+        dim = 2 * n + 2 * n * active;
       }
     }
   }

@@ -76,7 +76,8 @@ public:
 
 private:
   void resize(int n, int m);
-  void deriv(const Segment& sg, const double* Y, double* dY, bool sens, Eigen::Vector2d& u0);
+  /// Derivative of the state and of its first `columns` sensitivity columns (0: the state only).
+  void deriv(const Segment& sg, const double* Y, double* dY, int columns, Eigen::Vector2d& u0);
   int n_ = -1, m_ = -1;
   Eigen::VectorXd Y, Ytmp;
   std::array<Eigen::VectorXd, 4> K;

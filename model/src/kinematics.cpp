@@ -17,6 +17,7 @@
 
 #include "loaded_impl.hpp"
 #include "se3_step.hpp"
+#include "sincos_shift.hpp"
 #include "workspace_impl.hpp"
 
 namespace ctr {
@@ -206,19 +207,35 @@ void Evaluator::resize(int n, int m) {
   for (auto& k : K) k.resize(dim);
   sn.resize(n);
   cs.resize(n);
+  sn0.resize(n);
+  cs0.resize(n);
+  shift.resize(n);
+  step_shift.resize(n);
+  lin.resize(5 * n);
   J.resize(m, m);
   r.resize(m);
 }
 
-// dY = F(Y) on one segment. Also returns the backbone bending curvature u0.
-void Evaluator::deriv(const Segment& sg, const double* Yin, double* dY, int columns, Eigen::Vector2d& u0) {
+// dY = F(Y) on one segment. Also returns the backbone bending curvature u0. With `shift`, the angles are those of the
+// base (the last first-stage evaluation) plus shift[i]: their sines and cosines follow from the base's by angle
+// addition; `base`: this evaluation is the new base (a step's first stage). A segment's first step calls libm, every
+// other stage adds a small angle (one libm sincos per tube and segment instead of four per step).
+void Evaluator::deriv(const Segment& sg, const double* Yin, double* dY, int columns, Eigen::Vector2d& u0,
+                      const double* shift, bool base) {
   const int n = n_;
   const double* th = Yin;
   const double* u = Yin + n;
   double A = 0.0, B = 0.0;
   for (int i = 0; i < n; ++i) {
     if (sg.w[i] != 0.0) {
-      ::sincos(th[i], &sn[i], &cs[i]);
+      if (shift)
+        sinCosShifted(th[i], sn0[i], cs0[i], shift[i], sn[i], cs[i]);
+      else
+        ::sincos(th[i], &sn[i], &cs[i]);
+      if (base) {
+        sn0[i] = sn[i];
+        cs0[i] = cs[i];
+      }
       A += sg.w[i] * cs[i];
       B += sg.w[i] * sn[i];
     } else {
@@ -232,6 +249,19 @@ void Evaluator::deriv(const Segment& sg, const double* Yin, double* dY, int colu
     dY[n + i] = sg.a[i] != 0.0 ? sg.a[i] * (sn[i] * A - cs[i] * B) : 0.0;
   }
   if (columns == 0) return;
+  // Sensitivities: d(u_i')/d(theta_k) = a_i [(c_i A + s_i B) delta_ik - w_k (c_i c_k + s_i s_k)].
+  double* wc = lin.data();
+  double* ws = wc + n;
+  double* g = ws + n;
+  double* ac = g + n;
+  double* as = ac + n;
+  for (int i = 0; i < n; ++i) {
+    wc[i] = sg.w[i] * cs[i];
+    ws[i] = sg.w[i] * sn[i];
+    g[i] = sg.a[i] * (cs[i] * A + sn[i] * B);
+    ac[i] = sg.a[i] * cs[i];
+    as[i] = sg.a[i] * sn[i];
+  }
   const double* S = Yin + 2 * n;
   double* dS = dY + 2 * n;
   const int ld = 2 * n;
@@ -240,16 +270,12 @@ void Evaluator::deriv(const Segment& sg, const double* Yin, double* dY, int colu
     double* dSc = dS + c * ld;
     double Cc = 0.0, Sc_ = 0.0;
     for (int k = 0; k < n; ++k) {
-      if (sg.w[k] != 0.0) {
-        Cc += sg.w[k] * cs[k] * Sc[k];
-        Sc_ += sg.w[k] * sn[k] * Sc[k];
-      }
+      Cc += wc[k] * Sc[k];
+      Sc_ += ws[k] * Sc[k];
     }
     for (int i = 0; i < n; ++i) {
       dSc[i] = sg.present[static_cast<std::size_t>(i)] ? Sc[n + i] : 0.0;
-      dSc[n + i] = sg.a[i] != 0.0
-                       ? sg.a[i] * ((cs[i] * A + sn[i] * B) * Sc[i] - cs[i] * Cc - sn[i] * Sc_)
-                       : 0.0;
+      dSc[n + i] = sg.a[i] != 0.0 ? g[i] * Sc[i] - ac[i] * Cc - as[i] * Sc_ : 0.0;
     }
   }
 }
@@ -336,7 +362,10 @@ void Evaluator::evaluate(const Problem& P, const Eigen::VectorXd& z, bool jac, b
     }
   }
   r.setZero();
-  if (jac) J.setZero();
+  if (jac) {
+    J.setZero();
+    ++jacobian_evaluations;
+  }
   Eigen::Matrix3d R = Eigen::Matrix3d::Identity();
   Eigen::Vector3d p = Eigen::Vector3d::Zero();
   Eigen::Vector2d u0;
@@ -377,6 +406,8 @@ void Evaluator::evaluate(const Problem& P, const Eigen::VectorXd& z, bool jac, b
     bp.outermost = sg.outermost;
   };
 
+  pose_steps_.clear();
+  pose_pending_ = false;
   Eigen::VectorXd grad;
   for (std::size_t si = 0; si < P.segments.size(); ++si) {
     const Segment& sg = P.segments[si];
@@ -385,25 +416,34 @@ void Evaluator::evaluate(const Problem& P, const Eigen::VectorXd& z, bool jac, b
       Eigen::Vector2d u01, u02, u03, u04;
       double* y = Y.data();
       double* yt = Ytmp.data();
-      deriv(sg, y, K[0].data(), active, u01);
+      deriv(sg, y, K[0].data(), active, u01, st > 0 ? step_shift.data() : nullptr, true);
       // Node at the start of the step (the segment's first node is after the previous breakpoint's events: both
       // sides of a jump are kept).
       if (record) pushNode(sg.s0 + st * h, sg, u01, st == 0);
+      // Stage angles: theta + c h K[.][0..n) (the theta rows of the previous stage's derivative).
+      for (int i = 0; i < n; ++i) shift[i] = 0.5 * h * K[0][i];
       for (int d = 0; d < dim; ++d) yt[d] = y[d] + 0.5 * h * K[0][d];
-      deriv(sg, yt, K[1].data(), active, u02);
+      deriv(sg, yt, K[1].data(), active, u02, shift.data(), false);
+      for (int i = 0; i < n; ++i) shift[i] = 0.5 * h * K[1][i];
       for (int d = 0; d < dim; ++d) yt[d] = y[d] + 0.5 * h * K[1][d];
-      deriv(sg, yt, K[2].data(), active, u03);
+      deriv(sg, yt, K[2].data(), active, u03, shift.data(), false);
+      for (int i = 0; i < n; ++i) shift[i] = h * K[2][i];
       for (int d = 0; d < dim; ++d) yt[d] = y[d] + h * K[2][d];
-      deriv(sg, yt, K[3].data(), active, u04);
+      deriv(sg, yt, K[3].data(), active, u04, shift.data(), false);
       for (int d = 0; d < dim; ++d) y[d] += h / 6.0 * (K[0][d] + 2.0 * K[1][d] + 2.0 * K[2][d] + K[3][d]);
+      for (int i = 0; i < n; ++i) step_shift[i] = h / 6.0 * (K[0][i] + 2.0 * K[1][i] + 2.0 * K[2][i] + K[3][i]);
       // Backbone pose: 4th-order commutator-free Lie group step on SE(3) with the RK4 stage curvatures
       // (exact for constant curvature, stays on SO(3)).
       const Eigen::Vector2d w1 = h / 12.0 * (3.0 * u01 + 2.0 * u02 + 2.0 * u03 - u04);
       const Eigen::Vector2d w2 = h / 12.0 * (-u01 + 2.0 * u02 + 2.0 * u03 + 3.0 * u04);
-      detail::se3Step(R, p, w1, 0.5 * h);
-      detail::se3Step(R, p, w2, 0.5 * h);
+      if (record) {
+        detail::se3Step(R, p, w1, 0.5 * h);
+        detail::se3Step(R, p, w2, 0.5 * h);
+      } else {
+        pose_steps_.push_back({w1, w2, 0.5 * h, st + 1 == sg.steps});
+      }
     }
-    orthonormalize(R);
+    if (record) orthonormalize(R);
 
     // Events at the end of the segment.
     const Breakpoint& bp = P.breakpoints[si];
@@ -495,8 +535,11 @@ void Evaluator::evaluate(const Problem& P, const Eigen::VectorXd& z, bool jac, b
       }
     }
   }
-  out.tip_position = p;
-  out.tip_frame = R;
+  pose_pending_ = !record;
+  if (record) {
+    out.tip_position = p;
+    out.tip_frame = R;
+  }
   if (record) out.backbone.resize(nodes);
   if (record && !P.segments.empty()) {
     // Last node: values after the final events (frozen tubes).
@@ -506,6 +549,20 @@ void Evaluator::evaluate(const Problem& P, const Eigen::VectorXd& z, bool jac, b
   if (jac) {
     out.stability = J.topLeftCorner(n, n).determinant();
   }
+}
+
+void Evaluator::finishPose(Outputs& out) {
+  if (!pose_pending_) return;
+  Eigen::Matrix3d R = Eigen::Matrix3d::Identity();
+  Eigen::Vector3d p = Eigen::Vector3d::Zero();
+  for (const PoseStep& ps : pose_steps_) {
+    detail::se3Step(R, p, ps.w1, ps.hh);
+    detail::se3Step(R, p, ps.w2, ps.hh);
+    if (ps.last) orthonormalize(R);
+  }
+  out.tip_position = p;
+  out.tip_frame = R;
+  pose_pending_ = false;
 }
 
 }  // namespace detail
@@ -762,6 +819,78 @@ bool continuationPredictor(const detail::WarmHistory& H, const Eigen::VectorXd& 
   return z.allFinite();
 }
 
+Eigen::VectorXd robotKey(const Problem& P) {
+  Eigen::VectorXd k(3 * P.n);
+  k << P.kb, P.kt, P.kappa;
+  return k;
+}
+
+double torqueFactor(const ContactCondition& c) {
+  return c.law == ContactCondition::Law::Torque ? c.value : 0.0;
+}
+
+// A cached Jacobian serves chord steps when it is of this robot, problem size and contact structure and was taken
+// within 0.1 (rad, or 2 mm of translation in history-key units) of q.
+bool chordUsable(const detail::ChordCache& C, const Problem& P, const Eigen::VectorXd& qv) {
+  if (!C.valid || C.J.rows() != P.m || C.q.size() != qv.size() || C.sites.size() != P.contacts.size()) return false;
+  if ((C.q - qv).cwiseAbs().maxCoeff() > 0.1 || C.robot != robotKey(P)) return false;
+  for (std::size_t c = 0; c < P.contacts.size(); ++c) {
+    const detail::ActiveContact& ac = P.contacts[c];
+    if (!(C.sites[c] == ac.site) || C.laws[c] != ac.condition.law || C.torque_factors[c] != torqueFactor(ac.condition))
+      return false;
+  }
+  return true;
+}
+
+void storeChord(detail::ChordCache& C, const Problem& P, const Evaluator& E, double stability,
+                const Eigen::VectorXd& qv) {
+  C.J = E.J;
+  C.q = qv;
+  C.robot = robotKey(P);
+  C.sites.clear();
+  C.laws.clear();
+  C.torque_factors.clear();
+  for (const detail::ActiveContact& ac : P.contacts) {
+    C.sites.push_back(ac.site);
+    C.laws.push_back(ac.condition.law);
+    C.torque_factors.push_back(torqueFactor(ac.condition));
+  }
+  C.stability = stability;
+  C.valid = true;
+}
+
+// Quasi-Newton iteration from a good start (a predicted z, or the previous state of a stick-slip step): value-only
+// evaluations, the first step with a cached exact Jacobian taken a few solves back, Broyden updates after it.
+// Succeeds when z converges within `max_steps` steps, each cutting the residual by at least 4; otherwise the caller
+// runs Newton from the start. The stability is the cached one unless it is small enough for its sign to matter (then
+// the Jacobian is evaluated at the solution, as newton() does).
+bool chordSolve(const Problem& P, Evaluator& E, Outputs& out, Eigen::VectorXd& z, const KinematicsOptions& opt,
+                const detail::ChordCache& C, int max_steps, int& iterations, double& res_norm, bool record) {
+  E.evaluate(P, z, false, record, out);
+  if (!allFinite(E.r)) return false;
+  double nr = maxAbs(E.r);
+  Eigen::MatrixXd J = C.J;
+  for (int it = 0; it < max_steps && !(nr < opt.tolerance); ++it) {
+    ++iterations;
+    const Eigen::VectorXd step = Eigen::PartialPivLU<Eigen::MatrixXd>(J).solve(-E.r);
+    const Eigen::VectorXd r_old = E.r;
+    z += step;
+    E.evaluate(P, z, false, record, out);
+    const double nn = maxAbs(E.r);
+    if (!allFinite(E.r) || !(nn < 0.25 * nr)) return false;
+    nr = nn;
+    // Broyden update along the step (superlinear convergence instead of the chord's linear rate).
+    const double ss = step.squaredNorm();
+    if (ss > 0.0) J += ((E.r - r_old) - J * step) * (step.transpose() / ss);
+  }
+  if (!(nr < opt.tolerance)) return false;
+  res_norm = nr;
+  out.stability = C.stability;
+  if (!(std::abs(out.stability) > std::max(kExactStabilityBelow, 2.0 * opt.refine_below_stability)))
+    E.evaluate(P, z, true, record, out);
+  return true;
+}
+
 Solution solveImpl(const Robot& robot, const Configuration& q, const std::vector<ContactCondition>* conditions,
                    Workspace& ws, const KinematicsOptions& opt, const Solution* warm) {
   const Admissibility adm = checkAdmissible(robot, q);
@@ -784,19 +913,35 @@ Solution solveImpl(const Robot& robot, const Configuration& q, const std::vector
   const bool chained = frictionless && warm && H.count > 0 && warm->q.size() == q.size() &&
                        historyKey(warm->q) == H.q[0] && warm->base_twist_rate == H.z[0];
   bool ok = false;
+  const long jacobians_before = W.eval.jacobian_evaluations;
   if (opt.extrapolate_warm_start && chained && H.count >= 2) {
     Eigen::VectorXd zp = z;
     if (continuationPredictor(H, qv, zp)) {
       int it_p = 0;
-      ok = newton(P, W.eval, W.out, zp, opt, it_p, rn, why, rec);
+      if (chordUsable(W.chain_chord, P, qv)) {
+        Eigen::VectorXd zc = zp;
+        ok = chordSolve(P, W.eval, W.out, zc, opt, W.chain_chord, 2, it_p, rn, rec);
+        if (ok) z = zc;
+      }
+      if (!ok) {
+        ok = newton(P, W.eval, W.out, zp, opt, it_p, rn, why, rec);
+        if (ok) z = zp;
+      }
       iters += it_p;
-      if (ok) z = zp;
     }
   }
+  if (!ok && !frictionless && warm && opt.extrapolate_warm_start && chordUsable(W.contact_chord, P, qv)) {
+    // A stick-slip step with the contact laws of a recent solve: quasi-Newton steps from the previous state.
+    Eigen::VectorXd zc = z;
+    ok = chordSolve(P, W.eval, W.out, zc, opt, W.contact_chord, 4, iters, rn, rec);
+    if (ok) z = zc;
+  }
   if (!ok) ok = newton(P, W.eval, W.out, z, opt, iters, rn, why, rec);
+  bool plain = ok;  // converged on the first attempt at the actual problem (no fallback, no refinement)
   const bool cold = (warm == nullptr);
   int cont_steps = 0;
   if ((!ok || (cold && W.out.stability <= 0.0)) && opt.homotopy) {
+    plain = false;
     const Eigen::VectorXd z_first = z;
     const bool ok_first = ok;
     auto finish = [&](Eigen::VectorXd& zc) {
@@ -843,6 +988,7 @@ Solution solveImpl(const Robot& robot, const Configuration& q, const std::vector
     }
   }
   if (ok && opt.refine_below_stability > 0.0 && std::abs(W.out.stability) < opt.refine_below_stability) {
+    plain = false;
     // Ill-conditioned twist near a fold: refine the discretisation (warm start, same branch).
     Eigen::VectorXd zr = z;
     int it2 = 0;
@@ -858,6 +1004,7 @@ Solution solveImpl(const Robot& robot, const Configuration& q, const std::vector
     }
     iters += it2;
   }
+  W.eval.finishPose(W.out);
   Solution sol = package(robot, q, P, W.out, z, ok, iters, rn, why, opt);
   sol.summary.continuation_steps = cont_steps;
   if (frictionless && ok) {
@@ -869,8 +1016,14 @@ Solution solveImpl(const Robot& robot, const Configuration& q, const std::vector
     H.q[0] = qv;
     H.z[0] = sol.base_twist_rate;
     H.count = std::min(H.count + 1, detail::WarmHistory::kDepth);
+    if (!chained) W.chain_chord.valid = false;
   } else if (frictionless) {
     H.count = 0;
+    W.chain_chord.valid = false;
+  }
+  if (plain && W.eval.jacobian_evaluations > jacobians_before && W.eval.J.rows() == P.m) {
+    // An exact Jacobian of this solve (at its last Newton iterate): the chord matrix of the next nearby solves.
+    storeChord(frictionless ? W.chain_chord : W.contact_chord, P, W.eval, W.out.stability, qv);
   }
   return sol;
 }

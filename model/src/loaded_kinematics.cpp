@@ -23,7 +23,9 @@
 
 #include "ctr/model/jacobian.hpp"
 #include "dual.hpp"
+#include "loaded_frame.hpp"
 #include "loaded_impl.hpp"
+#include "sincos_shift.hpp"
 #include "workspace_impl.hpp"
 
 namespace ctr {
@@ -80,119 +82,6 @@ void setupLoaded(LoadedProblem& L, const Robot& robot, const Configuration& q,
 // ---------------------------------------------------------------------------------------------------------------
 // Templated pieces of the integrator
 // ---------------------------------------------------------------------------------------------------------------
-template <class T>
-struct Exp {
-  T A, B, C;  // sin(t)/t, (1-cos t)/t^2, (t - sin t)/t^3
-};
-
-// Power series in x = t^2 up to x^6 for t^2 <= 0.04 (truncation < 1e-20; no sqrt, sin, cos, division — the usual
-// case, t = h |u0| per half step), the closed forms otherwise. C only when asked (translation).
-template <class T>
-Exp<T> expCoefficients(const T& wx, const T& wy, bool withC) {
-  const T x = wx * wx + wy * wy;
-  Exp<T> e;
-  if (value(x) <= 0.04) {
-    e.A =
-        1.0 + x * (-1.0 / 6 +
-                   x * (1.0 / 120 + x * (-1.0 / 5040 + x * (1.0 / 362880 + x * (-1.0 / 39916800 + x / 6227020800.0)))));
-    e.B = 0.5 +
-          x * (-1.0 / 24 +
-               x * (1.0 / 720 + x * (-1.0 / 40320 + x * (1.0 / 3628800 + x * (-1.0 / 479001600 + x / 87178291200.0)))));
-    if (withC)
-      e.C = 1.0 / 6 +
-            x * (-1.0 / 120 +
-                 x * (1.0 / 5040 +
-                      x * (-1.0 / 362880 + x * (1.0 / 39916800 + x * (-1.0 / 6227020800.0 + x / 1307674368000.0)))));
-  } else {
-    using std::sqrt;
-    const T th = sqrt(x);
-    T sn, cs;
-    sinCos(th, sn, cs);
-    e.A = sn / th;
-    e.B = (1.0 - cs) / x;
-    if (withC) e.C = (th - sn) / (x * th);
-  }
-  return e;
-}
-
-// R <- R exp([w]x) with w = (wx, wy, 0); R row-major. Optionally p <- p + R V(w) e3 a (SE(3) step).
-template <class T>
-void expStep(T* R, T* p, const T& wx, const T& wy, const T* a) {
-  const Exp<T> c = expCoefficients(wx, wy, p != nullptr);
-  const T Bwxwy = c.B * wx * wy;
-  const T E[9] = {1.0 - c.B * wy * wy,
-                  Bwxwy,
-                  c.A * wy,  //
-                  Bwxwy,
-                  1.0 - c.B * wx * wx,
-                  -(c.A * wx),  //
-                  -(c.A * wy),
-                  c.A * wx,
-                  1.0 - c.B * (wx * wx + wy * wy)};
-  if (p) {
-    const T tx = *a * c.B * wy, ty = -(*a * c.B * wx), tz = *a * (1.0 - c.C * (wx * wx + wy * wy));
-    for (int r = 0; r < 3; ++r) p[r] += R[3 * r] * tx + R[3 * r + 1] * ty + R[3 * r + 2] * tz;
-  }
-  T out[9];
-  for (int r = 0; r < 3; ++r)
-    for (int col = 0; col < 3; ++col)
-      out[3 * r + col] = R[3 * r] * E[col] + R[3 * r + 1] * E[3 + col] + R[3 * r + 2] * E[6 + col];
-  for (int k = 0; k < 9; ++k) R[k] = out[k];
-}
-
-// The rotation exp([w]x), w = (wx, wy, 0), applied to vectors without forming it (stage rotations of CF4: the stage
-// derivative needs only R_s^T m and R_s e3).
-template <class T>
-struct SmallRotation {
-  T Bxx, Byy, Bxy, Awx, Awy;
-  SmallRotation(const T& wx, const T& wy) {
-    const Exp<T> c = expCoefficients(wx, wy, false);
-    Bxx = c.B * wx * wx;
-    Byy = c.B * wy * wy;
-    Bxy = c.B * wx * wy;
-    Awx = c.A * wx;
-    Awy = c.A * wy;
-  }
-  void transposeTimes(const T* v, T* o) const {  // o = E^T v
-    o[0] = v[0] - Byy * v[0] + Bxy * v[1] - Awy * v[2];
-    o[1] = Bxy * v[0] + v[1] - Bxx * v[1] + Awx * v[2];
-    o[2] = Awy * v[0] - Awx * v[1] + v[2] - (Bxx + Byy) * v[2];
-  }
-  void times(const T* v, T* o) const {  // o = E v
-    o[0] = v[0] - Byy * v[0] + Bxy * v[1] + Awy * v[2];
-    o[1] = Bxy * v[0] + v[1] - Bxx * v[1] - Awx * v[2];
-    o[2] = -(Awy * v[0]) + Awx * v[1] + v[2] - (Bxx + Byy) * v[2];
-  }
-};
-
-template <class T>
-void transposeTimes(const T* R, const T* v, T* o) {
-  for (int c = 0; c < 3; ++c) o[c] = R[c] * v[0] + R[3 + c] * v[1] + R[6 + c] * v[2];
-}
-
-template <class T>
-void times(const T* R, const T* v, T* o) {
-  for (int r = 0; r < 3; ++r) o[r] = R[3 * r] * v[0] + R[3 * r + 1] * v[1] + R[3 * r + 2] * v[2];
-}
-
-template <class T>
-void orthonormalizeT(T* R) {
-  using std::sqrt;
-  T z[3] = {R[2], R[5], R[8]};
-  const T nz = sqrt(z[0] * z[0] + z[1] * z[1] + z[2] * z[2]);
-  for (auto& v : z) v = v / nz;
-  const T d = R[0] * z[0] + R[3] * z[1] + R[6] * z[2];
-  T x[3] = {R[0] - z[0] * d, R[3] - z[1] * d, R[6] - z[2] * d};
-  const T nx = sqrt(x[0] * x[0] + x[1] * x[1] + x[2] * x[2]);
-  for (auto& v : x) v = v / nx;
-  const T y[3] = {z[1] * x[2] - z[2] * x[1], z[2] * x[0] - z[0] * x[2], z[0] * x[1] - z[1] * x[0]};
-  for (int r = 0; r < 3; ++r) {
-    R[3 * r] = x[r];
-    R[3 * r + 1] = y[r];
-    R[3 * r + 2] = z[r];
-  }
-}
-
 // Bending moment magnitude of tube i just before the end of segment sg (loaded curvature), nesting-order rule for
 // coincident ends as in kinematics.cpp (endMoment).
 template <class T>
@@ -235,12 +124,16 @@ void runLoaded(const LoadedProblem& L, const T* z, const T* alpha, const T* beta
   const Problem& P = L.P;
   const int n = P.n, m = L.m;
   const int dim = 2 * n + 3;  // theta, u_z, m
-  std::vector<T> buf(static_cast<std::size_t>(7 * dim + 2 * n));
+  std::vector<T> buf(static_cast<std::size_t>(7 * dim + 6 * n));
   T* y = buf.data();
   T* yt = y + dim;
   T* k[4] = {yt + dim, yt + 2 * dim, yt + 3 * dim, yt + 4 * dim};
   T* sn = yt + 5 * dim;
   T* cs = sn + n;
+  T* sn0 = cs + n;  // the base of the angle additions (double only; as kinematics.cpp's Evaluator::deriv)
+  T* cs0 = sn0 + n;
+  T* shift = cs0 + n;
+  T* step_shift = shift + n;
   T* th = y;
   T* uz = y + n;
   T* mm = y + 2 * n;
@@ -271,7 +164,7 @@ void runLoaded(const LoadedProblem& L, const T* z, const T* alpha, const T* beta
       }
     }
   }
-  T R[9] = {1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0};
+  Frame<T> R;
   T p[3] = {0.0, 0.0, 0.0};
 
   // Segment boundaries as functions of beta (fixed number of steps per segment).
@@ -291,14 +184,27 @@ void runLoaded(const LoadedProblem& L, const T* z, const T* alpha, const T* beta
   // Curvature and derivative of (theta, u_z, m) at arc length s with rotation Rs; force n(s) = F + g (C - rho s).
   // Curvature and derivative of (theta, u_z, m) at arc length s, given the stage's (R^T m)_xy and tangent t = R e3;
   // force n(s) = F + g (C - rho s).
+  // For double, the angles are the base's plus `sh` (when given) with sines and cosines by angle addition; `base`:
+  // this evaluation is the new base (a step's first stage). A segment's first step calls libm (as kinematics.cpp).
   auto deriv = [&](const Segment& sg, double rho, const T& C, const T& s, const T* ys, const T* mb, const T* t, T* dy,
-                   T& u0x, T& u0y) {
+                   T& u0x, T& u0y, const T* sh, bool base) {
     const T* ths = ys;
     const T* uzs = ys + n;
     T A = 0.0, B = 0.0;
     for (int j = 0; j < n; ++j) {
       if (sg.w[j] != 0.0) {
-        sinCos(ths[j], sn[j], cs[j]);
+        if constexpr (std::is_same_v<T, double>) {
+          if (sh)
+            sinCosShifted(ths[j], sn0[j], cs0[j], sh[j], sn[j], cs[j]);
+          else
+            sinCos(ths[j], sn[j], cs[j]);
+          if (base) {
+            sn0[j] = sn[j];
+            cs0[j] = cs[j];
+          }
+        } else {
+          sinCos(ths[j], sn[j], cs[j]);
+        }
         A += sg.w[j] * cs[j];
         B += sg.w[j] * sn[j];
       }
@@ -327,7 +233,7 @@ void runLoaded(const LoadedProblem& L, const T* z, const T* alpha, const T* beta
       bp.position[a] = value(p[a]);
       bp.force[a] = force[a];
       bp.moment[a] = value(mm[a]);
-      for (int b = 0; b < 3; ++b) bp.frame(a, b) = value(R[3 * a + b]);
+      for (int b = 0; b < 3; ++b) bp.frame(a, b) = R.at(3 * a + b);
     }
     if (record_tubes) {
       bp.theta.resize(n);
@@ -357,60 +263,63 @@ void runLoaded(const LoadedProblem& L, const T* z, const T* alpha, const T* beta
     for (int st = 0; st < sg.steps; ++st) {
       const T s = s_start + static_cast<double>(st) * h;
       T u01x, u01y, u02x, u02y, u03x, u03y, u04x, u04y;
-      T v[3], v2[3], mb[3], e[3], t[3];
+      T mb[3], t[3];
       // Stage 1 at (y, R).
-      transposeTimes(R, y + 2 * n, mb);
-      const T t1[3] = {R[2], R[5], R[8]};
-      deriv(sg, rho, C, s, y, mb, t1, k[0], u01x, u01y);
+      R.transposeTimes(y + 2 * n, mb);
+      R.tangent(t);
+      deriv(sg, rho, C, s, y, mb, t, k[0], u01x, u01y,
+            std::is_same_v<T, double> && st > 0 ? step_shift : nullptr, true);
       if (rec && record_nodes) {
         double f[3];
         for (int c = 0; c < 3; ++c) f[c] = value(F[c]) + L.g[c] * (value(C) - rho * value(s));
         pushNode(value(s), sg, value(u01x), value(u01y), st == 0, f);
       }
-      const T ez[3] = {0.0, 0.0, 1.0};
       // Stage 2: y + h/2 k1 at R E2, E2 = exp(h/2 u01).
       for (int d = 0; d < dim; ++d) yt[d] = y[d] + hh * k[0][d];
-      const SmallRotation<T> E2(hh * u01x, hh * u01y);
-      transposeTimes(R, yt + 2 * n, v);
-      E2.transposeTimes(v, mb);
-      E2.times(ez, e);
-      times(R, e, t);
-      deriv(sg, rho, C, s + hh, yt, mb, t, k[1], u02x, u02y);
+      if constexpr (std::is_same_v<T, double>)
+        for (int j = 0; j < n; ++j) shift[j] = hh * k[0][j];
+      const StageRotation<T> E2(hh * u01x, hh * u01y);
+      const StageRotation<T>* E[2] = {&E2, nullptr};
+      R.stage(E, 1, yt + 2 * n, mb, t);
+      deriv(sg, rho, C, s + hh, yt, mb, t, k[1], u02x, u02y, shift, false);
       // Stage 3: y + h/2 k2 at R exp(h/2 u02).
       for (int d = 0; d < dim; ++d) yt[d] = y[d] + hh * k[1][d];
-      const SmallRotation<T> E3(hh * u02x, hh * u02y);
-      transposeTimes(R, yt + 2 * n, v);
-      E3.transposeTimes(v, mb);
-      E3.times(ez, e);
-      times(R, e, t);
-      deriv(sg, rho, C, s + hh, yt, mb, t, k[2], u03x, u03y);
+      if constexpr (std::is_same_v<T, double>)
+        for (int j = 0; j < n; ++j) shift[j] = hh * k[1][j];
+      const StageRotation<T> E3(hh * u02x, hh * u02y);
+      E[0] = &E3;
+      R.stage(E, 1, yt + 2 * n, mb, t);
+      deriv(sg, rho, C, s + hh, yt, mb, t, k[2], u03x, u03y, shift, false);
       // Stage 4: y + h k3 at R E2 E4, E4 = exp(h u03 - h/2 u01).
       for (int d = 0; d < dim; ++d) yt[d] = y[d] + h * k[2][d];
-      const SmallRotation<T> E4(h * u03x - hh * u01x, h * u03y - hh * u01y);
-      transposeTimes(R, yt + 2 * n, v);
-      E2.transposeTimes(v, v2);
-      E4.transposeTimes(v2, mb);
-      E4.times(ez, v);
-      E2.times(v, e);
-      times(R, e, t);
-      deriv(sg, rho, C, s + h, yt, mb, t, k[3], u04x, u04y);
+      if constexpr (std::is_same_v<T, double>)
+        for (int j = 0; j < n; ++j) shift[j] = h * k[2][j];
+      const StageRotation<T> E4(h * u03x - hh * u01x, h * u03y - hh * u01y);
+      E[0] = &E2;
+      E[1] = &E4;
+      R.stage(E, 2, yt + 2 * n, mb, t);
+      deriv(sg, rho, C, s + h, yt, mb, t, k[3], u04x, u04y, shift, false);
       const T h6 = h / 6.0;
       for (int d = 0; d < dim; ++d) y[d] += h6 * (k[0][d] + 2.0 * k[1][d] + 2.0 * k[2][d] + k[3][d]);
+      if constexpr (std::is_same_v<T, double>)
+        for (int j = 0; j < n; ++j) step_shift[j] = h6 * (k[0][j] + 2.0 * k[1][j] + 2.0 * k[2][j] + k[3][j]);
       const T h12 = h / 12.0;
       const T w1x = h12 * (3.0 * u01x + 2.0 * u02x + 2.0 * u03x - u04x);
       const T w1y = h12 * (3.0 * u01y + 2.0 * u02y + 2.0 * u03y - u04y);
       const T w2x = h12 * (-u01x + 2.0 * u02x + 2.0 * u03x + 3.0 * u04x);
       const T w2y = h12 * (-u01y + 2.0 * u02y + 2.0 * u03y + 3.0 * u04y);
-      expStep<T>(R, want_position ? p : nullptr, w1x, w1y, &hh);
-      expStep<T>(R, want_position ? p : nullptr, w2x, w2y, &hh);
+      R.step(w1x, w1y, want_position ? p : nullptr, hh);
+      R.step(w2x, w2y, want_position ? p : nullptr, hh);
     }
-    orthonormalizeT(R);
+    R.orthonormalize();
     s_start = s_end;
 
     // Events at the end of the segment.
     const Breakpoint& bp = P.breakpoints[si];
-    const T mbx = R[0] * mm[0] + R[3] * mm[1] + R[6] * mm[2];
-    const T mby = R[1] * mm[0] + R[4] * mm[1] + R[7] * mm[2];
+    T mloc[3];  // R^T m
+    R.transposeTimes(mm, mloc);
+    const T& mbx = mloc[0];
+    const T& mby = mloc[1];
     if (rec) {
       if (record_nodes) {
         double A = 0, B = 0;
@@ -459,7 +368,11 @@ void runLoaded(const LoadedProblem& L, const T* z, const T* alpha, const T* beta
     // Distal conditions: k_i u_iz(s-) = point torque; the innermost tube carries the tip moment's tangent part.
     for (int i : bp.ending) {
       r[i] = uz[i];
-      if (i == n - 1) r[i] -= (R[2] * M[0] + R[5] * M[1] + R[8] * M[2]) / P.kt[n - 1];
+      if (i == n - 1) {
+        T Mloc[3];  // R^T M
+        R.transposeTimes(M, Mloc);
+        r[i] -= Mloc[2] / P.kt[n - 1];
+      }
     }
     for (int c : bp.contacts) {
       const ActiveContact& ac = P.contacts[static_cast<std::size_t>(c)];
@@ -481,10 +394,12 @@ void runLoaded(const LoadedProblem& L, const T* z, const T* alpha, const T* beta
   // Bending part of the tip moment condition (tip frame): (R^T (m - M))_xy = 0, scaled by the tip stiffness.
   const double Ktip = P.segments.empty() ? L.K0 : P.segments.back().K;
   const T d[3] = {mm[0] - M[0], mm[1] - M[1], mm[2] - M[2]};
-  r[n] = (R[0] * d[0] + R[3] * d[1] + R[6] * d[2]) / Ktip;
-  r[n + 1] = (R[1] * d[0] + R[4] * d[1] + R[7] * d[2]) / Ktip;
+  T dloc[3];  // R^T (m - M)
+  R.transposeTimes(d, dloc);
+  r[n] = dloc[0] / Ktip;
+  r[n + 1] = dloc[1] / Ktip;
   for (int c = 0; c < 3; ++c) tipP[c] = p[c];
-  for (int c = 0; c < 9; ++c) tipR[c] = R[c];
+  R.matrix(tipR);
   *tipTheta = th[n - 1];
   if (rec && record_nodes) {
     rec->backbone.resize(rec->nodes);

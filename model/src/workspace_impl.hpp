@@ -69,19 +69,36 @@ double siteMoment(const Problem& P, std::size_t si, const double* th, const Cont
 
 class Evaluator {
 public:
-  /// Integrates from s = 0 to the tip for unknowns z; fills r (and J when jac).
+  /// Integrates from s = 0 to the tip for unknowns z; fills r (and J when jac). Without `record` the backbone pose
+  /// is left pending: only the pose steps are kept, and finishPose() integrates them (the residual does not depend
+  /// on the pose, so Newton's other evaluations never pay for it).
   void evaluate(const Problem& P, const Eigen::VectorXd& z, bool jac, bool record, Outputs& out);
+  /// Sets out.tip_position and out.tip_frame of the last evaluation (no-op when it recorded them already).
+  void finishPose(Outputs& out);
   Eigen::MatrixXd J;
   Eigen::VectorXd r;
+  long jacobian_evaluations = 0;  ///< Evaluations with the Jacobian so far (J belongs to the last of them).
 
 private:
+  /// One step of the backbone pose: two SE(3) steps of length hh with the body curvatures w1, w2; `last`: the last
+  /// step of a segment (re-orthonormalised after it).
+  struct PoseStep {
+    Eigen::Vector2d w1, w2;
+    double hh;
+    bool last;
+  };
+  std::vector<PoseStep> pose_steps_;
+  bool pose_pending_ = false;
+
   void resize(int n, int m);
   /// Derivative of the state and of its first `columns` sensitivity columns (0: the state only).
-  void deriv(const Segment& sg, const double* Y, double* dY, int columns, Eigen::Vector2d& u0);
+  /// `shift`: angles = the base's + shift (sines and cosines by angle addition); `base`: this is the new base.
+  void deriv(const Segment& sg, const double* Y, double* dY, int columns, Eigen::Vector2d& u0, const double* shift,
+             bool base);
   int n_ = -1, m_ = -1;
   Eigen::VectorXd Y, Ytmp;
   std::array<Eigen::VectorXd, 4> K;
-  Eigen::VectorXd sn, cs;
+  Eigen::VectorXd sn, cs, sn0, cs0, shift, step_shift, lin;
 };
 
 /// The loaded (Cosserat-rod) problem: the segments of a Problem plus the loads (loaded_kinematics.cpp).
@@ -132,10 +149,25 @@ struct WarmHistory {
   int count = 0;                          ///< Entries of the chain (0: none).
 };
 
+/// An exact shooting Jacobian of a recent solve, kept as the matrix of chord steps for the next nearby solves of the
+/// same problem structure: where it was taken (history key), the robot's kb, kt, kappa, the contact sites and laws
+/// (a Torque law's factor enters the Jacobian, a Stick law's reference does not), and its stability.
+struct ChordCache {
+  bool valid = false;
+  Eigen::MatrixXd J;
+  Eigen::VectorXd q, robot;
+  std::vector<ContactSite> sites;
+  std::vector<ContactCondition::Law> laws;
+  std::vector<double> torque_factors;  // condition value of Torque laws (0 for the others)
+  double stability = 0.0;
+};
+
 }  // namespace detail
 
 struct Workspace::Impl {
   detail::WarmHistory history;
+  detail::ChordCache chain_chord;    ///< frictionless solves following a path (with the continuation predictor)
+  detail::ChordCache contact_chord;  ///< solves with contact laws (stick-slip steps)
   detail::Problem problem;
   detail::Evaluator eval;
   detail::Outputs out;

@@ -68,7 +68,10 @@ struct KinematicsOptions {
   /// polynomial through up to the last four solves; the secant when the higher-order term is large, e.g. before a
   /// fold) instead of the warm solution's, falling back to the warm solution if that fails. Roughly halves the
   /// Newton iterations along a sweep (docs/performance.md); the converged result is the same equilibrium to the
-  /// tolerance.
+  /// tolerance. Also reuses the workspace's last exact shooting Jacobian (taken within 0.1 rad / 2 mm, same robot
+  /// and contact laws) for quasi-Newton steps with value-only evaluations — the chain's predicted start and a
+  /// stick-slip step's start from the previous state — falling back to Newton when they do not converge fast; the
+  /// reported stability is then that Jacobian's unless it is small (|stability| <= 0.25: evaluated exactly).
   bool extrapolate_warm_start = false;
 };
 

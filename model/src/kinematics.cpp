@@ -842,6 +842,17 @@ bool chordUsable(const detail::ChordCache& C, const Problem& P, const Eigen::Vec
   return true;
 }
 
+// The contact laws of the chain are those of P (the chain's z vectors are then the same unknowns).
+bool sameLaws(const detail::WarmHistory& H, const Problem& P) {
+  if (H.sites.size() != P.contacts.size()) return false;
+  for (std::size_t c = 0; c < P.contacts.size(); ++c) {
+    const detail::ActiveContact& ac = P.contacts[c];
+    if (!(H.sites[c] == ac.site) || H.laws[c] != ac.condition.law || H.torque_factors[c] != torqueFactor(ac.condition))
+      return false;
+  }
+  return true;
+}
+
 void storeChord(detail::ChordCache& C, const Problem& P, const Evaluator& E, double stability,
                 const Eigen::VectorXd& qv) {
   C.J = E.J;
@@ -907,20 +918,25 @@ Solution solveImpl(const Robot& robot, const Configuration& q, const std::vector
   // stability) package() returns are that evaluation's.
   const bool rec = opt.record_backbone;
   const bool frictionless = conditions == nullptr;
-  detail::WarmHistory& H = W.history;
+  // Frictionless solves and solves under contact laws keep their own chains and Jacobians (a stick-slip step's mode
+  // trials do not break the frictionless chain of the same workspace).
+  detail::WarmHistory& H = frictionless ? W.history : W.contact_history;
+  detail::ChordCache& CC = frictionless ? W.chain_chord : W.contact_chord;
   const Eigen::VectorXd qv = historyKey(q);
-  // Following a path: the warm start is this workspace's last solve.
-  const bool chained = frictionless && warm && H.count > 0 && warm->q.size() == q.size() &&
-                       historyKey(warm->q) == H.q[0] && warm->base_twist_rate == H.z[0];
+  // Following a path: the warm start is this workspace's last solve of the same contact laws.
+  // (Contact torques pass through the state as N m: compared to rounding.)
+  const bool chained = warm && H.count > 0 && warm->q.size() == q.size() && sameLaws(H, P) &&
+                       historyKey(warm->q) == H.q[0] && z.size() == H.z[0].size() &&
+                       (z - H.z[0]).cwiseAbs().maxCoeff() <= 1e-13 * (1.0 + H.z[0].cwiseAbs().maxCoeff());
   bool ok = false;
   const long jacobians_before = W.eval.jacobian_evaluations;
   if (opt.extrapolate_warm_start && chained && H.count >= 2) {
     Eigen::VectorXd zp = z;
     if (continuationPredictor(H, qv, zp)) {
       int it_p = 0;
-      if (chordUsable(W.chain_chord, P, qv)) {
+      if (chordUsable(CC, P, qv)) {
         Eigen::VectorXd zc = zp;
-        ok = chordSolve(P, W.eval, W.out, zc, opt, W.chain_chord, 2, it_p, rn, rec);
+        ok = chordSolve(P, W.eval, W.out, zc, opt, CC, 2, it_p, rn, rec);
         if (ok) z = zc;
       }
       if (!ok) {
@@ -930,10 +946,11 @@ Solution solveImpl(const Robot& robot, const Configuration& q, const std::vector
       iters += it_p;
     }
   }
-  if (!ok && !frictionless && warm && opt.extrapolate_warm_start && chordUsable(W.contact_chord, P, qv)) {
-    // A stick-slip step with the contact laws of a recent solve: quasi-Newton steps from the previous state.
+  if (!ok && warm && opt.extrapolate_warm_start && (chained || !frictionless) && chordUsable(CC, P, qv)) {
+    // Quasi-Newton steps from the warm start with the Jacobian of a recent solve of the same problem structure: a
+    // path-following solve without a usable prediction, a stick-slip step (from the previous state).
     Eigen::VectorXd zc = z;
-    ok = chordSolve(P, W.eval, W.out, zc, opt, W.contact_chord, 4, iters, rn, rec);
+    ok = chordSolve(P, W.eval, W.out, zc, opt, CC, 4, iters, rn, rec);
     if (ok) z = zc;
   }
   if (!ok) ok = newton(P, W.eval, W.out, z, opt, iters, rn, why, rec);
@@ -1007,23 +1024,31 @@ Solution solveImpl(const Robot& robot, const Configuration& q, const std::vector
   W.eval.finishPose(W.out);
   Solution sol = package(robot, q, P, W.out, z, ok, iters, rn, why, opt);
   sol.summary.continuation_steps = cont_steps;
-  if (frictionless && ok) {
-    if (!chained) H.count = 0;
+  if (ok) {
+    if (!chained) {
+      H.count = 0;
+      H.sites.clear();
+      H.laws.clear();
+      H.torque_factors.clear();
+      for (const detail::ActiveContact& ac : P.contacts) {
+        H.sites.push_back(ac.site);
+        H.laws.push_back(ac.condition.law);
+        H.torque_factors.push_back(torqueFactor(ac.condition));
+      }
+    }
     for (int k = std::min(H.count, detail::WarmHistory::kDepth - 1); k > 0; --k) {
       std::swap(H.q[k], H.q[k - 1]);
       std::swap(H.z[k], H.z[k - 1]);
     }
     H.q[0] = qv;
-    H.z[0] = sol.base_twist_rate;
+    H.z[0] = z;
     H.count = std::min(H.count + 1, detail::WarmHistory::kDepth);
-    if (!chained) W.chain_chord.valid = false;
-  } else if (frictionless) {
+  } else {
     H.count = 0;
-    W.chain_chord.valid = false;
   }
   if (plain && W.eval.jacobian_evaluations > jacobians_before && W.eval.J.rows() == P.m) {
     // An exact Jacobian of this solve (at its last Newton iterate): the chord matrix of the next nearby solves.
-    storeChord(frictionless ? W.chain_chord : W.contact_chord, P, W.eval, W.out.stability, qv);
+    storeChord(CC, P, W.eval, W.out.stability, qv);
   }
   return sol;
 }

@@ -124,7 +124,8 @@ void runLoaded(const LoadedProblem& L, const T* z, const T* alpha, const T* beta
   const Problem& P = L.P;
   const int n = P.n, m = L.m;
   const int dim = 2 * n + 3;  // theta, u_z, m
-  std::vector<T> buf(static_cast<std::size_t>(7 * dim + 6 * n));
+  thread_local std::vector<T> buf;  // scratch of this instantiation on this thread (no allocation per evaluation)
+  buf.resize(static_cast<std::size_t>(7 * dim + 6 * n));
   T* y = buf.data();
   T* yt = y + dim;
   T* k[4] = {yt + dim, yt + 2 * dim, yt + 3 * dim, yt + 4 * dim};
@@ -422,12 +423,11 @@ Eigen::VectorXd inputVector(const LoadedProblem& L, const Eigen::VectorXd& z) {
 
 void evalValue(LoadedWork& W, const Eigen::VectorXd& z, LoadedOutputs* rec, bool nodes, bool tubes) {
   const LoadedProblem& L = W.L;
-  const int n = L.P.n, m = L.m;
-  const Eigen::VectorXd x = inputVector(L, z);
+  const int m = L.m;
   W.r.resize(m);
   double p[3], R[9], th;
-  runLoaded<double>(L, x.data(), x.data() + m, x.data() + m + n, x.data() + m + 2 * n, x.data() + m + 2 * n + 3,
-                    W.r.data(), p, R, &th, rec, nodes, tubes);
+  runLoaded<double>(L, z.data(), L.P.alpha.data(), L.P.beta.data(), L.F.data(), L.M.data(), W.r.data(), p, R, &th,
+                    rec, nodes, tubes);
   W.tip_p = Eigen::Vector3d(p[0], p[1], p[2]);
   for (int a = 0; a < 3; ++a)
     for (int b = 0; b < 3; ++b) W.tip_R(a, b) = R[3 * a + b];

@@ -140,13 +140,17 @@ struct LoadedWork {
   std::vector<ContactCondition::Law> J_laws;
 };
 
-/// The last converged frictionless torsion-only solves of a workspace that form a chain, each warm-started from the
-/// one before it (a path being followed): the continuation predictor of KinematicsOptions::extrapolate_warm_start.
+/// The last converged torsion-only solves of a workspace under the same contact laws (none: frictionless) that form
+/// a chain, each warm-started from the one before it (a path being followed): the continuation predictor of
+/// KinematicsOptions::extrapolate_warm_start.
 struct WarmHistory {
   static constexpr int kDepth = 4;  ///< Solves kept: up to a cubic extrapolation.
   std::array<Eigen::VectorXd, kDepth> q;  ///< q[0] the last solve: actuation (alpha, then 50 x beta).
-  std::array<Eigen::VectorXd, kDepth> z;  ///< Its base twist rates.
+  std::array<Eigen::VectorXd, kDepth> z;  ///< Its unknowns (base twist rates, then contact torques).
   int count = 0;                          ///< Entries of the chain (0: none).
+  std::vector<ContactSite> sites;         ///< The chain's contact laws (as ChordCache).
+  std::vector<ContactCondition::Law> laws;
+  std::vector<double> torque_factors;
 };
 
 /// An exact shooting Jacobian of a recent solve, kept as the matrix of chord steps for the next nearby solves of the
@@ -165,9 +169,10 @@ struct ChordCache {
 }  // namespace detail
 
 struct Workspace::Impl {
-  detail::WarmHistory history;
-  detail::ChordCache chain_chord;    ///< frictionless solves following a path (with the continuation predictor)
-  detail::ChordCache contact_chord;  ///< solves with contact laws (stick-slip steps)
+  detail::WarmHistory history;          ///< frictionless solves following a path
+  detail::WarmHistory contact_history;  ///< solves under contact laws following a path (stick-slip steps)
+  detail::ChordCache chain_chord;       ///< Jacobian of a recent frictionless solve
+  detail::ChordCache contact_chord;     ///< Jacobian of a recent solve under contact laws
   detail::Problem problem;
   detail::Evaluator eval;
   detail::Outputs out;

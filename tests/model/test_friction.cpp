@@ -278,11 +278,12 @@ TEST(Friction, BoundsAreContinuousWhenCoincidentEndsSeparate) {
     }
 }
 
-TEST(Friction, JacobianReuseGivesTheSameStickSlipPath) {
+TEST(Friction, PathFollowingSolvesGiveTheSameStickSlipPath) {
   // Stick-slip random walks (rotations and translations, 1 deg / 1 mm sub-steps) with the planner's solver settings:
-  // with KinematicsOptions::extrapolate_warm_start a step starts with quasi-Newton steps from the workspace's last
-  // exact Jacobian of the same contact laws; without it, Newton from the previous state. Same contact modes at every
-  // step and the same shapes to the solver tolerance.
+  // with KinematicsOptions::extrapolate_warm_start a step starts from the extrapolation of the previous steps under
+  // the same contact laws and takes quasi-Newton steps with the workspace's last exact Jacobian of those laws;
+  // without it, Newton from the previous state. Same contact modes at every step and the same shapes to the solver
+  // tolerance.
   const Robot r("three",
                 {makeTube("a", 0.05, 0.10, 4.0, 0.04, 0.3), makeTube("b", 0.08, 0.10, 6.0, 0.02, 0.3),
                  makeTube("c", 0.15, 0.06, 12.0, 0.006, 0.3)},

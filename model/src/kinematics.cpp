@@ -551,6 +551,30 @@ void Evaluator::evaluate(const Problem& P, const Eigen::VectorXd& z, bool jac, b
   }
 }
 
+namespace {
+double torqueFactor(const ContactCondition& c) { return c.law == ContactCondition::Law::Torque ? c.value : 0.0; }
+}  // namespace
+
+void ContactLaws::assign(const std::vector<ActiveContact>& contacts) {
+  sites.clear();
+  laws.clear();
+  torque_factors.clear();
+  for (const ActiveContact& ac : contacts) {
+    sites.push_back(ac.site);
+    laws.push_back(ac.condition.law);
+    torque_factors.push_back(torqueFactor(ac.condition));
+  }
+}
+
+bool ContactLaws::matches(const std::vector<ActiveContact>& contacts) const {
+  if (sites.size() != contacts.size()) return false;
+  for (std::size_t c = 0; c < contacts.size(); ++c)
+    if (!(sites[c] == contacts[c].site) || laws[c] != contacts[c].condition.law ||
+        torque_factors[c] != torqueFactor(contacts[c].condition))
+      return false;
+  return true;
+}
+
 void Evaluator::finishPose(Outputs& out) {
   if (!pose_pending_) return;
   Eigen::Matrix3d R = Eigen::Matrix3d::Identity();
@@ -825,32 +849,11 @@ Eigen::VectorXd robotKey(const Problem& P) {
   return k;
 }
 
-double torqueFactor(const ContactCondition& c) {
-  return c.law == ContactCondition::Law::Torque ? c.value : 0.0;
-}
-
-// A cached Jacobian serves chord steps when it is of this robot, problem size and contact structure and was taken
+// A cached Jacobian serves quasi-Newton steps when it is of this robot, problem size and contact laws and was taken
 // within 0.1 (rad, or 2 mm of translation in history-key units) of q.
 bool chordUsable(const detail::ChordCache& C, const Problem& P, const Eigen::VectorXd& qv) {
-  if (!C.valid || C.J.rows() != P.m || C.q.size() != qv.size() || C.sites.size() != P.contacts.size()) return false;
-  if ((C.q - qv).cwiseAbs().maxCoeff() > 0.1 || C.robot != robotKey(P)) return false;
-  for (std::size_t c = 0; c < P.contacts.size(); ++c) {
-    const detail::ActiveContact& ac = P.contacts[c];
-    if (!(C.sites[c] == ac.site) || C.laws[c] != ac.condition.law || C.torque_factors[c] != torqueFactor(ac.condition))
-      return false;
-  }
-  return true;
-}
-
-// The contact laws of the chain are those of P (the chain's z vectors are then the same unknowns).
-bool sameLaws(const detail::WarmHistory& H, const Problem& P) {
-  if (H.sites.size() != P.contacts.size()) return false;
-  for (std::size_t c = 0; c < P.contacts.size(); ++c) {
-    const detail::ActiveContact& ac = P.contacts[c];
-    if (!(H.sites[c] == ac.site) || H.laws[c] != ac.condition.law || H.torque_factors[c] != torqueFactor(ac.condition))
-      return false;
-  }
-  return true;
+  return C.valid && C.J.rows() == P.m && C.q.size() == qv.size() && (C.q - qv).cwiseAbs().maxCoeff() <= 0.1 &&
+         C.robot == robotKey(P) && C.laws.matches(P.contacts);
 }
 
 void storeChord(detail::ChordCache& C, const Problem& P, const Evaluator& E, double stability,
@@ -858,14 +861,7 @@ void storeChord(detail::ChordCache& C, const Problem& P, const Evaluator& E, dou
   C.J = E.J;
   C.q = qv;
   C.robot = robotKey(P);
-  C.sites.clear();
-  C.laws.clear();
-  C.torque_factors.clear();
-  for (const detail::ActiveContact& ac : P.contacts) {
-    C.sites.push_back(ac.site);
-    C.laws.push_back(ac.condition.law);
-    C.torque_factors.push_back(torqueFactor(ac.condition));
-  }
+  C.laws.assign(P.contacts);
   C.stability = stability;
   C.valid = true;
 }
@@ -925,7 +921,7 @@ Solution solveImpl(const Robot& robot, const Configuration& q, const std::vector
   const Eigen::VectorXd qv = historyKey(q);
   // Following a path: the warm start is this workspace's last solve of the same contact laws.
   // (Contact torques pass through the state as N m: compared to rounding.)
-  const bool chained = warm && H.count > 0 && warm->q.size() == q.size() && sameLaws(H, P) &&
+  const bool chained = warm && H.count > 0 && warm->q.size() == q.size() && H.laws.matches(P.contacts) &&
                        historyKey(warm->q) == H.q[0] && z.size() == H.z[0].size() &&
                        (z - H.z[0]).cwiseAbs().maxCoeff() <= 1e-13 * (1.0 + H.z[0].cwiseAbs().maxCoeff());
   bool ok = false;
@@ -1027,14 +1023,7 @@ Solution solveImpl(const Robot& robot, const Configuration& q, const std::vector
   if (ok) {
     if (!chained) {
       H.count = 0;
-      H.sites.clear();
-      H.laws.clear();
-      H.torque_factors.clear();
-      for (const detail::ActiveContact& ac : P.contacts) {
-        H.sites.push_back(ac.site);
-        H.laws.push_back(ac.condition.law);
-        H.torque_factors.push_back(torqueFactor(ac.condition));
-      }
+      H.laws.assign(P.contacts);
     }
     for (int k = std::min(H.count, detail::WarmHistory::kDepth - 1); k > 0; --k) {
       std::swap(H.q[k], H.q[k - 1]);

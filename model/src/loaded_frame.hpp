@@ -26,19 +26,25 @@ inline Exp<double> expCoefficients(double wx, double wy, bool withC) {
   return {c.A, c.B, c.C};
 }
 
+// E = exp([w]x) = I + A [w]x + B [w]x^2, w = (wx, wy, 0), row-major.
+inline void rotationOf(double A, double B, double wx, double wy, double* E) {
+  const double Bxy = B * wx * wy;
+  E[0] = 1.0 - B * wy * wy;
+  E[1] = Bxy;
+  E[2] = A * wy;
+  E[3] = Bxy;
+  E[4] = 1.0 - B * wx * wx;
+  E[5] = -(A * wx);
+  E[6] = -(A * wy);
+  E[7] = A * wx;
+  E[8] = 1.0 - B * (wx * wx + wy * wy);
+}
+
 // R <- R exp([w]x) with w = (wx, wy, 0); R row-major. Optionally p <- p + R V(w) e3 a (SE(3) step).
 inline void expStep(double* R, double* p, double wx, double wy, const double* a) {
   const Exp<double> c = expCoefficients(wx, wy, p != nullptr);
-  const double Bwxwy = c.B * wx * wy;
-  const double E[9] = {1.0 - c.B * wy * wy,
-                       Bwxwy,
-                       c.A * wy,
-                       Bwxwy,
-                       1.0 - c.B * wx * wx,
-                       -(c.A * wx),
-                       -(c.A * wy),
-                       c.A * wx,
-                       1.0 - c.B * (wx * wx + wy * wy)};
+  double E[9];
+  rotationOf(c.A, c.B, wx, wy, E);
   if (p) {
     const double tx = *a * c.B * wy, ty = -(*a * c.B * wx), tz = *a * (1.0 - c.C * (wx * wx + wy * wy));
     for (int r = 0; r < 3; ++r) p[r] += R[3 * r] * tx + R[3 * r + 1] * ty + R[3 * r + 2] * tz;
@@ -154,17 +160,7 @@ struct StageRotation<Dual<N>> {
     const ExpCoefficients c = expCoefficientsOf(wx * wx + wy * wy, true, false);
     B = c.B;
     C = c.C;
-    const double Bxy = c.B * wx * wy;
-    const double e[9] = {1.0 - c.B * wy * wy,
-                         Bxy,
-                         c.A * wy,
-                         Bxy,
-                         1.0 - c.B * wx * wx,
-                         -(c.A * wx),
-                         -(c.A * wy),
-                         c.A * wx,
-                         1.0 - c.B * (wx * wx + wy * wy)};
-    for (int k = 0; k < 9; ++k) E[k] = e[k];
+    rotationOf(c.A, c.B, wx, wy, E);
   }
   /// xi <- E^T xi + J_r(w) dw: the tangent of R E from that of R.
   void mapTangent(double (*xi)[N]) const {
@@ -247,9 +243,8 @@ struct Frame<Dual<N>> {
         }
       }
     }
-    const double Bxy = c.B * vx * vy;
-    const double E[9] = {1.0 - c.B * vy * vy, Bxy,         c.A * vy, Bxy,           1.0 - c.B * vx * vx,
-                         -(c.A * vx),         -(c.A * vy), c.A * vx, 1.0 - c.B * xv};
+    double E[9];
+    rotationOf(c.A, c.B, vx, vy, E);
     const double f = 1.0 - c.C * xv;
     for (int k = 0; k < N; ++k) {
       const double a0 = xi[0][k], b0 = xi[1][k], c0 = xi[2][k];

@@ -140,6 +140,16 @@ struct LoadedWork {
   std::vector<ContactCondition::Law> J_laws;
 };
 
+/// The contact laws of a problem as far as the shooting map's unknowns and Jacobian are concerned: the sites and
+/// laws, and a Torque law's factor (a Stick law's reference only shifts the residual).
+struct ContactLaws {
+  std::vector<ContactSite> sites;
+  std::vector<ContactCondition::Law> laws;
+  std::vector<double> torque_factors;  // condition value of Torque laws (0 for the others)
+  void assign(const std::vector<ActiveContact>& contacts);
+  bool matches(const std::vector<ActiveContact>& contacts) const;
+};
+
 /// The last converged torsion-only solves of a workspace under the same contact laws (none: frictionless) that form
 /// a chain, each warm-started from the one before it (a path being followed): the continuation predictor of
 /// KinematicsOptions::extrapolate_warm_start.
@@ -148,21 +158,16 @@ struct WarmHistory {
   std::array<Eigen::VectorXd, kDepth> q;  ///< q[0] the last solve: actuation (alpha, then 50 x beta).
   std::array<Eigen::VectorXd, kDepth> z;  ///< Its unknowns (base twist rates, then contact torques).
   int count = 0;                          ///< Entries of the chain (0: none).
-  std::vector<ContactSite> sites;         ///< The chain's contact laws (as ChordCache).
-  std::vector<ContactCondition::Law> laws;
-  std::vector<double> torque_factors;
+  ContactLaws laws;                       ///< The chain's contact laws.
 };
 
-/// An exact shooting Jacobian of a recent solve, kept as the matrix of chord steps for the next nearby solves of the
-/// same problem structure: where it was taken (history key), the robot's kb, kt, kappa, the contact sites and laws
-/// (a Torque law's factor enters the Jacobian, a Stick law's reference does not), and its stability.
+/// An exact shooting Jacobian of a recent solve, kept as the matrix of quasi-Newton steps for the next nearby solves
+/// under the same contact laws: where it was taken (history key), the robot's kb, kt, kappa, and its stability.
 struct ChordCache {
   bool valid = false;
   Eigen::MatrixXd J;
   Eigen::VectorXd q, robot;
-  std::vector<ContactSite> sites;
-  std::vector<ContactCondition::Law> laws;
-  std::vector<double> torque_factors;  // condition value of Torque laws (0 for the others)
+  ContactLaws laws;
   double stability = 0.0;
 };
 

@@ -32,7 +32,6 @@ ContactCondition conditionFor(ContactMode mode, double stick_twist) {
 // A warm start carrying the previous branch and contact torques.
 Solution warmFrom(const HysteresisState& s) {
   Solution w;
-  w.q = s.q;  // where it was solved (a solve that continues a path recognises its predecessor by it)
   w.base_twist_rate = s.base_twist_rate;
   w.base_moment = s.base_moment;
   w.loaded = !s.base_moment.isZero(0.0);

@@ -551,30 +551,6 @@ void Evaluator::evaluate(const Problem& P, const Eigen::VectorXd& z, bool jac, b
   }
 }
 
-namespace {
-double torqueFactor(const ContactCondition& c) { return c.law == ContactCondition::Law::Torque ? c.value : 0.0; }
-}  // namespace
-
-void ContactLaws::assign(const std::vector<ActiveContact>& contacts) {
-  sites.clear();
-  laws.clear();
-  torque_factors.clear();
-  for (const ActiveContact& ac : contacts) {
-    sites.push_back(ac.site);
-    laws.push_back(ac.condition.law);
-    torque_factors.push_back(torqueFactor(ac.condition));
-  }
-}
-
-bool ContactLaws::matches(const std::vector<ActiveContact>& contacts) const {
-  if (sites.size() != contacts.size()) return false;
-  for (std::size_t c = 0; c < contacts.size(); ++c)
-    if (!(sites[c] == contacts[c].site) || laws[c] != contacts[c].condition.law ||
-        torque_factors[c] != torqueFactor(contacts[c].condition))
-      return false;
-  return true;
-}
-
 void Evaluator::finishPose(Outputs& out) {
   if (!pose_pending_) return;
   Eigen::Matrix3d R = Eigen::Matrix3d::Identity();
@@ -587,6 +563,67 @@ void Evaluator::finishPose(Outputs& out) {
   out.tip_position = p;
   out.tip_frame = R;
   pose_pending_ = false;
+}
+
+// Actuation as one vector for the warm-start history: alpha, then beta in units of 2 cm (~1 rad).
+Eigen::VectorXd historyKey(const Configuration& q) {
+  Eigen::VectorXd v(2 * q.size());
+  v << q.alpha, 50.0 * q.beta;
+  return v;
+}
+
+// Continuation predictor: when q continues the straight line through the last solves of the chain (each step
+// within 2.6 deg of the line's direction, q at most two steps ahead), the base twist rates extrapolated along it by
+// the polynomial through up to four of them (Lagrange, in the arc length along the line). A higher-order term larger
+// than a quarter of the secant's step (a fold ahead) falls back to the secant.
+bool continuationPredictor(const WarmHistory& H, const Eigen::VectorXd& q, Eigen::VectorXd& z) {
+  if (H.count < 2 || H.q[0].size() != q.size() || z.size() < H.z[0].size()) return false;
+  const Eigen::VectorXd d = q - H.q[0];
+  const double ahead = d.norm();
+  if (!(ahead > 0.0)) return false;
+  const Eigen::VectorXd u = d / ahead;
+  double s[WarmHistory::kDepth] = {0.0};
+  int points = 1;
+  for (int k = 1; k < H.count; ++k) {
+    if (H.q[k].size() != q.size() || H.z[k].size() != H.z[0].size()) break;
+    const Eigen::VectorXd step = H.q[k - 1] - H.q[k];
+    const double len = step.norm(), along = step.dot(u);
+    if (!(len > 0.0) || along < 0.999 * len) break;  // not (nearly) the same direction
+    s[k] = s[k - 1] - along;
+    ++points;
+  }
+  if (points < 2 || ahead > 2.0 * -s[1]) return false;
+  const Eigen::VectorXd secant = H.z[0] + (ahead / -s[1]) * (H.z[0] - H.z[1]);
+  Eigen::VectorXd pred = Eigen::VectorXd::Zero(H.z[0].size());
+  for (int i = 0; i < points; ++i) {
+    double w = 1.0;
+    for (int j = 0; j < points; ++j)
+      if (j != i) w *= (ahead - s[j]) / (s[i] - s[j]);
+    pred += w * H.z[i];
+  }
+  const double secant_step = (secant - H.z[0]).cwiseAbs().maxCoeff();
+  const bool smooth = pred.allFinite() && (pred - secant).cwiseAbs().maxCoeff() <= 0.25 * secant_step;
+  z.head(H.z[0].size()) = smooth ? pred : secant;
+  return z.allFinite();
+}
+
+void recordInChain(WarmHistory& H, bool chained, const Eigen::VectorXd& qv, const Eigen::VectorXd& z) {
+  if (!chained) H.count = 0;
+  for (int k = std::min(H.count, WarmHistory::kDepth - 1); k > 0; --k) {
+    std::swap(H.q[k], H.q[k - 1]);
+    std::swap(H.z[k], H.z[k - 1]);
+  }
+  H.q[0] = qv;
+  H.z[0] = z;
+  H.count = std::min(H.count + 1, WarmHistory::kDepth);
+}
+
+// (The loaded solver's base moments pass through a Solution in N m: the unknowns are compared to rounding.)
+bool continuesChain(const WarmHistory& H, const Configuration& warm_q, const Eigen::VectorXd& q_key,
+                    const Eigen::VectorXd& z) {
+  return H.count > 0 && warm_q.size() * 2 == q_key.size() && H.q[0].size() == q_key.size() &&
+         historyKey(warm_q) == H.q[0] && z.size() == H.z[0].size() &&
+         (z - H.z[0]).cwiseAbs().maxCoeff() <= 1e-13 * (1.0 + H.z[0].cwiseAbs().maxCoeff());
 }
 
 }  // namespace detail
@@ -650,9 +687,11 @@ bool newton(const Problem& P, Evaluator& E, Outputs& out, Eigen::VectorXd& z, co
     }
     const double big = maxAbs(dz.head(P.n));
     if (big > step_cap) dz *= step_cap / big;
-    // Newton's quadratic convergence (residual ~ nr^2 after the step) predicts the step converges: evaluate the
-    // trial points without the Jacobian (its sensitivities are most of an evaluation's cost).
-    const bool value_only = nr * nr < 10.0 * opt.tolerance;
+    // Newton's quadratic convergence (residual ~ K nr^2 after the step, K 0.002-0.03 median on the example robots)
+    // predicts the step converges: evaluate the trial points without the Jacobian (its sensitivities are most of an
+    // evaluation's cost). Measured over 26 k Newton steps of the example robots (cold, warm, stick-slip; tolerance
+    // 1e-10 and 1e-8): 90 % of such trials converge; the others cost one evaluation more (the Jacobian at z next).
+    const bool value_only = nr * nr < 1000.0 * opt.tolerance;
     double t = 1.0;
     Eigen::VectorXd zt;
     bool accepted = false;
@@ -801,59 +840,17 @@ bool continuation(const std::function<void(double)>& setAt, const Problem& P, Ev
   return true;
 }
 
-// Actuation as one vector for the warm-start history: alpha, then beta in units of 2 cm (~1 rad).
-Eigen::VectorXd historyKey(const Configuration& q) {
-  Eigen::VectorXd v(2 * q.size());
-  v << q.alpha, 50.0 * q.beta;
-  return v;
-}
-
-// Continuation predictor: when q continues the straight line through the last solves of the chain (each step
-// within 2.6 deg of the line's direction, q at most two steps ahead), the base twist rates extrapolated along it by
-// the polynomial through up to four of them (Lagrange, in the arc length along the line). A higher-order term larger
-// than a quarter of the secant's step (a fold ahead) falls back to the secant.
-bool continuationPredictor(const detail::WarmHistory& H, const Eigen::VectorXd& q, Eigen::VectorXd& z) {
-  if (H.count < 2 || H.q[0].size() != q.size() || z.size() < H.z[0].size()) return false;
-  const Eigen::VectorXd d = q - H.q[0];
-  const double ahead = d.norm();
-  if (!(ahead > 0.0)) return false;
-  const Eigen::VectorXd u = d / ahead;
-  double s[detail::WarmHistory::kDepth] = {0.0};
-  int points = 1;
-  for (int k = 1; k < H.count; ++k) {
-    if (H.q[k].size() != q.size() || H.z[k].size() != H.z[0].size()) break;
-    const Eigen::VectorXd step = H.q[k - 1] - H.q[k];
-    const double len = step.norm(), along = step.dot(u);
-    if (!(len > 0.0) || along < 0.999 * len) break;  // not (nearly) the same direction
-    s[k] = s[k - 1] - along;
-    ++points;
-  }
-  if (points < 2 || ahead > 2.0 * -s[1]) return false;
-  const Eigen::VectorXd secant = H.z[0] + (ahead / -s[1]) * (H.z[0] - H.z[1]);
-  Eigen::VectorXd pred = Eigen::VectorXd::Zero(H.z[0].size());
-  for (int i = 0; i < points; ++i) {
-    double w = 1.0;
-    for (int j = 0; j < points; ++j)
-      if (j != i) w *= (ahead - s[j]) / (s[i] - s[j]);
-    pred += w * H.z[i];
-  }
-  const double secant_step = (secant - H.z[0]).cwiseAbs().maxCoeff();
-  const bool smooth = pred.allFinite() && (pred - secant).cwiseAbs().maxCoeff() <= 0.25 * secant_step;
-  z.head(H.z[0].size()) = smooth ? pred : secant;
-  return z.allFinite();
-}
-
 Eigen::VectorXd robotKey(const Problem& P) {
   Eigen::VectorXd k(3 * P.n);
   k << P.kb, P.kt, P.kappa;
   return k;
 }
 
-// A cached Jacobian serves quasi-Newton steps when it is of this robot, problem size and contact laws and was taken
-// within 0.1 (rad, or 2 mm of translation in history-key units) of q.
+// The cached Jacobian serves quasi-Newton steps when it is of this robot and problem size and was taken within 0.1
+// (rad, or 2 mm of translation in history-key units) of q.
 bool chordUsable(const detail::ChordCache& C, const Problem& P, const Eigen::VectorXd& qv) {
   return C.valid && C.J.rows() == P.m && C.q.size() == qv.size() && (C.q - qv).cwiseAbs().maxCoeff() <= 0.1 &&
-         C.robot == robotKey(P) && C.laws.matches(P.contacts);
+         C.robot == robotKey(P);
 }
 
 void storeChord(detail::ChordCache& C, const Problem& P, const Evaluator& E, double stability,
@@ -861,7 +858,6 @@ void storeChord(detail::ChordCache& C, const Problem& P, const Evaluator& E, dou
   C.J = E.J;
   C.q = qv;
   C.robot = robotKey(P);
-  C.laws.assign(P.contacts);
   C.stability = stability;
   C.valid = true;
 }
@@ -914,21 +910,18 @@ Solution solveImpl(const Robot& robot, const Configuration& q, const std::vector
   // stability) package() returns are that evaluation's.
   const bool rec = opt.record_backbone;
   const bool frictionless = conditions == nullptr;
-  // Frictionless solves and solves under contact laws keep their own chains and Jacobians (a stick-slip step's mode
-  // trials do not break the frictionless chain of the same workspace).
-  detail::WarmHistory& H = frictionless ? W.history : W.contact_history;
-  detail::ChordCache& CC = frictionless ? W.chain_chord : W.contact_chord;
-  const Eigen::VectorXd qv = historyKey(q);
-  // Following a path: the warm start is this workspace's last solve of the same contact laws.
-  // (Contact torques pass through the state as N m: compared to rounding.)
-  const bool chained = warm && H.count > 0 && warm->q.size() == q.size() && H.laws.matches(P.contacts) &&
-                       historyKey(warm->q) == H.q[0] && z.size() == H.z[0].size() &&
-                       (z - H.z[0]).cwiseAbs().maxCoeff() <= 1e-13 * (1.0 + H.z[0].cwiseAbs().maxCoeff());
+  // Following a path: a frictionless solve warm-started from this workspace's last frictionless solve. (Solves under
+  // contact laws never use the workspace's history: a stick-slip step is a function of its state and command, so
+  // that a planner's checked states are what a replay of its path computes.)
+  detail::WarmHistory& H = W.history;
+  detail::ChordCache& CC = W.chain_chord;
+  const Eigen::VectorXd qv = detail::historyKey(q);
+  const bool chained = frictionless && warm && detail::continuesChain(H, warm->q, qv, z);
   bool ok = false;
   const long jacobians_before = W.eval.jacobian_evaluations;
   if (opt.extrapolate_warm_start && chained && H.count >= 2) {
     Eigen::VectorXd zp = z;
-    if (continuationPredictor(H, qv, zp)) {
+    if (detail::continuationPredictor(H, qv, zp)) {
       int it_p = 0;
       if (chordUsable(CC, P, qv)) {
         Eigen::VectorXd zc = zp;
@@ -942,9 +935,8 @@ Solution solveImpl(const Robot& robot, const Configuration& q, const std::vector
       iters += it_p;
     }
   }
-  if (!ok && warm && opt.extrapolate_warm_start && (chained || !frictionless) && chordUsable(CC, P, qv)) {
-    // Quasi-Newton steps from the warm start with the Jacobian of a recent solve of the same problem structure: a
-    // path-following solve without a usable prediction, a stick-slip step (from the previous state).
+  if (!ok && opt.extrapolate_warm_start && chained && chordUsable(CC, P, qv)) {
+    // A path-following solve without a usable prediction: quasi-Newton steps from the warm start.
     Eigen::VectorXd zc = z;
     ok = chordSolve(P, W.eval, W.out, zc, opt, CC, 4, iters, rn, rec);
     if (ok) z = zc;
@@ -1020,22 +1012,11 @@ Solution solveImpl(const Robot& robot, const Configuration& q, const std::vector
   W.eval.finishPose(W.out);
   Solution sol = package(robot, q, P, W.out, z, ok, iters, rn, why, opt);
   sol.summary.continuation_steps = cont_steps;
-  if (ok) {
-    if (!chained) {
-      H.count = 0;
-      H.laws.assign(P.contacts);
-    }
-    for (int k = std::min(H.count, detail::WarmHistory::kDepth - 1); k > 0; --k) {
-      std::swap(H.q[k], H.q[k - 1]);
-      std::swap(H.z[k], H.z[k - 1]);
-    }
-    H.q[0] = qv;
-    H.z[0] = z;
-    H.count = std::min(H.count + 1, detail::WarmHistory::kDepth);
-  } else {
+  if (frictionless && ok)
+    detail::recordInChain(H, chained, qv, z);
+  else if (frictionless)
     H.count = 0;
-  }
-  if (plain && W.eval.jacobian_evaluations > jacobians_before && W.eval.J.rows() == P.m) {
+  if (frictionless && plain && W.eval.jacobian_evaluations > jacobians_before && W.eval.J.rows() == P.m) {
     // An exact Jacobian of this solve (at its last Newton iterate): the chord matrix of the next nearby solves.
     storeChord(CC, P, W.eval, W.out.stability, qv);
   }

@@ -785,9 +785,21 @@ Solution solveLoaded(const Robot& robot, const Configuration& q, const std::vect
   Eigen::VectorXd z;
   bool ok = false, recorded = false;
   const bool have_warm = warm && warm->base_twist_rate.size() == robot.size() && warm->base_twist_rate.allFinite();
+  const Eigen::VectorXd qv = historyKey(q);
+  bool chained = false;
   if (have_warm) {
     z = unknownsFrom(L, *warm);
-    ok = newtonLoaded(W, z, opt, opt.max_iterations, iters, rn, why, true, &recorded);
+    // Only frictionless solves follow the workspace's chain (a stick-slip step depends on its state alone).
+    chained = L.P.contacts.empty() && continuesChain(W.history, warm->q, qv, z);
+    if (opt.extrapolate_warm_start && chained && W.history.count >= 2) {
+      // Following a path: Newton from the extrapolation of the chain (the torsion-only solver's predictor).
+      Eigen::VectorXd zp = z;
+      if (continuationPredictor(W.history, qv, zp)) {
+        ok = newtonLoaded(W, zp, opt, opt.max_iterations, iters, rn, why, true, &recorded);
+        if (ok) z = zp;
+      }
+    }
+    if (!ok) ok = newtonLoaded(W, z, opt, opt.max_iterations, iters, rn, why, true, &recorded);
   }
   if (!ok) {
     // From the load-free equilibrium (its own cold-start fallbacks; the warm branch when given), then continuation
@@ -857,6 +869,10 @@ Solution solveLoaded(const Robot& robot, const Configuration& q, const std::vect
       recorded = false;
     }
   }
+  if (ok && L.P.contacts.empty())
+    recordInChain(W.history, chained, qv, z);
+  else
+    W.history.count = 0;
   return packageLoaded(W, q, z, ok, iters, rn, why, opt, loadedStability(L, W.J), recorded);
 }
 

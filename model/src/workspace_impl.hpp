@@ -101,6 +101,40 @@ private:
   Eigen::VectorXd sn, cs, sn0, cs0, shift, step_shift, lin;
 };
 
+/// The last converged frictionless solves of a workspace (no contact laws) that form a chain, each warm-started from
+/// the one before it (a path being followed): the continuation predictor of KinematicsOptions::extrapolate_warm_start.
+/// Solves under contact laws (stick-slip steps) never use it: a step depends only on its HysteresisState and command.
+struct WarmHistory {
+  static constexpr int kDepth = 4;  ///< Solves kept: up to a cubic extrapolation.
+  std::array<Eigen::VectorXd, kDepth> q;  ///< q[0] the last solve: actuation (alpha, then 50 x beta).
+  std::array<Eigen::VectorXd, kDepth> z;  ///< Its unknowns.
+  int count = 0;                          ///< Entries of the chain (0: none).
+};
+
+/// Actuation as one vector for the warm-start history: alpha, then beta in units of 2 cm (~1 rad).
+Eigen::VectorXd historyKey(const Configuration& q);
+
+/// Continuation predictor: when q continues the straight line through the chain's last solves, z <- the extrapolation
+/// of their unknowns along it (kinematics.cpp); false when it does not apply.
+bool continuationPredictor(const WarmHistory& H, const Eigen::VectorXd& q, Eigen::VectorXd& z);
+
+/// Records a converged solve (q, z) in the chain: appended when it was warm-started from the chain's last solve
+/// (`chained`), else the chain restarts with it.
+void recordInChain(WarmHistory& H, bool chained, const Eigen::VectorXd& qv, const Eigen::VectorXd& z);
+
+/// Whether a warm start (its configuration and unknowns) is the chain's last solve.
+bool continuesChain(const WarmHistory& H, const Configuration& warm_q, const Eigen::VectorXd& q_key,
+                    const Eigen::VectorXd& z);
+
+/// The exact shooting Jacobian of a recent frictionless solve, kept as the matrix of quasi-Newton steps for the next
+/// nearby solves of the chain: where it was taken (history key), the robot's kb, kt, kappa, and its stability.
+struct ChordCache {
+  bool valid = false;
+  Eigen::MatrixXd J;
+  Eigen::VectorXd q, robot;
+  double stability = 0.0;
+};
+
 /// The loaded (Cosserat-rod) problem: the segments of a Problem plus the loads (loaded_kinematics.cpp).
 struct LoadedProblem {
   Problem P;
@@ -138,46 +172,14 @@ struct LoadedWork {
   Eigen::VectorXd J_z, J_alpha, J_beta, J_robot;
   std::vector<ContactSite> J_sites;
   std::vector<ContactCondition::Law> J_laws;
-};
-
-/// The contact laws of a problem as far as the shooting map's unknowns and Jacobian are concerned: the sites and
-/// laws, and a Torque law's factor (a Stick law's reference only shifts the residual).
-struct ContactLaws {
-  std::vector<ContactSite> sites;
-  std::vector<ContactCondition::Law> laws;
-  std::vector<double> torque_factors;  // condition value of Torque laws (0 for the others)
-  void assign(const std::vector<ActiveContact>& contacts);
-  bool matches(const std::vector<ActiveContact>& contacts) const;
-};
-
-/// The last converged torsion-only solves of a workspace under the same contact laws (none: frictionless) that form
-/// a chain, each warm-started from the one before it (a path being followed): the continuation predictor of
-/// KinematicsOptions::extrapolate_warm_start.
-struct WarmHistory {
-  static constexpr int kDepth = 4;  ///< Solves kept: up to a cubic extrapolation.
-  std::array<Eigen::VectorXd, kDepth> q;  ///< q[0] the last solve: actuation (alpha, then 50 x beta).
-  std::array<Eigen::VectorXd, kDepth> z;  ///< Its unknowns (base twist rates, then contact torques).
-  int count = 0;                          ///< Entries of the chain (0: none).
-  ContactLaws laws;                       ///< The chain's contact laws.
-};
-
-/// An exact shooting Jacobian of a recent solve, kept as the matrix of quasi-Newton steps for the next nearby solves
-/// under the same contact laws: where it was taken (history key), the robot's kb, kt, kappa, and its stability.
-struct ChordCache {
-  bool valid = false;
-  Eigen::MatrixXd J;
-  Eigen::VectorXd q, robot;
-  ContactLaws laws;
-  double stability = 0.0;
+  WarmHistory history;  ///< loaded solves following a path (KinematicsOptions::extrapolate_warm_start)
 };
 
 }  // namespace detail
 
 struct Workspace::Impl {
-  detail::WarmHistory history;          ///< frictionless solves following a path
-  detail::WarmHistory contact_history;  ///< solves under contact laws following a path (stick-slip steps)
-  detail::ChordCache chain_chord;       ///< Jacobian of a recent frictionless solve
-  detail::ChordCache contact_chord;     ///< Jacobian of a recent solve under contact laws
+  detail::WarmHistory history;     ///< frictionless solves following a path
+  detail::ChordCache chain_chord;  ///< Jacobian of a recent frictionless solve of the chain
   detail::Problem problem;
   detail::Evaluator eval;
   detail::Outputs out;

@@ -278,59 +278,55 @@ TEST(Friction, BoundsAreContinuousWhenCoincidentEndsSeparate) {
     }
 }
 
-TEST(Friction, PathFollowingSolvesGiveTheSameStickSlipPath) {
-  // Stick-slip random walks (rotations and translations, 1 deg / 1 mm sub-steps) with the planner's solver settings:
-  // with KinematicsOptions::extrapolate_warm_start a step starts from the extrapolation of the previous steps under
-  // the same contact laws and takes quasi-Newton steps with the workspace's last exact Jacobian of those laws;
-  // without it, Newton from the previous state. Same contact modes at every step and the same shapes to the solver
-  // tolerance.
+TEST(Friction, StepDependsOnlyOnTheStateAndTheCommand) {
+  // The hysteresis state is everything the model remembers: a step from a state to a command gives bit-identical
+  // results whatever the workspace solved before (here: the same walk step by step, once in sequence and once from
+  // the stored states with a workspace that has just followed another path, frictionless and with friction), with
+  // the planner's solver settings (path predictor and Jacobian reuse on). A planner's checked states are then exactly
+  // what the replay of its path computes.
   const Robot r("three",
                 {makeTube("a", 0.05, 0.10, 4.0, 0.04, 0.3), makeTube("b", 0.08, 0.10, 6.0, 0.02, 0.3),
                  makeTube("c", 0.15, 0.06, 12.0, 0.006, 0.3)},
                 {0.1, 0.0});
-  auto walk = [&](bool reuse, std::vector<StepResult>& out) {
-    FrictionOptions fo = fastOptions();
-    fo.kinematics.tolerance = 1e-8;
-    fo.kinematics.extrapolate_warm_start = reuse;
-    std::uniform_real_distribution<double> da(-0.04, 0.04), db(-0.001, 0.001);
-    Workspace ws;
-    Configuration q(Eigen::Vector3d(0.3, 1.0, -0.5), Eigen::Vector3d(-0.02, -0.04, -0.07));
-    StepResult cur = initialState(r, q, ws, fo);
-    int iterations = 0;
-    for (int k = 0; k < 300; ++k) {
-      Configuration next = q;
-      // Runs of 10 steps in one direction (so that contacts stick, then slip), then a new direction.
-      std::mt19937 dir(static_cast<unsigned>(1000 + k / 10));
-      for (int i = 0; i < 3; ++i) next.alpha[i] += da(dir);
-      for (int i = 0; i < 3; ++i) next.beta[i] += db(dir);
-      if (!checkAdmissible(r, next)) continue;
-      q = next;
-      cur = step(r, cur.state, q, ws, fo);
-      if (!cur.summary.converged) break;
-      iterations += cur.solution.summary.iterations;
-      out.push_back(cur);
+  FrictionOptions fo = fastOptions();
+  fo.kinematics.tolerance = 1e-8;
+  fo.kinematics.extrapolate_warm_start = true;
+  std::uniform_real_distribution<double> da(-0.04, 0.04), db(-0.001, 0.001);
+  Workspace ws, other;
+  Configuration q(Eigen::Vector3d(0.3, 1.0, -0.5), Eigen::Vector3d(-0.02, -0.04, -0.07));
+  StepResult cur = initialState(r, q, ws, fo);
+  ASSERT_TRUE(cur.summary.converged);
+  int compared = 0, slipping = 0;
+  for (int k = 0; k < 300; ++k) {
+    Configuration next = q;
+    std::mt19937 dir(static_cast<unsigned>(1000 + k / 10));  // runs of 10 steps in one direction
+    for (int i = 0; i < 3; ++i) next.alpha[i] += da(dir);
+    for (int i = 0; i < 3; ++i) next.beta[i] += db(dir);
+    if (!checkAdmissible(r, next)) continue;
+    const HysteresisState before = cur.state;
+    q = next;
+    cur = step(r, before, q, ws, fo);
+    if (!cur.summary.converged) break;
+    // Another path in the other workspace (a frictionless chain and a stick-slip step), then the same step.
+    Configuration p = q;
+    for (int j = 0; j < 3; ++j) {
+      p.alpha[1] += 0.01;
+      solve(r.withFriction({0.0, 0.0}), p, other, fo.kinematics);
     }
-    return iterations;
-  };
-  std::vector<StepResult> plain, reused;
-  const int it_plain = walk(false, plain), it_reused = walk(true, reused);
-  ASSERT_EQ(plain.size(), reused.size());
-  ASSERT_GE(plain.size(), 150u);
-  double worst_twist = 0.0, worst_tip = 0.0;
-  int slipping = 0;
-  for (std::size_t k = 0; k < plain.size(); ++k) {
-    ASSERT_EQ(plain[k].state.contacts.size(), reused[k].state.contacts.size()) << "step " << k;
-    for (std::size_t c = 0; c < plain[k].state.contacts.size(); ++c) {
-      ASSERT_EQ(plain[k].state.contacts[c].mode, reused[k].state.contacts[c].mode) << "step " << k << " contact " << c;
-      slipping += plain[k].state.contacts[c].mode != ContactMode::Stick;
+    initialState(r, p, other, fo);
+    const StepResult again = step(r, before, q, other, fo);
+    ASSERT_TRUE(again.summary.converged);
+    EXPECT_EQ(again.solution.tip_position, cur.solution.tip_position) << "step " << k;
+    EXPECT_EQ(again.solution.twist, cur.solution.twist) << "step " << k;
+    EXPECT_EQ(again.state.base_twist_rate, cur.state.base_twist_rate) << "step " << k;
+    ASSERT_EQ(again.state.contacts.size(), cur.state.contacts.size());
+    for (std::size_t c = 0; c < cur.state.contacts.size(); ++c) {
+      EXPECT_EQ(again.state.contacts[c].mode, cur.state.contacts[c].mode) << "step " << k;
+      EXPECT_EQ(again.state.contacts[c].torque, cur.state.contacts[c].torque) << "step " << k;
+      slipping += cur.state.contacts[c].mode != ContactMode::Stick;
     }
-    worst_twist = std::max(worst_twist, (plain[k].solution.twist - reused[k].solution.twist).cwiseAbs().maxCoeff());
-    worst_tip = std::max(worst_tip, (plain[k].solution.tip_position - reused[k].solution.tip_position).norm());
+    ++compared;
   }
-  std::printf("[ measured ] %zu stick-slip steps (%d slipping contact-steps): worst twist diff %.1e rad, tip diff %.1e "
-              "m; iterations %d plain, %d with reuse (value-only quasi-Newton steps counted)\n",
-              plain.size(), slipping, worst_twist, worst_tip, it_plain, it_reused);
+  EXPECT_GE(compared, 150);
   EXPECT_GT(slipping, 30);
-  EXPECT_LT(worst_twist, 1e-7);
-  EXPECT_LT(worst_tip, 1e-9);
 }

@@ -62,17 +62,17 @@ struct KinematicsOptions {
   /// Use the loaded (Cosserat-rod) solver even when the robot has no external load (docs/model.md "External
   /// loads"). It is used anyway whenever robot.loads() is not empty; without load it gives the torsion-only result.
   bool loaded_model = false;
-  /// Continuation predictor for paths: when a solve is warm-started from the workspace's previous solve under the
-  /// same contact laws (none: frictionless; a stick-slip step's state counts), and that one was itself warm-started
-  /// from the solve before it along (nearly) the same straight line in actuation space, Newton starts from the
-  /// extrapolation of the chain's unknowns along the line (the polynomial through up to the last four solves; the
-  /// secant when the higher-order term is large, e.g. before a fold) instead of the warm solution's, falling back to
-  /// the warm solution if that fails. Also reuses the workspace's last exact shooting Jacobian (taken within 0.1 rad
-  /// / 2 mm, same robot and contact laws) for quasi-Newton steps with value-only evaluations, falling back to Newton
-  /// when they do not converge fast; the reported stability is then that Jacobian's unless it is small
-  /// (|stability| <= 0.25: evaluated exactly). Along a sweep a solve then costs about two evaluations without
-  /// derivatives (docs/performance.md); the converged result is the same equilibrium to the tolerance. Torsion-only
-  /// solver only (robots with loads: not used).
+  /// Continuation predictor for paths: when a frictionless solve is warm-started from the workspace's previous
+  /// solve, and that one was itself warm-started from the solve before it along (nearly) the same straight line in
+  /// actuation space, Newton starts from the extrapolation of the chain's unknowns along the line (the polynomial
+  /// through up to the last four solves; the secant when the higher-order term is large, e.g. before a fold) instead
+  /// of the warm solution's, falling back to the warm solution if that fails. The torsion-only solver also reuses the
+  /// chain's last exact shooting Jacobian (taken within 0.1 rad / 2 mm) for quasi-Newton steps with value-only
+  /// evaluations, falling back to Newton when they do not converge fast; the reported stability is then that
+  /// Jacobian's unless it is small (|stability| <= 0.25: evaluated exactly). Along a sweep a solve then costs about
+  /// two evaluations without derivatives (docs/performance.md); the converged result is the same equilibrium to the
+  /// tolerance, but depends (within it) on what the workspace solved before. Solves under contact laws (stick-slip
+  /// steps) never use it: a step is a function of its HysteresisState and command alone.
   bool extrapolate_warm_start = false;
 };
 

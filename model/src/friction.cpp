@@ -45,6 +45,42 @@ Solution warmFrom(const HysteresisState& s) {
   return w;
 }
 
+// The warm start of a step from `s` to q: the state's own solution, or, following a path (extrapolate_warm_start),
+// the secant through the state and the one a sub-step before it when q continues their line (within 2.6 deg of its
+// direction, at most twice its length ahead; actuation measured as alpha and 50 x beta, as the frictionless chain).
+// A function of the state and q only.
+Solution warmFor(const HysteresisState& s, const Configuration& q, const KinematicsOptions& opt) {
+  Solution w = warmFrom(s);
+  const int n = s.q.size();
+  if (!opt.extrapolate_warm_start || s.previous_q.size() != n || q.size() != n ||
+      s.previous_base_twist_rate.size() != n || s.previous_torques.size() != static_cast<int>(s.contacts.size()))
+    return w;
+  Eigen::VectorXd back(2 * n), ahead(2 * n);
+  back << s.q.alpha - s.previous_q.alpha, 50.0 * (s.q.beta - s.previous_q.beta);
+  ahead << q.alpha - s.q.alpha, 50.0 * (q.beta - s.q.beta);
+  const double len = back.norm(), dist = ahead.norm();
+  if (!(len > 0.0) || !(dist > 0.0) || dist > 2.0 * len || ahead.dot(back) < 0.999 * dist * len) return w;
+  const double f = dist / len;
+  w.base_twist_rate = s.base_twist_rate + f * (s.base_twist_rate - s.previous_base_twist_rate);
+  w.base_moment = s.base_moment + f * (s.base_moment - s.previous_base_moment);
+  for (std::size_t c = 0; c < w.contacts.size(); ++c)
+    w.contacts[c].torque += f * (s.contacts[c].torque - s.previous_torques[static_cast<int>(c)]);
+  return w;
+}
+
+// Keeps `prev` as the warm-start memory of `next` when their contacts are the same sites in the same modes.
+void rememberPrevious(const HysteresisState& prev, HysteresisState& next) {
+  if (prev.contacts.size() != next.contacts.size()) return;
+  for (std::size_t c = 0; c < prev.contacts.size(); ++c)
+    if (!(prev.contacts[c].site == next.contacts[c].site) || prev.contacts[c].mode != next.contacts[c].mode) return;
+  next.previous_q = prev.q;
+  next.previous_base_twist_rate = prev.base_twist_rate;
+  next.previous_base_moment = prev.base_moment;
+  next.previous_torques.resize(static_cast<int>(prev.contacts.size()));
+  for (std::size_t c = 0; c < prev.contacts.size(); ++c)
+    next.previous_torques[static_cast<int>(c)] = prev.contacts[c].torque;
+}
+
 const ContactMemory* findMemory(const HysteresisState& s, const ContactSite& site) {
   for (const ContactMemory& m : s.contacts)
     if (m.site == site) return &m;
@@ -127,7 +163,7 @@ SubstepOutcome solveSubstep(const Robot& robot, const HysteresisState& prev, con
       modes[c] = m->mode;  // first trial: the contact keeps doing what it did (one solve while slipping on)
     }
   }
-  const Solution warm = warmFrom(prev);
+  const Solution warm = warmFor(prev, q, opt.kinematics);
   KinematicsOptions kopt = opt.kinematics;
   const bool distributed = robot.friction().distributed > 0.0;
   DistributedFrictionOptions dopt;
@@ -327,6 +363,7 @@ StepResult step(const Robot& robot, const HysteresisState& from, const Configura
       res.summary.snapped = true;
     prev_twist = tw;
     HysteresisState next = stateFrom(sub.solution, sub.modes, qk, dir);
+    if (!res.summary.snapped) rememberPrevious(cur, next);
     next.interface_direction = sub.interface_direction.size() ? sub.interface_direction : cur.interface_direction;
     for (std::size_t c = 0; c < next.contacts.size(); ++c)
       next.contacts[c].bound = robot.friction().boundary * sub.solution.contacts[c].moment;

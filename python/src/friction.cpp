@@ -58,13 +58,17 @@ pyb::list contactMemoryList(const HysteresisState& h) {
 }
 
 // Pickling: the state as plain Python values (every field; round-trips exactly).
+// Format 2 adds the solver's warm-start memory (previous_*); format 1 (without it) still loads.
 pyb::tuple stateGetState(const HysteresisState& h) {
-  return pyb::make_tuple(1, h.q.alpha, h.q.beta, h.base_twist_rate, contactMemoryList(h), h.direction, h.twist,
-                         h.interface_direction, h.valid, h.base_moment);
+  return pyb::make_tuple(2, h.q.alpha, h.q.beta, h.base_twist_rate, contactMemoryList(h), h.direction, h.twist,
+                         h.interface_direction, h.valid, h.base_moment, h.previous_q.alpha, h.previous_q.beta,
+                         h.previous_base_twist_rate, h.previous_base_moment, h.previous_torques);
 }
 
 HysteresisState stateSetState(const pyb::tuple& t) {
-  if (t.size() != 10 || t[0].cast<int>() != 1) throw pyb::value_error("HysteresisState: unknown pickled format");
+  const int format = t.size() > 0 ? t[0].cast<int>() : 0;
+  if (!((format == 1 && t.size() == 10) || (format == 2 && t.size() == 15)))
+    throw pyb::value_error("HysteresisState: unknown pickled format");
   HysteresisState h;
   h.q = Configuration(t[1].cast<Eigen::VectorXd>(), t[2].cast<Eigen::VectorXd>());
   h.base_twist_rate = t[3].cast<Eigen::VectorXd>();
@@ -87,6 +91,12 @@ HysteresisState stateSetState(const pyb::tuple& t) {
   h.interface_direction = t[7].cast<Eigen::VectorXd>();
   h.valid = t[8].cast<bool>();
   h.base_moment = t[9].cast<Eigen::Vector3d>();
+  if (format == 2) {
+    h.previous_q = Configuration(t[10].cast<Eigen::VectorXd>(), t[11].cast<Eigen::VectorXd>());
+    h.previous_base_twist_rate = t[12].cast<Eigen::VectorXd>();
+    h.previous_base_moment = t[13].cast<Eigen::Vector3d>();
+    h.previous_torques = t[14].cast<Eigen::VectorXd>();
+  }
   return h;
 }
 

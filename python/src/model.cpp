@@ -384,11 +384,12 @@ void registerModel(pyb::module_& m) {
       .def_readwrite("max_translation_step", &KinematicsOptions::max_translation_step)
       .def_readwrite("snap_threshold", &KinematicsOptions::snap_threshold)
       .def_readwrite("refine_below_stability", &KinematicsOptions::refine_below_stability)
-      .def_readwrite("loaded_model", &KinematicsOptions::loaded_model);
+      .def_readwrite("loaded_model", &KinematicsOptions::loaded_model)
+      .def_readwrite("extrapolate_warm_start", &KinematicsOptions::extrapolate_warm_start);
   addOptionsProtocol<KinematicsOptions>(
       ko, {"max_step", "max_bending_per_step", "max_iterations", "tolerance", "record_backbone", "record_tube_states",
            "homotopy", "homotopy_steps", "max_rotation_step", "max_translation_step", "snap_threshold",
-           "refine_below_stability", "loaded_model"});
+           "refine_below_stability", "loaded_model", "extrapolate_warm_start"});
 
   // ---- Solution ----
   pyb::class_<Solution>(m, "Solution",

@@ -82,6 +82,17 @@ def test_hysteresis_state_is_a_python_value():
     assert restored.contacts == branch.contacts
     again2 = ctr.step(robot, restored, [0, math.radians(200)])
     assert np.array_equal(again.solution.twist, again2.solution.twist)
+    # also with the planner's settings, where a step extrapolates from the state's warm-start memory
+    fo = ctr.FrictionOptions()
+    fo.kinematics.extrapolate_warm_start = True
+    fo.kinematics.tolerance = 1e-8
+    path = ctr.step(robot, branch, [0, math.radians(185)], options=fo)
+    path = ctr.step(robot, path.state, [0, math.radians(190)], options=fo)
+    restored = pickle.loads(pickle.dumps(path.state))
+    a = ctr.step(robot, path.state, [0, math.radians(195)], options=fo)
+    b = ctr.step(robot, restored, [0, math.radians(195)], options=fo)
+    assert np.array_equal(a.solution.twist, b.solution.twist)
+    assert np.array_equal(a.solution.tip_position, b.solution.tip_position)
     assert {"mode", "torque", "bound", "relative_twist"} <= set(up.state.contacts[0])
     assert up.state.contacts[0]["mode"] in ("stick", "slip_positive", "slip_negative")
     with pytest.raises(ValueError, match="not initialised"):

@@ -330,3 +330,58 @@ TEST(Friction, StepDependsOnlyOnTheStateAndTheCommand) {
   EXPECT_GE(compared, 150);
   EXPECT_GT(slipping, 30);
 }
+
+TEST(Friction, PredictedStepsGiveTheSameStickSlipPath) {
+  // With KinematicsOptions::extrapolate_warm_start a sub-step continuing the line of the previous one starts Newton
+  // from the extrapolation of the two states (the state's warm-start memory). The same random walk with and without
+  // it: the same contact modes at every step, the same shapes to the solver tolerance, fewer iterations.
+  const Robot r("three",
+                {makeTube("a", 0.05, 0.10, 4.0, 0.04, 0.3), makeTube("b", 0.08, 0.10, 6.0, 0.02, 0.3),
+                 makeTube("c", 0.15, 0.06, 12.0, 0.006, 0.3)},
+                {0.1, 0.0});
+  auto walk = [&](bool predictor, std::vector<StepResult>& out) {
+    FrictionOptions fo = fastOptions();
+    fo.kinematics.tolerance = 1e-8;
+    fo.kinematics.extrapolate_warm_start = predictor;
+    std::uniform_real_distribution<double> da(-0.04, 0.04), db(-0.001, 0.001);
+    Workspace ws;
+    Configuration q(Eigen::Vector3d(0.3, 1.0, -0.5), Eigen::Vector3d(-0.02, -0.04, -0.07));
+    StepResult cur = initialState(r, q, ws, fo);
+    int iterations = 0;
+    for (int k = 0; k < 300; ++k) {
+      Configuration next = q;
+      std::mt19937 dir(static_cast<unsigned>(1000 + k / 10));  // runs of 10 steps in one direction
+      for (int i = 0; i < 3; ++i) next.alpha[i] += da(dir);
+      for (int i = 0; i < 3; ++i) next.beta[i] += db(dir);
+      if (!checkAdmissible(r, next)) continue;
+      q = next;
+      cur = step(r, cur.state, q, ws, fo);
+      if (!cur.summary.converged) break;
+      iterations += cur.solution.summary.iterations;
+      out.push_back(cur);
+    }
+    return iterations;
+  };
+  std::vector<StepResult> plain, predicted;
+  const int it_plain = walk(false, plain), it_pred = walk(true, predicted);
+  ASSERT_EQ(plain.size(), predicted.size());
+  ASSERT_GE(plain.size(), 150u);
+  double worst_twist = 0.0, worst_tip = 0.0;
+  int with_memory = 0;
+  for (std::size_t k = 0; k < plain.size(); ++k) {
+    ASSERT_EQ(plain[k].state.contacts.size(), predicted[k].state.contacts.size()) << "step " << k;
+    for (std::size_t c = 0; c < plain[k].state.contacts.size(); ++c)
+      ASSERT_EQ(plain[k].state.contacts[c].mode, predicted[k].state.contacts[c].mode) << "step " << k;
+    worst_twist = std::max(worst_twist, (plain[k].solution.twist - predicted[k].solution.twist).cwiseAbs().maxCoeff());
+    worst_tip = std::max(worst_tip, (plain[k].solution.tip_position - predicted[k].solution.tip_position).norm());
+    with_memory += predicted[k].state.previous_q.size() > 0;
+  }
+  std::printf("[ measured ] %zu stick-slip steps (%d with warm-start memory): worst twist diff %.1e rad, tip diff %.1e "
+              "m; Newton iterations %d plain, %d predicted\n",
+              plain.size(), with_memory, worst_twist, worst_tip, it_plain, it_pred);
+  EXPECT_LT(worst_twist, 1e-7);
+  EXPECT_LT(worst_tip, 1e-9);
+  EXPECT_GT(with_memory, 100);
+  EXPECT_LT(it_pred, it_plain);
+}
+

@@ -39,6 +39,14 @@ struct HysteresisState {
   Eigen::VectorXd twist;                ///< Tip twist at the last step (snap detection).
   Eigen::VectorXd interface_direction;  ///< Distributed friction: last commanded relative rotation sign per interface.
   bool valid = false;                   ///< False until initialised by initialState / a step.
+  /// Warm-start memory of the solver (not physics): the state one sub-step back (command, branch, base moment and
+  /// contact torques in the order of `contacts`), kept while the contact sites and modes stay the same. With
+  /// KinematicsOptions::extrapolate_warm_start a step that continues the same line in actuation space starts Newton
+  /// from the extrapolation of the two. Empty (previous_q.size() == 0) otherwise.
+  Configuration previous_q;
+  Eigen::VectorXd previous_base_twist_rate;
+  Eigen::Vector3d previous_base_moment = Eigen::Vector3d::Zero();
+  Eigen::VectorXd previous_torques;
 };
 
 /// @brief Options of the friction stepping.

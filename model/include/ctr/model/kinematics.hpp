@@ -71,8 +71,9 @@ struct KinematicsOptions {
   /// evaluations, falling back to Newton when they do not converge fast; the reported stability is then that
   /// Jacobian's unless it is small (|stability| <= 0.25: evaluated exactly). Along a sweep a solve then costs about
   /// two evaluations without derivatives (docs/performance.md); the converged result is the same equilibrium to the
-  /// tolerance, but depends (within it) on what the workspace solved before. Solves under contact laws (stick-slip
-  /// steps) never use it: a step is a function of its HysteresisState and command alone.
+  /// tolerance, but depends (within it) on what the workspace solved before. Solves under contact laws never use the
+  /// workspace's history: a stick-slip step extrapolates from its HysteresisState's own warm-start memory (the state
+  /// one sub-step back) instead, so it stays a function of its state and command alone.
   bool extrapolate_warm_start = false;
 };
 

@@ -335,7 +335,10 @@ StepResult step(const Robot& robot, const HysteresisState& from, const Configura
   Eigen::VectorXd prev_twist = from.twist;
   for (int k = 1; k <= n_sub; ++k) {
     const double t = static_cast<double>(k) / n_sub;
-    Configuration qk(from.q.alpha + t * (q.alpha - from.q.alpha), from.q.beta + t * (q.beta - from.q.beta));
+    // The last sub-step ends exactly at q (the state then remembers the command itself, not a rounding of it).
+    const Configuration qk = k == n_sub ? q
+                                        : Configuration(from.q.alpha + t * (q.alpha - from.q.alpha),
+                                                        from.q.beta + t * (q.beta - from.q.beta));
     FrictionOptions o = opt;
     o.kinematics.record_backbone = (k == n_sub) && opt.kinematics.record_backbone;
     SubstepOutcome sub = solveSubstep(robot, cur, qk, ws, o);

@@ -313,22 +313,40 @@ PlanResult CtrPlanner::replaySolution(const std::string& planner, double plannin
   const CtrStateSpace& space = *space_holder_;
   std::vector<const ob::State*> states;
   og::PathGeometric* gpath = nullptr;
+  oc::PathControl* cpath = nullptr;
   if (gss_) {
     gss_->simplifySolution(std::min(1.0, 0.1 * query_.time_limit));
     gpath = &gss_->getSolutionPath();
     for (const ob::State* s : gpath->getStates()) states.push_back(s);
   } else {
-    oc::PathControl& cp = css_->getSolutionPath();
-    for (const ob::State* s : cp.getStates()) states.push_back(s);
+    cpath = &css_->getSolutionPath();
+    for (const ob::State* s : cpath->getStates()) states.push_back(s);
   }
   if (states.empty()) {
     r.message = "empty solution path";
     return r;
   }
-  // Unwrapped waypoints from the query's start.
+  // Unwrapped waypoints from the query's start. Exact mode: every propagation step of every control is a waypoint,
+  // computed as the propagator did (q += u * step per step, from the memory's command), so that the replay slices the
+  // path into exactly the sub-steps the planner checked; since a step depends only on its state and command, the
+  // replay then recomputes the checked states bit for bit.
   r.path.push_back(query_.start);
+  const int n = query_.start.size();
   for (std::size_t k = 1; k < states.size(); ++k) {
     const auto* st = states[k]->as<CtrStateSpace::StateType>();
+    if (cpath && k - 1 < cpath->getControlCount()) {
+      const double* u = cpath->getControl(k - 1)->as<oc::RealVectorControlSpace::ControlType>()->values;
+      const double dt = css_->getSpaceInformation()->getPropagationStepSize();
+      const long steps = std::lround(cpath->getControlDuration(k - 1) / dt);
+      for (long j = 1; j < steps; ++j) {
+        Configuration q = r.path.back();
+        for (int i = 0; i < n; ++i) {
+          q.alpha[i] += u[i] * dt;
+          q.beta[i] += u[n + i] * dt;
+        }
+        r.path.push_back(q);
+      }
+    }
     if (st->cache && st->cache->hysteresis.valid) {
       r.path.push_back(st->cache->hysteresis.q);
     } else {

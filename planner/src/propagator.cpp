@@ -83,7 +83,9 @@ std::shared_ptr<const StateCache> propagateCache(const Context& ctx, const State
   HysteresisState h = from.hysteresis;
   for (int k = 1; k <= sub; ++k) {
     const double s = static_cast<double>(k) / sub;
-    const Configuration qk(q0.alpha + s * (to.alpha - q0.alpha), q0.beta + s * (to.beta - q0.beta));
+    const Configuration qk = k == sub ? to
+                                      : Configuration(q0.alpha + s * (to.alpha - q0.alpha),
+                                                      q0.beta + s * (to.beta - q0.beta));
     const StepResult r = step(ctx.robot(), h, qk, t.ws, fo);
     if (k == sub) return fromStep(r, false);
     auto c = fromStep(r, false);

@@ -84,7 +84,9 @@ ReplayReport replayPath(const Context& ctx, const std::vector<Configuration>& wa
     const int steps = std::max(1, static_cast<int>(std::ceil(std::max(a / rotation_step, b / translation_step) - 1e-9)));
     for (int j = 1; j <= steps; ++j) {
       const double s = static_cast<double>(j) / steps;
-      const Configuration q(waypoints[k].alpha + s * d.alpha, waypoints[k].beta + s * d.beta);
+      // As the propagator: the last sub-step ends exactly at the waypoint.
+      const Configuration q = j == steps ? waypoints[k + 1]
+                                         : Configuration(waypoints[k].alpha + s * d.alpha, waypoints[k].beta + s * d.beta);
       const StepResult r = step(robot, state, q, t.ws, fo);
       if (!r.summary.converged) {
         if (R.first_failure.empty()) R.first_failure = "step " + std::to_string(R.steps) + ": " + r.summary.message;

@@ -339,6 +339,37 @@ TEST(Planning, ExactModeSolvesAndReplaysTheIntracardiacQuery) {
   EXPECT_NE(csv.find("end1_mode"), std::string::npos);
 }
 
+TEST(Planning, ExactModeReplayRecomputesThePlannersStates) {
+  // The replay slices an exact-mode path into the sub-steps the propagator took (every propagation step of every
+  // control is a waypoint, each ending exactly at its command) and a stick-slip step depends only on its state and
+  // command: every state of the planner's path is recomputed bit for bit by the replay.
+  const Query q = onCpuClock(loadQuery(src("examples/queries/proc_intracardiac.yaml")), Mode::Exact, "rrt", 20);
+  CtrPlanner p(q);
+  const PlanResult r = solveWithRetry(p);
+  ASSERT_TRUE(r.planner_solved) << r.message;
+  const auto& states = p.controlSetup()->getSolutionPath().getStates();
+  ASSERT_GE(states.size(), 2u);
+  std::size_t matched = 0, next = 0;
+  for (std::size_t k = 1; k < states.size(); ++k) {
+    const auto* st = states[k]->as<CtrStateSpace::StateType>();
+    ASSERT_TRUE(st->cache && st->cache->hysteresis.valid);
+    const HysteresisState& h = st->cache->hysteresis;
+    // The replay point commanded exactly at this state's command (after the previous match: paths may revisit).
+    while (next < r.replay.points.size() && !(r.replay.points[next].q.alpha == h.q.alpha &&
+                                                 r.replay.points[next].q.beta == h.q.beta))
+      ++next;
+    ASSERT_LT(next, r.replay.points.size()) << "path state " << k << " is not a replay step";
+    const ReplayPoint& rp = r.replay.points[next];
+    EXPECT_EQ(rp.solution.tip_position, st->cache->solution.tip_position) << "path state " << k;
+    EXPECT_EQ(rp.solution.twist, st->cache->solution.twist) << "path state " << k;
+    EXPECT_EQ(rp.hysteresis.base_twist_rate, h.base_twist_rate) << "path state " << k;
+    ++matched;
+  }
+  EXPECT_EQ(matched, states.size() - 1);
+  EXPECT_TRUE(r.replay.collision_free);
+  EXPECT_EQ(r.replay.snaps, 0);
+}
+
 TEST(Planning, ExactModeSstSolvesAndReplaysTheIntracardiacQuery) {
   // The asymptotically near-optimal option of exact mode (control SST with the friction propagator); CPU-time limit
   // so that the test does not depend on the machine's load. From the command line seeds 1-3 solve in 20 CPU s.

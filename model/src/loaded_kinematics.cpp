@@ -710,15 +710,16 @@ Solution inadmissibleLoaded(const Configuration& q, const std::string& why, int 
   return s;
 }
 
-// Stability of the loaded equilibrium: det(J) / det(J_mm) over the twist and moment rows/columns (no contacts),
-// i.e. the determinant of the distal torsion conditions w.r.t. the base twist rates with the tip moment conditions
-// held (Schur complement); equals 1 without tube interaction and changes sign at folds.
+// Stability of the loaded equilibrium: det(J) over the twist and moment rows/columns (no contacts), normalised by
+// D0 = K0^3 / (k_nt K_tip^2), the determinant of the moment block at zero load with the other conditions held (the
+// scalings of the moment unknowns m(0)/K0 and of the innermost torsion and bending rows). At zero load det(J) = D0 x
+// the torsion-only measure exactly (the moment block is then a scaled rotation), so the two measures agree there; it
+// is 1 without tube interaction and changes sign exactly where J is singular (folds). (A Schur complement over the
+// moment block, used before, divided by a determinant that itself crosses zero for strongly interacting tubes.)
 double loadedStability(const LoadedProblem& L, const Eigen::MatrixXd& J) {
   const int n = L.P.n;
-  const Eigen::MatrixXd core = J.topLeftCorner(n + 2, n + 2);
-  const double dmm = core.block(n - 1, n - 1, 3, 3).determinant();
-  const double dc = core.determinant();
-  return dmm != 0.0 ? dc / dmm : dc;
+  const double Ktip = L.P.segments.empty() ? L.K0 : L.P.segments.back().K;
+  return J.topLeftCorner(n + 2, n + 2).determinant() * L.P.kt[n - 1] * Ktip * Ktip / (L.K0 * L.K0 * L.K0);
 }
 
 Solution packageLoaded(LoadedWork& W, const Configuration& q, const Eigen::VectorXd& z, bool ok, int iterations,
@@ -869,11 +870,33 @@ Solution solveLoaded(const Robot& robot, const Configuration& q, const std::vect
       recorded = false;
     }
   }
+  double stability = loadedStability(L, W.J);
+  if (ok && opt.refine_below_stability > 0.0 && std::abs(stability) < opt.refine_below_stability) {
+    // Near a fold the twist is ill-conditioned (error ~ discretisation / stability): re-solve with a quarter of the
+    // step from the converged point (same branch), as the torsion-only solver does. Exact Jacobians throughout.
+    setupLoaded(L, robot, q, conditions, opt, 0.25);
+    W.J_valid = false;
+    Eigen::VectorXd zr = z;
+    double rn2 = 0.0;
+    std::string w2;
+    bool rec2 = false;
+    if (newtonLoaded(W, zr, opt, opt.max_iterations, iters, rn2, w2, true, &rec2)) {
+      z = zr;
+      rn = rn2;
+      recorded = rec2;
+    } else {
+      setupLoaded(L, robot, q, conditions, opt, 1.0);
+      W.J_valid = false;
+      evalJacobian(W, z);
+      recorded = false;
+    }
+    stability = loadedStability(L, W.J);
+  }
   if (ok && L.P.contacts.empty())
     recordInChain(W.history, chained, qv, z);
   else
     W.history.count = 0;
-  return packageLoaded(W, q, z, ok, iters, rn, why, opt, loadedStability(L, W.J), recorded);
+  return packageLoaded(W, q, z, ok, iters, rn, why, opt, stability, recorded);
 }
 
 }  // namespace detail

@@ -114,6 +114,28 @@ void CtrPlanner::init(Robot robot, env::Environment e) {
     const std::string key = query.target_name.empty() ? "goal.position" : "goal.target";
     throw io::InputError(query.file, query.lineOf(key), key, "the target lies outside the environment's map");
   }
+  if (query.loads) {
+    // The query's loads replace the robot's; given in the environment's frame they are turned into the base frame of
+    // the base pose in use (dead loads: fixed in the base frame while planning).
+    Loads l = *query.loads;
+    if (query.loads_frame == Query::LoadsFrame::Environment) {
+      const Eigen::Matrix3d Rt = e.basePose().linear().transpose();
+      l.gravity = Rt * l.gravity;
+      l.tip_force = Rt * l.tip_force;
+      l.tip_moment = Rt * l.tip_moment;
+    }
+    bool weighs = false;
+    for (int i = 0; i < n; ++i) weighs = weighs || robot.tube(i).linear_density > 0.0;
+    if (l.gravity.norm() > 0.0 && !weighs)
+      throw io::InputError(query.file, query.lineOf("loads.gravity"), "loads.gravity",
+                           "gravity has no effect: no tube of robot '" + robot.name() +
+                               "' has a linear_density (or density with diameters)");
+    try {
+      robot = robot.withLoads(l);
+    } catch (const std::invalid_argument& ex) {
+      throw io::InputError(query.file, query.lineOf("loads"), "loads", ex.what());
+    }
+  }
   env_ = std::make_shared<const env::Environment>(std::move(e));
 
   ContextOptions co;

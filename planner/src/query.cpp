@@ -92,7 +92,7 @@ Query parseQueryYaml(const std::string& text, const std::string& source, const s
     throw InputError(source, e.mark.line + 1, "", std::string("not valid YAML: ") + e.msg);
   }
   if (!root.IsMap()) throw InputError(source, 0, "", "a query must be a YAML map");
-  c.allowOnly(root, "", {"name", "robot", "environment", "base_start", "friction", "start", "goal", "mode", "planner",
+  c.allowOnly(root, "", {"name", "robot", "environment", "base_start", "friction", "start", "goal", "loads", "mode", "planner",
                          "time_limit", "time_limit_clock", "seed", "objective", "replay", "resolution", "environment_resolution"});
   Query q;
   q.file = source;
@@ -119,6 +119,24 @@ Query parseQueryYaml(const std::string& text, const std::string& source, const s
     if (fc.boundary < 0) c.fail(f["boundary"], "friction.boundary", "must be >= 0");
     if (fc.distributed < 0) c.fail(f["distributed"], "friction.distributed", "must be >= 0");
     q.friction = fc;
+  }
+  if (root["loads"]) {
+    const YAML::Node l = root["loads"];
+    if (!l.IsMap()) c.fail(l, "loads", "must be a map with gravity, tip_force, tip_moment and/or frame");
+    c.allowOnly(l, "loads", {"gravity", "tip_force", "tip_moment", "frame"});
+    Loads loads;
+    if (l["gravity"]) loads.gravity = c.vec(l["gravity"], "loads.gravity", 3);
+    if (l["tip_force"]) loads.tip_force = c.vec(l["tip_force"], "loads.tip_force", 3);
+    if (l["tip_moment"]) loads.tip_moment = c.vec(l["tip_moment"], "loads.tip_moment", 3);
+    if (l["frame"]) {
+      const std::string f = c.text(l["frame"], "loads.frame");
+      if (f == "environment") {
+        q.loads_frame = Query::LoadsFrame::Environment;
+      } else if (f != "base") {
+        c.fail(l["frame"], "loads.frame", "'" + f + "' is not base or environment");
+      }
+    }
+    q.loads = loads;
   }
   const YAML::Node st = root["start"];
   q.start = configuration(c, st, "start");

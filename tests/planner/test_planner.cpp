@@ -2,6 +2,8 @@
 #include <gtest/gtest.h>
 #include <octomap/OcTree.h>
 
+#include <Eigen/Geometry>
+
 #include <filesystem>
 #include <fstream>
 #include <memory>
@@ -150,6 +152,57 @@ TEST(Query, TargetOutsideTheMapAndBadStartAreInputErrors) {
   const Query clk = parseQuery(queryText("target: tricuspid", "time_limit_clock: cpu\n"), "q.yaml", ".");
   EXPECT_TRUE(clk.cpu_time_limit);
   expectInputError(queryText("target: tricuspid", "time_limit_clock: sundial\n"), "time_limit_clock");
+}
+
+TEST(Query, LoadsReplaceTheRobotsAndTurnIntoTheBaseFrame) {
+  // `loads:` in a query replaces the robot's loads; with frame: environment the vectors are given in the
+  // environment's (world) frame and turned into the base frame by the base pose in use.
+  const Query qb = parseQuery(queryText("target: tricuspid", "loads: {tip_force: [0.02, 0, 0], tip_moment: [0, 0, 1e-4]}\n"),
+                              "q.yaml", ".");
+  ASSERT_TRUE(qb.loads.has_value());
+  EXPECT_EQ(qb.loads_frame, Query::LoadsFrame::Base);
+  const CtrPlanner pb(qb);
+  EXPECT_EQ((pb.context()->robot().loads().tip_force - Eigen::Vector3d(0.02, 0, 0)).norm(), 0.0);
+  EXPECT_EQ((pb.context()->robot().loads().tip_moment - Eigen::Vector3d(0, 0, 1e-4)).norm(), 0.0);
+  EXPECT_FALSE(pb.context()->frictionlessRobot().loads().empty());  // every mode plans with the loads
+
+  // An environment whose base pose is turned (an empty map: the start is free).
+  const Query qe = parseQuery(queryText("configuration: {alpha: [0, 0.2, 0.4], beta: [-0.10, -0.16, -0.21]}",
+                                        "loads: {tip_force: [0.02, 0, 0], frame: environment}\n"),
+                              "q.yaml", ".");
+  auto tree = std::make_shared<octomap::OcTree>(0.005);
+  tree->updateNode(octomap::point3d(1.0f, 1.0f, 1.0f), true);
+  tree->updateInnerOccupancy();
+  env::Environment e("empty", tree);
+  Eigen::Isometry3d pose = Eigen::Isometry3d::Identity();
+  pose.linear() = Eigen::AngleAxisd(0.7, Eigen::Vector3d(1, 2, 0).normalized()).toRotationMatrix();
+  e.setBasePose(pose);
+  const CtrPlanner pe(qe, io::loadRobot(qe.robot), std::move(e));
+  const Eigen::Matrix3d R = pe.context()->basePose().linear();
+  ASSERT_GT((R - Eigen::Matrix3d::Identity()).norm(), 0.1);
+  EXPECT_LT((R * pe.context()->robot().loads().tip_force - Eigen::Vector3d(0.02, 0, 0)).norm(), 1e-15);
+  EXPECT_GT((pe.context()->robot().loads().tip_force - Eigen::Vector3d(0.02, 0, 0)).norm(), 1e-3);
+  // The start shape is the loaded equilibrium (not the load-free one).
+  Workspace ws;
+  const Solution loaded = solve(pe.context()->robot(), qe.start, ws);
+  const Solution free = solve(pe.context()->robot().withLoads({}), qe.start, ws);
+  ASSERT_TRUE(loaded.converged() && free.converged());
+  EXPECT_TRUE(loaded.loaded);
+  EXPECT_GT((loaded.tip_position - free.tip_position).norm(), 1e-6);
+
+  expectInputError(queryText("target: tricuspid", "loads: {tip_force: [1, 2]}\n"), "loads.tip_force");
+  expectInputError(queryText("target: tricuspid", "loads: {frame: world}\n"), "loads.frame");
+  expectInputError(queryText("target: tricuspid", "loads: {weight: 1}\n"), "loads.weight");
+  expectInputError(queryText("target: tricuspid", "loads: 3\n"), "loads");
+  // Gravity on a robot without linear densities would be silently ignored: an input error naming the key.
+  const Query qg = parseQuery(queryText("target: tricuspid", "loads:\n  gravity: [0, 0, -9.81]\n"), "q.yaml", ".");
+  try {
+    CtrPlanner p(qg);
+    ADD_FAILURE() << "gravity without density accepted";
+  } catch (const io::InputError& e) {
+    EXPECT_EQ(e.line(), 6) << e.what();
+    EXPECT_NE(std::string(e.what()).find("loads.gravity"), std::string::npos) << e.what();
+  }
 }
 
 TEST(Query, RoundedCoincidentEndsInStartAndGoalAreProjected) {
@@ -368,6 +421,27 @@ TEST(Planning, ExactModeReplayRecomputesThePlannersStates) {
   EXPECT_EQ(matched, states.size() - 1);
   EXPECT_TRUE(r.replay.collision_free);
   EXPECT_EQ(r.replay.snaps, 0);
+}
+
+TEST(Planning, ExactModePlansAndReplaysUnderATipForce) {
+  // A query with a tip force (the robot pushing on tissue, base frame): the validity checks, the propagation and the
+  // replay use the loaded model, and the replayed path is collision-free and ends at the goal.
+  Query q = parseQuery(queryText("target: tricuspid", "friction: {boundary: 0.1}\nloads: {tip_force: [0.05, 0, 0]}\n"),
+                       "q.yaml", ".");
+  q = onCpuClock(q, Mode::Exact, "portfolio", 20.0);
+  CtrPlanner p(q);
+  const PlanResult r = solveWithRetry(p);
+  ASSERT_TRUE(r.solved) << r.message;
+  EXPECT_TRUE(r.replay.collision_free);
+  EXPECT_LE(r.replay.tip_error, q.tip_goal->tolerance);
+  ASSERT_FALSE(r.replay.points.empty());
+  for (const ReplayPoint& pt : r.replay.points) EXPECT_TRUE(pt.solution.loaded);
+  // The replayed end state differs from the load-free equilibrium at the same command with the same history.
+  const ReplayPoint& end = r.replay.points.back();
+  Workspace ws;
+  const Solution free = solve(p.context()->robot().withLoads({}).withFriction({0.0, 0.0}), end.q, ws);
+  ASSERT_TRUE(free.converged());
+  EXPECT_GT((end.solution.tip_position - free.tip_position).norm(), 1e-5);
 }
 
 TEST(Planning, ExactModeSstSolvesAndReplaysTheIntracardiacQuery) {

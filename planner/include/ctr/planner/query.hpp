@@ -8,6 +8,7 @@
 #include <optional>
 #include <string>
 
+#include "ctr/model/loads.hpp"
 #include "ctr/planner/context.hpp"
 #include "ctr/planner/goal.hpp"
 #include "ctr/planner/propagator.hpp"
@@ -22,6 +23,12 @@ struct Query {
   std::string environment;          ///< Environment YAML path.
   std::string base_start;           ///< Optional: environment start pose to use as the base pose.
   std::optional<FrictionCoefficients> friction;  ///< Overrides the robot's friction block.
+  /// Overrides the robot's `loads:` block (same keys and units as the robot YAML). In `loads_frame` Base (the robot
+  /// YAML's convention) or Environment (world frame of the environment: turned into the base frame by the base pose
+  /// the query uses, e.g. gravity as it points in the patient's scan).
+  std::optional<Loads> loads;
+  enum class LoadsFrame { Base, Environment };
+  LoadsFrame loads_frame = LoadsFrame::Base;
   Configuration start;
   StartHistory history;
   std::optional<TipGoalSpec> tip_goal;

@@ -528,8 +528,8 @@ double loadedStability(const LoadedProblem& L, const Eigen::MatrixXd& J);
 // Below this |stability| a converged quasi-Newton solve recomputes the exact Jacobian (near a fold).
 constexpr double kExactStabilityBelow = 0.25;
 
-// The exact Jacobian of the last converged solve is kept in the workspace: a nearby warm start with the same
-// problem structure starts from it (Broyden updates, exact Jacobian again on poor progress). Only the Newton path
+// The exact Jacobian of the last converged solve is kept in the workspace: a nearby frictionless warm start with the
+// same problem structure starts from it (Broyden updates, exact Jacobian again on poor progress). Only the Newton path
 // depends on it; the converged point and its (exact) Jacobian do not.
 Eigen::VectorXd robotFingerprint(const LoadedProblem& L) {
   const Problem& P = L.P;
@@ -540,10 +540,10 @@ Eigen::VectorXd robotFingerprint(const LoadedProblem& L) {
 
 bool cachedJacobianUsable(const LoadedWork& W, const Eigen::VectorXd& z) {
   const Problem& P = W.L.P;
+  // Solves under contact laws (stick-slip steps) never start from the workspace's Jacobian: a step stays a function of
+  // its state and command alone, bit for bit (the planner's exact-mode replay recomputes its checked states).
+  if (!P.contacts.empty()) return false;
   if (!W.J_valid || W.J.rows() != W.L.m || W.J_z.size() != z.size() || W.J_alpha.size() != P.n) return false;
-  if (W.J_laws.size() != P.contacts.size()) return false;
-  for (std::size_t c = 0; c < P.contacts.size(); ++c)
-    if (!(W.J_sites[c] == P.contacts[c].site) || W.J_laws[c] != P.contacts[c].condition.law) return false;
   if ((W.J_alpha - P.alpha).cwiseAbs().maxCoeff() > 0.1 || (W.J_beta - P.beta).cwiseAbs().maxCoeff() > 5e-3)
     return false;
   // The same robot and loads (another robot's Jacobian could mislead the stability sign kept after convergence).
@@ -559,12 +559,6 @@ void storeJacobian(LoadedWork& W, const Eigen::VectorXd& z) {
   W.J_z = z;
   W.J_alpha = P.alpha;
   W.J_beta = P.beta;
-  W.J_sites.clear();
-  W.J_laws.clear();
-  for (const ActiveContact& ac : P.contacts) {
-    W.J_sites.push_back(ac.site);
-    W.J_laws.push_back(ac.condition.law);
-  }
 }
 
 // Newton (quasi-Newton from a cached Jacobian) with backtracking. On success W.r, W.J (exact) and, with `record`,

@@ -170,8 +170,6 @@ struct LoadedWork {
   bool J_valid = false;
   int J_updates = 0;  // Broyden updates since J was last exact
   Eigen::VectorXd J_z, J_alpha, J_beta, J_robot;
-  std::vector<ContactSite> J_sites;
-  std::vector<ContactCondition::Law> J_laws;
   WarmHistory history;  ///< loaded solves following a path (KinematicsOptions::extrapolate_warm_start)
 };
 

@@ -171,49 +171,84 @@ ConfigurationCheck checkRobust(const Context& ctx, const Configuration& q, Threa
   return r;
 }
 
+namespace {
+
+// The same equilibrium, solved along a motion and cold: equal within the solver's tolerance (different equilibria of
+// one configuration differ by far more: in the lung examples by 0.1-5 rad of twist and 2-70 mm at the tip).
+bool sameEquilibrium(const Solution& a, const Solution& b) {
+  return a.twist.size() == b.twist.size() && (a.twist - b.twist).cwiseAbs().maxCoeff() <= 1e-4 &&
+         (a.tip_position - b.tip_position).norm() <= 1e-5;
+}
+
+bool sameBand(const Band& a, const Band& b) {
+  if (a.shapes.size() != b.shapes.size() || !(a.sites == b.sites)) return false;
+  for (std::size_t i = 0; i < a.shapes.size(); ++i)
+    if (!sameEquilibrium(a.shapes[i], b.shapes[i])) return false;
+  return true;
+}
+
+}  // namespace
+
+// A geometric state (robust and frictionless modes) carries no history: it stands for the equilibrium (the band) that
+// a cold solve of its configuration gives, and that is what the goal test and the validity checker see. A motion is
+// followed from its start's own equilibrium; where several stable equilibria coexist, it can arrive on another one
+// than the end configuration's own (the lung examples: 2-70 mm apart at the tip), and the next motion, the goal test
+// and the collision checks would then be about a shape the robot is not in. So a motion is valid only as far as it
+// ends on the own equilibrium of the configuration it reaches; otherwise nothing of it is valid.
 double checkMotionForward(const Context& ctx, const Configuration& q0, const Configuration& q1, ThreadScratch& t,
                           std::string* reason) {
   const Configuration d(q1.alpha - q0.alpha, q1.beta - q0.beta);
   const int steps = stepsFor(ctx, d);
   std::string why;
-  auto fail = [&](int k) {
-    if (reason) *reason = why;
-    return static_cast<double>(k) / steps;
+  auto at = [&](int k) {
+    const double s = static_cast<double>(k) / steps;
+    return Configuration(q0.alpha + s * d.alpha, q0.beta + s * d.beta);
+  };
+  auto result = [&](int last, bool whole, bool own) {
+    if (!own) why = "the motion arrives on another equilibrium than the configuration's own (several are stable there)";
+    if ((!whole || !own) && reason) *reason = why;
+    if (!own) return 0.0;
+    return whole ? 1.0 : static_cast<double>(last) / steps;
   };
   if (ctx.options().mode == Mode::Robust) {
     Band cur, next;
-    if (!bandAt(ctx, q0, t, nullptr, cur, why)) return fail(0);
-    for (int k = 1; k <= steps; ++k) {
-      const double s = static_cast<double>(k) / steps;
-      const Configuration qk(q0.alpha + s * d.alpha, q0.beta + s * d.beta);
-      if (!bandAt(ctx, qk, t, &cur, next, why)) return fail(k - 1);
+    if (!bandAt(ctx, q0, t, nullptr, cur, why)) return result(0, false, true);
+    int k = 1;
+    for (; k <= steps; ++k) {
+      if (!bandAt(ctx, at(k), t, &cur, next, why)) break;
       std::swap(cur, next);
     }
-    return 1.0;
+    const int last = k - 1;
+    if (last == 0) return result(0, false, true);  // cur is the cold band at q0
+    Band own;
+    std::string w;
+    return result(last, last == steps, bandAt(ctx, at(last), t, nullptr, own, w) && sameBand(cur, own));
   }
   const double thr = ctx.options().friction.snap_threshold;
   ConfigurationCheck c = checkFrictionless(ctx, q0, t);
   if (!c.ok) {
     why = c.reason;
-    return fail(0);
+    return result(0, false, true);
   }
   Solution cur = std::move(c.shape);
-  for (int k = 1; k <= steps; ++k) {
-    const double s = static_cast<double>(k) / steps;
-    const Configuration qk(q0.alpha + s * d.alpha, q0.beta + s * d.beta);
-    Solution next = solve(ctx.frictionlessRobot(), qk, t.ws, shapeOptions(ctx), &cur);
+  int k = 1;
+  for (; k <= steps; ++k) {
+    Solution next = solve(ctx.frictionlessRobot(), at(k), t.ws, shapeOptions(ctx), &cur);
     if (!next.converged() || (cur.summary.stable && !next.summary.stable) || jumped(cur, next, thr)) {
       why = "the equilibrium branch snaps";
-      return fail(k - 1);
+      break;
     }
     const ShapeCheck sc = checkShape(ctx, next, t);
     if (!sc.ok) {
       why = sc.reason;
-      return fail(k - 1);
+      break;
     }
     cur = std::move(next);
   }
-  return 1.0;
+  const int last = k - 1;
+  if (last == 0) return result(0, false, true);
+  const Solution own = solve(ctx.frictionlessRobot(), at(last), t.ws, shapeOptions(ctx));
+  return result(last, last == steps, own.converged() && sameEquilibrium(cur, own));
 }
 
 ValidityChecker::ValidityChecker(const ob::SpaceInformationPtr& si, std::shared_ptr<const Context> ctx)

@@ -282,53 +282,63 @@ TEST(Friction, StepDependsOnlyOnTheStateAndTheCommand) {
   // The hysteresis state is everything the model remembers: a step from a state to a command gives bit-identical
   // results whatever the workspace solved before (here: the same walk step by step, once in sequence and once from
   // the stored states with a workspace that has just followed another path, frictionless and with friction), with
-  // the planner's solver settings (path predictor and Jacobian reuse on). A planner's checked states are then exactly
-  // what the replay of its path computes.
-  const Robot r("three",
-                {makeTube("a", 0.05, 0.10, 4.0, 0.04, 0.3), makeTube("b", 0.08, 0.10, 6.0, 0.02, 0.3),
-                 makeTube("c", 0.15, 0.06, 12.0, 0.006, 0.3)},
-                {0.1, 0.0});
-  FrictionOptions fo = fastOptions();
-  fo.kinematics.tolerance = 1e-8;
-  fo.kinematics.extrapolate_warm_start = true;
-  std::uniform_real_distribution<double> da(-0.04, 0.04), db(-0.001, 0.001);
-  Workspace ws, other;
-  Configuration q(Eigen::Vector3d(0.3, 1.0, -0.5), Eigen::Vector3d(-0.02, -0.04, -0.07));
-  StepResult cur = initialState(r, q, ws, fo);
-  ASSERT_TRUE(cur.summary.converged);
-  int compared = 0, slipping = 0;
-  for (int k = 0; k < 300; ++k) {
-    Configuration next = q;
-    std::mt19937 dir(static_cast<unsigned>(1000 + k / 10));  // runs of 10 steps in one direction
-    for (int i = 0; i < 3; ++i) next.alpha[i] += da(dir);
-    for (int i = 0; i < 3; ++i) next.beta[i] += db(dir);
-    if (!checkAdmissible(r, next)) continue;
-    const HysteresisState before = cur.state;
-    q = next;
-    cur = step(r, before, q, ws, fo);
-    if (!cur.summary.converged) break;
-    // Another path in the other workspace (a frictionless chain and a stick-slip step), then the same step.
-    Configuration p = q;
-    for (int j = 0; j < 3; ++j) {
-      p.alpha[1] += 0.01;
-      solve(r.withFriction({0.0, 0.0}), p, other, fo.kinematics);
+  // the planner's solver settings (path predictor and Jacobian reuse on), without and with external loads. A
+  // planner's checked states are then exactly what the replay of its path computes.
+  Tube ta = makeTube("a", 0.05, 0.10, 4.0, 0.04, 0.3), tb = makeTube("b", 0.08, 0.10, 6.0, 0.02, 0.3),
+       tc = makeTube("c", 0.15, 0.06, 12.0, 0.006, 0.3);
+  ta.linear_density = 0.02;
+  tb.linear_density = 0.012;
+  tc.linear_density = 0.006;
+  Loads loads;
+  loads.gravity = Eigen::Vector3d(2.0, -9.81, 0.0);
+  loads.tip_force = Eigen::Vector3d(0.03, 0.0, -0.02);
+  for (bool loaded : {false, true}) {
+    SCOPED_TRACE(loaded ? "with loads" : "without loads");
+    const Robot r = Robot("three", {ta, tb, tc}, {0.1, 0.0}).withLoads(loaded ? loads : Loads{});
+    FrictionOptions fo = fastOptions();
+    fo.kinematics.tolerance = 1e-8;
+    fo.kinematics.extrapolate_warm_start = true;
+    std::uniform_real_distribution<double> da(-0.04, 0.04), db(-0.001, 0.001);
+    Workspace ws, other;
+    Configuration q(Eigen::Vector3d(0.3, 1.0, -0.5), Eigen::Vector3d(-0.02, -0.04, -0.07));
+    StepResult cur = initialState(r, q, ws, fo);
+    ASSERT_TRUE(cur.summary.converged);
+    EXPECT_EQ(cur.solution.loaded, loaded);
+    int compared = 0, slipping = 0;
+    for (int k = 0; k < (loaded ? 150 : 300); ++k) {
+      Configuration next = q;
+      std::mt19937 dir(static_cast<unsigned>(1000 + k / 10));  // runs of 10 steps in one direction
+      for (int i = 0; i < 3; ++i) next.alpha[i] += da(dir);
+      for (int i = 0; i < 3; ++i) next.beta[i] += db(dir);
+      if (!checkAdmissible(r, next)) continue;
+      const HysteresisState before = cur.state;
+      q = next;
+      cur = step(r, before, q, ws, fo);
+      if (!cur.summary.converged) break;
+      // Another path in the other workspace (a frictionless chain and a stick-slip step), then the same step.
+      Configuration p = q;
+      for (int j = 0; j < 3; ++j) {
+        p.alpha[1] += 0.01;
+        solve(r.withFriction({0.0, 0.0}), p, other, fo.kinematics);
+      }
+      initialState(r, p, other, fo);
+      const StepResult again = step(r, before, q, other, fo);
+      ASSERT_TRUE(again.summary.converged);
+      EXPECT_EQ(again.solution.tip_position, cur.solution.tip_position) << "step " << k;
+      EXPECT_EQ(again.solution.twist, cur.solution.twist) << "step " << k;
+      EXPECT_EQ(again.state.base_twist_rate, cur.state.base_twist_rate) << "step " << k;
+      EXPECT_EQ(again.state.base_moment, cur.state.base_moment) << "step " << k;
+      ASSERT_EQ(again.state.contacts.size(), cur.state.contacts.size());
+      for (std::size_t c = 0; c < cur.state.contacts.size(); ++c) {
+        EXPECT_EQ(again.state.contacts[c].mode, cur.state.contacts[c].mode) << "step " << k;
+        EXPECT_EQ(again.state.contacts[c].torque, cur.state.contacts[c].torque) << "step " << k;
+        slipping += cur.state.contacts[c].mode != ContactMode::Stick;
+      }
+      ++compared;
     }
-    initialState(r, p, other, fo);
-    const StepResult again = step(r, before, q, other, fo);
-    ASSERT_TRUE(again.summary.converged);
-    EXPECT_EQ(again.solution.tip_position, cur.solution.tip_position) << "step " << k;
-    EXPECT_EQ(again.solution.twist, cur.solution.twist) << "step " << k;
-    EXPECT_EQ(again.state.base_twist_rate, cur.state.base_twist_rate) << "step " << k;
-    ASSERT_EQ(again.state.contacts.size(), cur.state.contacts.size());
-    for (std::size_t c = 0; c < cur.state.contacts.size(); ++c) {
-      EXPECT_EQ(again.state.contacts[c].mode, cur.state.contacts[c].mode) << "step " << k;
-      EXPECT_EQ(again.state.contacts[c].torque, cur.state.contacts[c].torque) << "step " << k;
-      slipping += cur.state.contacts[c].mode != ContactMode::Stick;
-    }
-    ++compared;
+    EXPECT_GE(compared, loaded ? 75 : 150);
+    EXPECT_GT(slipping, loaded ? 15 : 30);
   }
-  EXPECT_GE(compared, 150);
-  EXPECT_GT(slipping, 30);
 }
 
 TEST(Friction, PredictedStepsGiveTheSameStickSlipPath) {

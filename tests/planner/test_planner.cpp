@@ -369,6 +369,33 @@ TEST(MotionValidation, ForwardWalkRejectsASnapAndAcceptsASmoothMotion) {
   EXPECT_NE(why.find("snap"), std::string::npos) << why;
 }
 
+TEST(MotionValidation, AMotionMustArriveOnTheEndConfigurationsOwnEquilibrium) {
+  // Geometric states carry no history: a state stands for the equilibrium (band) of a cold solve of its configuration,
+  // which the goal test and the validity checker use. The snapping pair has two stable equilibria for relative
+  // rotations a little past pi: rotating up from 2.5 rad follows the upper branch (twist ~1.2 rad at 3.4), while the
+  // configuration's own (cold) equilibrium there is the other one (twist ~5.5 rad). Such a motion is invalid as a
+  // whole (it used to be accepted, and paths then ended tens of mm away from where the goal test put them: lung
+  // patient 2, robust mode, 2 of 12 runs).
+  const double L = 0.1, kappa = std::sqrt(2.0 * (M_PI / 2) * (M_PI / 2) / (1.3 * L * L));
+  const Robot r("snap", {curved("outer", L, kappa), curved("inner", L, kappa)});
+  const Configuration a(Eigen::Vector2d(0, 2.5), Eigen::Vector2d(0, 0)), b(Eigen::Vector2d(0, 3.4), Eigen::Vector2d(0, 0)),
+      c(Eigen::Vector2d(0, 4.0), Eigen::Vector2d(0, 0));
+  Workspace ws;
+  const Solution own_b = solve(r, b, ws);
+  ASSERT_TRUE(own_b.converged() && own_b.summary.stable);
+  EXPECT_GT(own_b.twist[0], 5.0);  // the lower branch (the twist winds the other way)
+  for (Mode mode : {Mode::Frictionless, Mode::Robust}) {
+    SCOPED_TRACE(toString(mode));
+    const Context ctx = emptyMapContext(mode == Mode::Robust ? r.withFriction({0.02, 0.0}) : r, mode);
+    ThreadScratch& t = scratch();
+    std::string why;
+    EXPECT_EQ(checkMotionForward(ctx, a, b, t, &why), 0.0);
+    EXPECT_NE(why.find("another equilibrium"), std::string::npos) << why;
+    // From b's own equilibrium on, up to 4.0: the same branch as the cold solve there.
+    EXPECT_EQ(checkMotionForward(ctx, b, c, t), 1.0);
+  }
+}
+
 TEST(Planning, ExactModeSolvesAndReplaysTheIntracardiacQuery) {
   Query q = loadQuery(src("examples/queries/proc_intracardiac.yaml"));
   q.time_limit = 20;
@@ -392,14 +419,10 @@ TEST(Planning, ExactModeSolvesAndReplaysTheIntracardiacQuery) {
   EXPECT_NE(csv.find("end1_mode"), std::string::npos);
 }
 
-TEST(Planning, ExactModeReplayRecomputesThePlannersStates) {
-  // The replay slices an exact-mode path into the sub-steps the propagator took (every propagation step of every
-  // control is a waypoint, each ending exactly at its command) and a stick-slip step depends only on its state and
-  // command: every state of the planner's path is recomputed bit for bit by the replay.
-  const Query q = onCpuClock(loadQuery(src("examples/queries/proc_intracardiac.yaml")), Mode::Exact, "rrt", 20);
-  CtrPlanner p(q);
-  const PlanResult r = solveWithRetry(p);
-  ASSERT_TRUE(r.planner_solved) << r.message;
+namespace {
+
+// Every state of an exact-mode solution path is a step of the replay with bit-identical results.
+void expectReplayRecomputesThePlannersStates(const CtrPlanner& p, const PlanResult& r) {
   const auto& states = p.controlSetup()->getSolutionPath().getStates();
   ASSERT_GE(states.size(), 2u);
   std::size_t matched = 0, next = 0;
@@ -416,22 +439,39 @@ TEST(Planning, ExactModeReplayRecomputesThePlannersStates) {
     EXPECT_EQ(rp.solution.tip_position, st->cache->solution.tip_position) << "path state " << k;
     EXPECT_EQ(rp.solution.twist, st->cache->solution.twist) << "path state " << k;
     EXPECT_EQ(rp.hysteresis.base_twist_rate, h.base_twist_rate) << "path state " << k;
+    EXPECT_EQ(rp.hysteresis.base_moment, h.base_moment) << "path state " << k;
     ++matched;
   }
   EXPECT_EQ(matched, states.size() - 1);
+}
+
+}  // namespace
+
+TEST(Planning, ExactModeReplayRecomputesThePlannersStates) {
+  // The replay slices an exact-mode path into the sub-steps the propagator took (every propagation step of every
+  // control is a waypoint, each ending exactly at its command) and a stick-slip step depends only on its state and
+  // command: every state of the planner's path is recomputed bit for bit by the replay.
+  const Query q = onCpuClock(loadQuery(src("examples/queries/proc_intracardiac.yaml")), Mode::Exact, "rrt", 20);
+  CtrPlanner p(q);
+  const PlanResult r = solveWithRetry(p);
+  ASSERT_TRUE(r.planner_solved) << r.message;
+  expectReplayRecomputesThePlannersStates(p, r);
   EXPECT_TRUE(r.replay.collision_free);
   EXPECT_EQ(r.replay.snaps, 0);
 }
 
 TEST(Planning, ExactModePlansAndReplaysUnderATipForce) {
   // A query with a tip force (the robot pushing on tissue, base frame): the validity checks, the propagation and the
-  // replay use the loaded model, and the replayed path is collision-free and ends at the goal.
+  // replay use the loaded model, the replay recomputes the planner's states bit for bit, and the replayed path is
+  // collision-free and ends at the goal.
   Query q = parseQuery(queryText("target: tricuspid", "friction: {boundary: 0.1}\nloads: {tip_force: [0.05, 0, 0]}\n"),
                        "q.yaml", ".");
-  q = onCpuClock(q, Mode::Exact, "portfolio", 20.0);
+  q = onCpuClock(q, Mode::Exact, "rrt", 20.0);
   CtrPlanner p(q);
   const PlanResult r = solveWithRetry(p);
   ASSERT_TRUE(r.solved) << r.message;
+  // Loaded stick-slip steps depend only on their state and command too: the replay recomputes the checked states.
+  expectReplayRecomputesThePlannersStates(p, r);
   EXPECT_TRUE(r.replay.collision_free);
   EXPECT_LE(r.replay.tip_error, q.tip_goal->tolerance);
   ASSERT_FALSE(r.replay.points.empty());

@@ -152,6 +152,46 @@ void registerPlanner(pyb::module_& m) {
             q.friction = f;
           },
           "Override of the robot's friction ({'boundary', 'distributed'}) or None.")
+      .def_property(
+          "loads",
+          [](const plan::Query& q) -> pyb::object {
+            if (!q.loads) return pyb::none();
+            pyb::dict d;
+            d["gravity"] = array3(q.loads->gravity);
+            d["tip_force"] = array3(q.loads->tip_force);
+            d["tip_moment"] = array3(q.loads->tip_moment);
+            d["frame"] = q.loads_frame == plan::Query::LoadsFrame::Environment ? "environment" : "base";
+            return std::move(d);
+          },
+          [](plan::Query& q, const pyb::object& v) {
+            if (v.is_none()) {
+              q.loads.reset();
+              return;
+            }
+            const pyb::dict d = v.cast<pyb::dict>();
+            Loads l;
+            plan::Query::LoadsFrame frame = plan::Query::LoadsFrame::Base;
+            for (const auto& kv : d) {
+              const std::string k = kv.first.cast<std::string>();
+              if (k == "frame") {
+                const std::string f = kv.second.cast<std::string>();
+                if (f != "base" && f != "environment")
+                  throw pyb::value_error("loads: frame '" + f + "' is not base or environment");
+                frame = f == "environment" ? plan::Query::LoadsFrame::Environment : plan::Query::LoadsFrame::Base;
+                continue;
+              }
+              Eigen::Vector3d* dst = k == "gravity" ? &l.gravity : k == "tip_force" ? &l.tip_force
+                                                   : k == "tip_moment" ? &l.tip_moment : nullptr;
+              if (!dst) throw pyb::value_error("loads: unknown key '" + k + "' (gravity, tip_force, tip_moment, frame)");
+              const Eigen::VectorXd x = toVector(kv.second, "loads " + k);
+              if (x.size() != 3 || !x.allFinite()) throw pyb::value_error("loads: " + k + ": expected 3 finite values");
+              *dst = x;
+            }
+            q.loads = l;
+            q.loads_frame = frame;
+          },
+          "Override of the robot's loads ({'gravity', 'tip_force', 'tip_moment', 'frame': 'base' | 'environment'}; "
+          "vectors in that frame) or None.")
       .def("line_of", &plan::Query::lineOf, arg("key"), "Line of a key in the query file (0 if unknown).")
       .def("__copy__", [](const plan::Query& q) { return plan::Query(q); })
       .def("__deepcopy__", [](const plan::Query& q, const pyb::dict&) { return plan::Query(q); })

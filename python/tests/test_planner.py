@@ -57,6 +57,29 @@ def test_query_fields_and_errors():
     with pytest.raises(ValueError, match="time_limit"):
         q.time_limit = 0
     assert "rrt" in ctr.planner_names("exact")
+    assert q.loads is None
+    q.loads = {"tip_force": [0.02, 0, 0], "frame": "environment"}
+    assert q.loads["frame"] == "environment" and np.allclose(q.loads["tip_force"], [0.02, 0, 0])
+    assert np.allclose(q.loads["gravity"], 0)
+    with pytest.raises(ValueError, match="frame"):
+        q.loads = {"frame": "world"}
+    with pytest.raises(ValueError, match="weight"):
+        q.loads = {"weight": [0, 0, 1]}
+    with pytest.raises(ValueError, match="3 finite"):
+        q.loads = {"tip_force": [0, 1]}
+    q.loads = None
+    assert q.loads is None
+
+
+def test_query_loads_are_the_planners():
+    # `loads:` in the query replaces the robot's loads (base frame by default); the planner's robot carries them.
+    text = QUERY.read_text()
+    text = (text.replace("robot: ../robots/", f"robot: {EXAMPLES}/robots/")
+            .replace("environment: ../environments/", f"environment: {EXAMPLES}/environments/"))
+    q = ctr.parse_query(text + "loads: {tip_force: [0.03, 0, 0]}\n", "q.yaml")
+    assert q.loads["frame"] == "base" and np.allclose(q.loads["tip_force"], [0.03, 0, 0])
+    planner = ctr.CtrPlanner(q)
+    assert np.allclose(planner.robot.loads["tip_force"], [0.03, 0, 0])
 
 
 def test_invalid_start_raises_the_cli_message(cli, tmp_path):

@@ -174,6 +174,14 @@ void BM_LoadedSweep(benchmark::State& st) {
 // The same loaded sweep with the planner's settings (a planning query with loads).
 void BM_LoadedSweepPlanning(benchmark::State& st) { sweepSolves(st, loadedDupont(), planningSteps()); }
 
+// The loaded sweep at library default integration and tolerance with the path predictor
+// (KinematicsOptions::extrapolate_warm_start): what a controller following a path can ask for.
+void BM_LoadedSweepPredictor(benchmark::State& st) {
+  ctr::KinematicsOptions o;
+  o.extrapolate_warm_start = true;
+  sweepSolves(st, loadedDupont(), o);
+}
+
 void BM_LoadedCold(benchmark::State& st) { coldSolves(st, loadedDupont(), ctr::KinematicsOptions{}); }
 
 // Exact tip Jacobian (6 x 6 actuation) with / without the 6 x 6 compliance at a loaded equilibrium.
@@ -221,6 +229,7 @@ BENCHMARK(BM_SolveSweep<2>)->Name("solve_sweep/dupont3/tip/planning_steps_only")
 BENCHMARK(BM_LoadedSweep<false>)->Name("loads/solve_sweep/dupont3/no_load");
 BENCHMARK(BM_LoadedSweep<true>)->Name("loads/solve_sweep/dupont3/gravity_tip_force");
 BENCHMARK(BM_LoadedSweepPlanning)->Name("loads/solve_sweep/dupont3/gravity_tip_force/planning");
+BENCHMARK(BM_LoadedSweepPredictor)->Name("loads/solve_sweep/dupont3/gravity_tip_force/predictor");
 BENCHMARK(BM_LoadedCold)->Name("loads/solve_cold/dupont3/gravity_tip_force");
 BENCHMARK(BM_TipJacobian<false>)->Name("loads/tip_jacobian/dupont3/actuation");
 BENCHMARK(BM_TipJacobian<true>)->Name("loads/tip_jacobian/dupont3/actuation_compliance");

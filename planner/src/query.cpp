@@ -92,8 +92,10 @@ Query parseQueryYaml(const std::string& text, const std::string& source, const s
     throw InputError(source, e.mark.line + 1, "", std::string("not valid YAML: ") + e.msg);
   }
   if (!root.IsMap()) throw InputError(source, 0, "", "a query must be a YAML map");
-  c.allowOnly(root, "", {"name", "robot", "environment", "base_start", "friction", "start", "goal", "loads", "mode", "planner",
-                         "time_limit", "time_limit_clock", "seed", "objective", "replay", "resolution", "environment_resolution"});
+  c.allowOnly(root, "",
+              {"name", "robot", "environment", "base_start", "friction", "start", "goal", "loads", "mode", "planner",
+               "time_limit", "time_limit_clock", "seed", "objective", "replay", "resolution",
+               "environment_resolution"});
   Query q;
   q.file = source;
   // Lines of the keys (two levels) for messages about problems detected later.

@@ -182,7 +182,8 @@ void registerPlanner(pyb::module_& m) {
               }
               Eigen::Vector3d* dst = k == "gravity" ? &l.gravity : k == "tip_force" ? &l.tip_force
                                                    : k == "tip_moment" ? &l.tip_moment : nullptr;
-              if (!dst) throw pyb::value_error("loads: unknown key '" + k + "' (gravity, tip_force, tip_moment, frame)");
+              if (!dst)
+                throw pyb::value_error("loads: unknown key '" + k + "' (gravity, tip_force, tip_moment, frame)");
               const Eigen::VectorXd x = toVector(kv.second, "loads " + k);
               if (x.size() != 3 || !x.allFinite()) throw pyb::value_error("loads: " + k + ": expected 3 finite values");
               *dst = x;

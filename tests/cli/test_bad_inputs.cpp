@@ -314,12 +314,14 @@ const std::vector<Case> kCases = {
      const std::string t = edit(heartQuery(), "planner: portfolio", "planner: teleport");
      d.write("q.yaml", t); d.expect["line"] = std::to_string(lineOf(t, "teleport")); },
    "plan {d}/q.yaml --json {d}/r.json", 2, {"q.yaml:{line}", "planner", "teleport"}},
-  {"PlanGravityWithoutDensity", "plan", "gravity in the query's loads on a robot without linear densities", "plan", [](Dir& d) {
+  {"PlanGravityWithoutDensity", "plan", "gravity in the query's loads on a robot without linear densities", "plan",
+   [](Dir& d) {
      const std::string t = edit(heartQuery(), "time_limit: 20", "time_limit: 20\nloads:\n  gravity: [0, 0, -9.81]");
      d.write("q.yaml", t); d.expect["line"] = std::to_string(lineOf(t, "gravity:")); },
    "plan {d}/q.yaml --json {d}/r.json", 2, {"q.yaml:{line}", "loads.gravity", "linear_density"}},
   {"PlanLoadsFrameUnknown", "plan", "unknown frame of the query's loads", "plan", [](Dir& d) {
-     const std::string t = edit(heartQuery(), "time_limit: 20", "time_limit: 20\nloads: {tip_force: [0.01, 0, 0], frame: world}");
+     const std::string t =
+         edit(heartQuery(), "time_limit: 20", "time_limit: 20\nloads: {tip_force: [0.01, 0, 0], frame: world}");
      d.write("q.yaml", t); d.expect["line"] = std::to_string(lineOf(t, "frame: world")); },
    "plan {d}/q.yaml --json {d}/r.json", 2, {"q.yaml:{line}", "loads.frame", "base or environment"}},
   {"PlanUnknownPlannerOption", "plan", "unknown --planner", "plan", [](Dir& d) { d.write("q.yaml", heartQuery()); },

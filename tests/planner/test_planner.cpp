@@ -157,8 +157,8 @@ TEST(Query, TargetOutsideTheMapAndBadStartAreInputErrors) {
 TEST(Query, LoadsReplaceTheRobotsAndTurnIntoTheBaseFrame) {
   // `loads:` in a query replaces the robot's loads; with frame: environment the vectors are given in the
   // environment's (world) frame and turned into the base frame by the base pose in use.
-  const Query qb = parseQuery(queryText("target: tricuspid", "loads: {tip_force: [0.02, 0, 0], tip_moment: [0, 0, 1e-4]}\n"),
-                              "q.yaml", ".");
+  const Query qb = parseQuery(
+      queryText("target: tricuspid", "loads: {tip_force: [0.02, 0, 0], tip_moment: [0, 0, 1e-4]}\n"), "q.yaml", ".");
   ASSERT_TRUE(qb.loads.has_value());
   EXPECT_EQ(qb.loads_frame, Query::LoadsFrame::Base);
   const CtrPlanner pb(qb);
@@ -378,8 +378,9 @@ TEST(MotionValidation, AMotionMustArriveOnTheEndConfigurationsOwnEquilibrium) {
   // patient 2, robust mode, 2 of 12 runs).
   const double L = 0.1, kappa = std::sqrt(2.0 * (M_PI / 2) * (M_PI / 2) / (1.3 * L * L));
   const Robot r("snap", {curved("outer", L, kappa), curved("inner", L, kappa)});
-  const Configuration a(Eigen::Vector2d(0, 2.5), Eigen::Vector2d(0, 0)), b(Eigen::Vector2d(0, 3.4), Eigen::Vector2d(0, 0)),
-      c(Eigen::Vector2d(0, 4.0), Eigen::Vector2d(0, 0));
+  const Configuration a(Eigen::Vector2d(0, 2.5), Eigen::Vector2d(0, 0));
+  const Configuration b(Eigen::Vector2d(0, 3.4), Eigen::Vector2d(0, 0));
+  const Configuration c(Eigen::Vector2d(0, 4.0), Eigen::Vector2d(0, 0));
   Workspace ws;
   const Solution own_b = solve(r, b, ws);
   ASSERT_TRUE(own_b.converged() && own_b.summary.stable);

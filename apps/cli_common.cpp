@@ -185,13 +185,9 @@ Robot LoadsCli::apply(const Robot& robot) const {
   if (!tip_force.empty()) l.tip_force = vec(tip_force, "--tip-force");
   if (!tip_moment.empty()) l.tip_moment = vec(tip_moment, "--tip-moment");
   if (!gravity.empty()) l.gravity = vec(gravity, "--gravity");
-  if (!gravity.empty() && l.gravity.norm() > 0.0) {
-    bool weightless = true;
-    for (const Tube& t : robot.tubes()) weightless = weightless && t.linear_density == 0.0;
-    if (weightless)
-      std::cerr << "warning: --gravity has no effect: no tube of robot '" << robot.name()
-                << "' has a linear_density (or density with diameters)\n";
-  }
+  if (!gravity.empty() && l.gravity.norm() > 0.0 && !robot.hasWeight())
+    std::cerr << "warning: --gravity has no effect: no tube of robot '" << robot.name()
+              << "' has a linear_density (or density with diameters)\n";
   return robot.withLoads(l);
 }
 

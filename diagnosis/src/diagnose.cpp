@@ -1077,7 +1077,7 @@ DiagnosisReport diagnose(const Robot& nominal, const io::Recording& full, const 
     rep.final_uncertainty[cur.fit.effects[j].label()] = cur.fit.uncertainty[j];
   for (const Effect& e : cur.fit.effects)
     if (e.kind == EffectKind::Gravity && nominalEffect(nominal, EffectKind::Gravity, 0).vec.isZero() &&
-        !std::any_of(nominal.tubes().begin(), nominal.tubes().end(), [](const Tube& t) { return t.linear_density > 0; }))
+        !nominal.hasWeight())
       rep.warnings.push_back(
           "gravity: the description gives no tube a density, so its weight assumes nitinol (" +
           fmt("%.0f kg/m^3) with the tubes' diameters; the fitted scale %.3g is relative to that weight", kNitinolDensity,

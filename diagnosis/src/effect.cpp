@@ -286,20 +286,12 @@ double nominalValue(const Robot& nominal, EffectKind kind, int tube) {
   }
 }
 
-namespace {
-bool anyDensity(const Robot& r) {
-  for (const Tube& t : r.tubes())
-    if (t.linear_density > 0) return true;
-  return false;
-}
-}  // namespace
-
 Effect nominalEffect(const Robot& nominal, EffectKind kind, int tube) {
   Effect e;
   e.kind = kind;
   e.tube = isPerTube(kind) ? tube : 0;
   if (kind == EffectKind::Gravity)
-    e.vec = anyDensity(nominal) ? Eigen::Vector3d(nominal.loads().gravity / kStandardGravity)
+    e.vec = nominal.hasWeight() ? Eigen::Vector3d(nominal.loads().gravity / kStandardGravity)
                                 : Eigen::Vector3d::Zero();
   else if (kind == EffectKind::TipLoad)
     e.vec = nominal.loads().tip_force;
@@ -309,7 +301,7 @@ Effect nominalEffect(const Robot& nominal, EffectKind kind, int tube) {
 }
 
 std::string gravityUnavailable(const Robot& nominal) {
-  if (anyDensity(nominal)) return "";
+  if (nominal.hasWeight()) return "";
   for (const Tube& t : nominal.tubes())
     if (t.outer_diameter > t.inner_diameter) return "";
   return "no tube has a linear density, a density or diameters to compute its weight from";
@@ -365,7 +357,7 @@ Robot applyToRobot(const Robot& nominal, const std::vector<Effect>& effects) {
         loads.gravity = kStandardGravity * e.vec;
         // A weightless description: each tube weighs nitinol's density times its cross-section (an assumption;
         // the fitted scale absorbs a different density).
-        if (!anyDensity(nominal))
+        if (!nominal.hasWeight())
           for (Tube& t : tubes)
             if (t.outer_diameter > t.inner_diameter)
               t.linear_density = kNitinolDensity * M_PI / 4 *

@@ -86,6 +86,12 @@ Robot::Robot(std::string name, std::vector<Tube> tubes, FrictionCoefficients fri
   if (!loads_.tip_moment.allFinite()) throw std::invalid_argument("loads: key 'tip_moment': must be finite");
 }
 
+bool Robot::hasWeight() const {
+  for (const Tube& t : tubes_)
+    if (t.linear_density > 0.0) return true;
+  return false;
+}
+
 Robot Robot::withFriction(FrictionCoefficients f) const { return Robot(name_, tubes_, f, loads_); }
 
 Robot Robot::withLoads(const Loads& loads) const { return Robot(name_, tubes_, friction_, loads); }

@@ -124,9 +124,7 @@ void CtrPlanner::init(Robot robot, env::Environment e) {
       l.tip_force = Rt * l.tip_force;
       l.tip_moment = Rt * l.tip_moment;
     }
-    bool weighs = false;
-    for (int i = 0; i < n; ++i) weighs = weighs || robot.tube(i).linear_density > 0.0;
-    if (l.gravity.norm() > 0.0 && !weighs)
+    if (l.gravity.norm() > 0.0 && !robot.hasWeight())
       throw io::InputError(query.file, query.lineOf("loads.gravity"), "loads.gravity",
                            "gravity has no effect: no tube of robot '" + robot.name() +
                                "' has a linear_density (or density with diameters)");

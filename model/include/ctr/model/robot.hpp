@@ -53,6 +53,8 @@ public:
   const FrictionCoefficients& friction() const { return friction_; }
   /// @brief External loads (base frame); empty() for the load-free (torsion-only) model.
   const Loads& loads() const { return loads_; }
+  /// @brief True when some tube has a linear density, i.e. gravity acts on the robot.
+  bool hasWeight() const;
 
   /// @brief A copy with other friction coefficients.
   Robot withFriction(FrictionCoefficients f) const;

@@ -57,6 +57,7 @@ std::vector<ContactSite> contactSites(const Robot& robot, const Configuration& q
   std::vector<ContactSite> sites;
   const int n = robot.size();
   if (n < 2) return sites;
+  sites.reserve(static_cast<std::size_t>(2 * n));
   for (int i = 0; i + 1 < n; ++i) {
     const double e = distalEnd(robot, q, i);
     if (e > kSameS) sites.push_back({MomentKind::TubeEnd, i, i, i + 1, e});
@@ -74,7 +75,9 @@ std::vector<ContactSite> contactSites(const Robot& robot, const Configuration& q
     }
     if (outer >= 0) sites.push_back({MomentKind::CurvatureDiscontinuity, j, outer, inner, sd});
   }
-  std::stable_sort(sites.begin(), sites.end(), [](const ContactSite& a, const ContactSite& b) { return a.s < b.s; });
+  // Stable insertion sort by s (a handful of sites; std::stable_sort would allocate a buffer per call).
+  for (std::size_t k = 1; k < sites.size(); ++k)
+    for (std::size_t j = k; j > 0 && sites[j].s < sites[j - 1].s; --j) std::swap(sites[j], sites[j - 1]);
   return sites;
 }
 
@@ -408,6 +411,8 @@ void Evaluator::evaluate(const Problem& P, const Eigen::VectorXd& z, bool jac, b
 
   pose_steps_.clear();
   pose_pending_ = false;
+  pending_moments_.clear();
+  end_theta_.clear();
   Eigen::VectorXd grad;
   for (std::size_t si = 0; si < P.segments.size(); ++si) {
     const Segment& sg = P.segments[si];
@@ -460,9 +465,12 @@ void Evaluator::evaluate(const Problem& P, const Eigen::VectorXd& z, bool jac, b
       out.twist.resize(n - 1);
       for (int k = 1; k < n; ++k) out.twist[k - 1] = Y[k] - Y[0];
     }
-    // Concentrated moments: tube ends (moment of the tube just before its end) ...
-    for (int i : bp.ending)
-      out.moments.push_back({MomentKind::TubeEnd, i, bp.s, endMoment(P, sg, Y.data(), i, nullptr, &bp.ending)});
+    // Concentrated moments: tube ends (moment of the tube just before its end; its value in finish()) ...
+    for (int i : bp.ending) {
+      pending_moments_.push_back({out.moments.size(), si, end_theta_.size()});
+      end_theta_.insert(end_theta_.end(), Y.data(), Y.data() + n);
+      out.moments.push_back({MomentKind::TubeEnd, i, bp.s, 0.0});
+    }
     // ... and curvature discontinuities: |jump of m_j| = k_j kappa_j (K - k_j) / K.
     if (si + 1 < P.segments.size()) {
       const Segment& nx = P.segments[si + 1];
@@ -551,7 +559,13 @@ void Evaluator::evaluate(const Problem& P, const Eigen::VectorXd& z, bool jac, b
   }
 }
 
-void Evaluator::finishPose(Outputs& out) {
+void Evaluator::finish(const Problem& P, Outputs& out) {
+  for (const PendingMoment& pm : pending_moments_) {
+    ConcentratedMoment& cm = out.moments[pm.moment];
+    cm.magnitude =
+        endMoment(P, P.segments[pm.segment], &end_theta_[pm.theta], cm.tube, nullptr, &P.breakpoints[pm.segment].ending);
+  }
+  pending_moments_.clear();
   if (!pose_pending_) return;
   Eigen::Matrix3d R = Eigen::Matrix3d::Identity();
   Eigen::Vector3d p = Eigen::Vector3d::Zero();
@@ -567,9 +581,14 @@ void Evaluator::finishPose(Outputs& out) {
 
 // Actuation as one vector for the warm-start history: alpha, then beta in units of 2 cm (~1 rad).
 Eigen::VectorXd historyKey(const Configuration& q) {
-  Eigen::VectorXd v(2 * q.size());
-  v << q.alpha, 50.0 * q.beta;
+  Eigen::VectorXd v;
+  historyKey(q, v);
   return v;
+}
+
+void historyKey(const Configuration& q, Eigen::VectorXd& v) {
+  v.resize(2 * q.size());
+  v << q.alpha, 50.0 * q.beta;
 }
 
 // Continuation predictor: when q continues the straight line through the last solves of the chain (each step
@@ -578,32 +597,52 @@ Eigen::VectorXd historyKey(const Configuration& q) {
 // than a quarter of the secant's step (a fold ahead) falls back to the secant.
 bool continuationPredictor(const WarmHistory& H, const Eigen::VectorXd& q, Eigen::VectorXd& z) {
   if (H.count < 2 || H.q[0].size() != q.size() || z.size() < H.z[0].size()) return false;
-  const Eigen::VectorXd d = q - H.q[0];
-  const double ahead = d.norm();
+  // Scalar loops throughout: no temporaries (this runs once per solve along a path).
+  const Eigen::Index dim = q.size(), nz = H.z[0].size();
+  double ahead2 = 0.0;
+  for (Eigen::Index c = 0; c < dim; ++c) ahead2 += (q[c] - H.q[0][c]) * (q[c] - H.q[0][c]);
+  const double ahead = std::sqrt(ahead2);
   if (!(ahead > 0.0)) return false;
-  const Eigen::VectorXd u = d / ahead;
   double s[WarmHistory::kDepth] = {0.0};
   int points = 1;
   for (int k = 1; k < H.count; ++k) {
-    if (H.q[k].size() != q.size() || H.z[k].size() != H.z[0].size()) break;
-    const Eigen::VectorXd step = H.q[k - 1] - H.q[k];
-    const double len = step.norm(), along = step.dot(u);
+    if (H.q[k].size() != dim || H.z[k].size() != nz) break;
+    double len2 = 0.0, dot = 0.0;  // step = q[k-1] - q[k]; along = step . (q - q[0]) / ahead
+    for (Eigen::Index c = 0; c < dim; ++c) {
+      const double st = H.q[k - 1][c] - H.q[k][c];
+      len2 += st * st;
+      dot += st * (q[c] - H.q[0][c]);
+    }
+    const double len = std::sqrt(len2), along = dot / ahead;
     if (!(len > 0.0) || along < 0.999 * len) break;  // not (nearly) the same direction
     s[k] = s[k - 1] - along;
     ++points;
   }
   if (points < 2 || ahead > 2.0 * -s[1]) return false;
-  const Eigen::VectorXd secant = H.z[0] + (ahead / -s[1]) * (H.z[0] - H.z[1]);
-  Eigen::VectorXd pred = Eigen::VectorXd::Zero(H.z[0].size());
+  // Lagrange weights of the polynomial through the chain's points, at `ahead`; the secant's factor.
+  double w[WarmHistory::kDepth];
   for (int i = 0; i < points; ++i) {
-    double w = 1.0;
+    w[i] = 1.0;
     for (int j = 0; j < points; ++j)
-      if (j != i) w *= (ahead - s[j]) / (s[i] - s[j]);
-    pred += w * H.z[i];
+      if (j != i) w[i] *= (ahead - s[j]) / (s[i] - s[j]);
   }
-  const double secant_step = (secant - H.z[0]).cwiseAbs().maxCoeff();
-  const bool smooth = pred.allFinite() && (pred - secant).cwiseAbs().maxCoeff() <= 0.25 * secant_step;
-  z.head(H.z[0].size()) = smooth ? pred : secant;
+  const double f = ahead / -s[1];
+  auto secantAt = [&](Eigen::Index c) { return H.z[0][c] + f * (H.z[0][c] - H.z[1][c]); };
+  auto polyAt = [&](Eigen::Index c) {
+    double v = 0.0;
+    for (int i = 0; i < points; ++i) v += w[i] * H.z[i][c];
+    return v;
+  };
+  double secant_step = 0.0, gap = 0.0;
+  bool finite = true;
+  for (Eigen::Index c = 0; c < nz; ++c) {
+    const double sc = secantAt(c), pc = polyAt(c);
+    finite = finite && std::isfinite(pc);
+    secant_step = std::max(secant_step, std::abs(sc - H.z[0][c]));
+    gap = std::max(gap, std::abs(pc - sc));
+  }
+  const bool smooth = finite && gap <= 0.25 * secant_step;
+  for (Eigen::Index c = 0; c < nz; ++c) z[c] = smooth ? polyAt(c) : secantAt(c);
   return z.allFinite();
 }
 
@@ -621,9 +660,13 @@ void recordInChain(WarmHistory& H, bool chained, const Eigen::VectorXd& qv, cons
 // (The loaded solver's base moments pass through a Solution in N m: the unknowns are compared to rounding.)
 bool continuesChain(const WarmHistory& H, const Configuration& warm_q, const Eigen::VectorXd& q_key,
                     const Eigen::VectorXd& z) {
-  return H.count > 0 && warm_q.size() * 2 == q_key.size() && H.q[0].size() == q_key.size() &&
-         historyKey(warm_q) == H.q[0] && z.size() == H.z[0].size() &&
-         (z - H.z[0]).cwiseAbs().maxCoeff() <= 1e-13 * (1.0 + H.z[0].cwiseAbs().maxCoeff());
+  if (!(H.count > 0 && warm_q.size() * 2 == q_key.size() && H.q[0].size() == q_key.size() &&
+        z.size() == H.z[0].size()))
+    return false;
+  const int n = warm_q.size();
+  for (int i = 0; i < n; ++i)  // historyKey(warm_q) == H.q[0], without forming the key
+    if (!(warm_q.alpha[i] == H.q[0][i] && 50.0 * warm_q.beta[i] == H.q[0][n + i])) return false;
+  return (z - H.z[0]).cwiseAbs().maxCoeff() <= 1e-13 * (1.0 + H.z[0].cwiseAbs().maxCoeff());
 }
 
 }  // namespace detail
@@ -652,7 +695,9 @@ bool newton(const Problem& P, Evaluator& E, Outputs& out, Eigen::VectorXd& z, co
   E.evaluate(P, z, true, record, out);
   bool jac_at_z = true;  // E.J (and out.stability) belong to z
   bool chord = false;    // the last value-only step contracted the residual 10x: the next reuses its factorisation
-  Eigen::PartialPivLU<Eigen::MatrixXd> lu;
+  Eigen::PartialPivLU<Eigen::MatrixXd>& lu = E.lu;  // the evaluator's scratch (no allocation per solve)
+  Eigen::VectorXd& dz = E.dz;
+  Eigen::VectorXd& zt = E.zt;
   double nr = maxAbs(E.r);
   double merit = E.r.squaredNorm();  // Newton directions descend on the 2-norm (not on the max-norm)
   const double step_cap = 4.0 * M_PI / std::max(P.s_tip, 1e-3);  // limit on a base twist rate change (1/m)
@@ -679,7 +724,7 @@ bool newton(const Problem& P, Evaluator& E, Outputs& out, Eigen::VectorXd& z, co
     // the solution the Jacobian changes by ~|dz|, so a chord step converges nearly as fast, for one value-only
     // evaluation instead of a Jacobian and a value.
     if (jac_at_z) lu.compute(E.J);
-    Eigen::VectorXd dz = lu.solve(-E.r);
+    dz.noalias() = lu.solve(-E.r);
     if (jac_at_z && (!allFinite(dz) || std::abs(lu.determinant()) < 1e-300)) {
       // Singular Jacobian (at a fold): regularised step.
       const Eigen::MatrixXd JtJ = E.J.transpose() * E.J + 1e-8 * Eigen::MatrixXd::Identity(P.m, P.m);
@@ -699,7 +744,6 @@ bool newton(const Problem& P, Evaluator& E, Outputs& out, Eigen::VectorXd& z, co
     const bool value_only = chord || nr * nr < 1000.0 * opt.tolerance;
     const double nr_before = nr;
     double t = 1.0;
-    Eigen::VectorXd zt;
     bool accepted = false;
     for (int ls = 0; ls < 12; ++ls) {
       zt = z + t * dz;
@@ -785,6 +829,7 @@ Solution package(const Robot& robot, const Configuration& q, const Problem& P, c
       }
     }
   }
+  sol.contacts.reserve(P.contacts.size());
   for (std::size_t c = 0; c < P.contacts.size(); ++c) {
     const detail::ActiveContact& ac = P.contacts[c];
     ContactResult cr;
@@ -856,24 +901,29 @@ bool continuation(const std::function<void(double)>& setAt, const Problem& P, Ev
   return true;
 }
 
-Eigen::VectorXd robotKey(const Problem& P) {
-  Eigen::VectorXd k(3 * P.n);
+// The robot's kb, kt, kappa as one vector (the chord cache's robot key).
+void robotKey(const Problem& P, Eigen::VectorXd& k) {
+  k.resize(3 * P.n);
   k << P.kb, P.kt, P.kappa;
-  return k;
+}
+
+bool sameRobot(const Eigen::VectorXd& k, const Problem& P) {
+  const int n = P.n;
+  return k.size() == 3 * n && k.head(n) == P.kb && k.segment(n, n) == P.kt && k.tail(n) == P.kappa;
 }
 
 // The cached Jacobian serves quasi-Newton steps when it is of this robot and problem size and was taken within 0.1
 // (rad, or 2 mm of translation in history-key units) of q.
 bool chordUsable(const detail::ChordCache& C, const Problem& P, const Eigen::VectorXd& qv) {
   return C.valid && C.J.rows() == P.m && C.q.size() == qv.size() && (C.q - qv).cwiseAbs().maxCoeff() <= 0.1 &&
-         C.robot == robotKey(P);
+         sameRobot(C.robot, P);
 }
 
 void storeChord(detail::ChordCache& C, const Problem& P, const Evaluator& E, double stability,
                 const Eigen::VectorXd& qv) {
   C.J = E.J;
   C.q = qv;
-  C.robot = robotKey(P);
+  robotKey(P, C.robot);
   C.stability = stability;
   C.valid = true;
 }
@@ -884,15 +934,20 @@ void storeChord(detail::ChordCache& C, const Problem& P, const Evaluator& E, dou
 // runs Newton from the start. The stability is the cached one unless it is small enough for its sign to matter (then
 // the Jacobian is evaluated at the solution, as newton() does).
 bool chordSolve(const Problem& P, Evaluator& E, Outputs& out, Eigen::VectorXd& z, const KinematicsOptions& opt,
-                const detail::ChordCache& C, int max_steps, int& iterations, double& res_norm, bool record) {
+                detail::ChordCache& C, int max_steps, int& iterations, double& res_norm, bool record) {
   E.evaluate(P, z, false, record, out);
   if (!allFinite(E.r)) return false;
   double nr = maxAbs(E.r);
-  Eigen::MatrixXd J = C.J;
+  // The cache's scratch (kept between solves: no allocation per solve).
+  Eigen::MatrixXd& J = C.scratch_J;
+  Eigen::VectorXd& step = C.scratch_step;
+  Eigen::VectorXd& r_old = C.scratch_r;
+  J = C.J;
   for (int it = 0; it < max_steps && !(nr < opt.tolerance); ++it) {
     ++iterations;
-    const Eigen::VectorXd step = Eigen::PartialPivLU<Eigen::MatrixXd>(J).solve(-E.r);
-    const Eigen::VectorXd r_old = E.r;
+    C.scratch_lu.compute(J);
+    step.noalias() = C.scratch_lu.solve(-E.r);
+    r_old = E.r;
     z += step;
     E.evaluate(P, z, false, record, out);
     const double nn = maxAbs(E.r);
@@ -900,7 +955,11 @@ bool chordSolve(const Problem& P, Evaluator& E, Outputs& out, Eigen::VectorXd& z
     nr = nn;
     // Broyden update along the step (superlinear convergence instead of the chord's linear rate).
     const double ss = step.squaredNorm();
-    if (ss > 0.0) J += ((E.r - r_old) - J * step) * (step.transpose() / ss);
+    if (ss > 0.0) {
+      r_old -= E.r;  // r_old <- -(change of r); J += (dr - J step) step^T / ss
+      r_old.noalias() += J * step;
+      J.noalias() -= r_old * (step.transpose() / ss);
+    }
   }
   if (!(nr < opt.tolerance)) return false;
   res_norm = nr;
@@ -931,16 +990,19 @@ Solution solveImpl(const Robot& robot, const Configuration& q, const std::vector
   // that a planner's checked states are what a replay of its path computes.)
   detail::WarmHistory& H = W.history;
   detail::ChordCache& CC = W.chain_chord;
-  const Eigen::VectorXd qv = detail::historyKey(q);
+  Eigen::VectorXd& qv = W.key;  // the workspace's scratch vectors: no allocation per solve
+  detail::historyKey(q, qv);
   const bool chained = frictionless && warm && detail::continuesChain(H, warm->q, qv, z);
   bool ok = false;
   const long jacobians_before = W.eval.jacobian_evaluations;
   if (opt.extrapolate_warm_start && chained && H.count >= 2) {
-    Eigen::VectorXd zp = z;
+    Eigen::VectorXd& zp = W.z_predicted;
+    zp = z;
     if (detail::continuationPredictor(H, qv, zp)) {
       int it_p = 0;
       if (chordUsable(CC, P, qv)) {
-        Eigen::VectorXd zc = zp;
+        Eigen::VectorXd& zc = W.z_chord;
+        zc = zp;
         ok = chordSolve(P, W.eval, W.out, zc, opt, CC, 2, it_p, rn, rec);
         if (ok) z = zc;
       }
@@ -953,7 +1015,8 @@ Solution solveImpl(const Robot& robot, const Configuration& q, const std::vector
   }
   if (!ok && opt.extrapolate_warm_start && chained && chordUsable(CC, P, qv)) {
     // A path-following solve without a usable prediction: quasi-Newton steps from the warm start.
-    Eigen::VectorXd zc = z;
+    Eigen::VectorXd& zc = W.z_chord;
+    zc = z;
     ok = chordSolve(P, W.eval, W.out, zc, opt, CC, 4, iters, rn, rec);
     if (ok) z = zc;
   }
@@ -1025,7 +1088,7 @@ Solution solveImpl(const Robot& robot, const Configuration& q, const std::vector
     }
     iters += it2;
   }
-  W.eval.finishPose(W.out);
+  W.eval.finish(P, W.out);
   Solution sol = package(robot, q, P, W.out, z, ok, iters, rn, why, opt);
   sol.summary.continuation_steps = cont_steps;
   if (frictionless && ok)

@@ -2,6 +2,7 @@
 #pragma once
 
 #include <Eigen/Core>
+#include <Eigen/LU>
 #include <array>
 #include <vector>
 
@@ -70,14 +71,19 @@ double siteMoment(const Problem& P, std::size_t si, const double* th, const Cont
 class Evaluator {
 public:
   /// Integrates from s = 0 to the tip for unknowns z; fills r (and J when jac). Without `record` the backbone pose
-  /// is left pending: only the pose steps are kept, and finishPose() integrates them (the residual does not depend
+  /// is left pending: only the pose steps are kept, and finish() integrates them (the residual does not depend
   /// on the pose, so Newton's other evaluations never pay for it).
   void evaluate(const Problem& P, const Eigen::VectorXd& z, bool jac, bool record, Outputs& out);
-  /// Sets out.tip_position and out.tip_frame of the last evaluation (no-op when it recorded them already).
-  void finishPose(Outputs& out);
+  /// Completes the outputs of the last evaluation: out.tip_position and out.tip_frame (no-op when it recorded them
+  /// already) and the tube-end moments in out.moments (left pending by evaluate: they cost libm calls that Newton's
+  /// other evaluations do not need). P: the problem of that evaluation.
+  void finish(const Problem& P, Outputs& out);
   Eigen::MatrixXd J;
   Eigen::VectorXd r;
   long jacobian_evaluations = 0;  ///< Evaluations with the Jacobian so far (J belongs to the last of them).
+  /// Scratch of Newton's iteration (kinematics.cpp newton()): storage reused between solves.
+  Eigen::PartialPivLU<Eigen::MatrixXd> lu;
+  Eigen::VectorXd dz, zt;
 
 private:
   /// One step of the backbone pose: two SE(3) steps of length hh with the body curvatures w1, w2; `last`: the last
@@ -89,6 +95,12 @@ private:
   };
   std::vector<PoseStep> pose_steps_;
   bool pose_pending_ = false;
+  /// A tube-end moment left pending: its entry in out.moments, its segment, and its angles (n values) in end_theta_.
+  struct PendingMoment {
+    std::size_t moment, segment, theta;
+  };
+  std::vector<PendingMoment> pending_moments_;
+  std::vector<double> end_theta_;
 
   void resize(int n, int m);
   /// Derivative of the state and of its first `columns` sensitivity columns (0: the state only).
@@ -113,6 +125,8 @@ struct WarmHistory {
 
 /// Actuation as one vector for the warm-start history: alpha, then beta in units of 2 cm (~1 rad).
 Eigen::VectorXd historyKey(const Configuration& q);
+/// The same into v (its storage reused).
+void historyKey(const Configuration& q, Eigen::VectorXd& v);
 
 /// Continuation predictor: when q continues the straight line through the chain's last solves, z <- the extrapolation
 /// of their unknowns along it (kinematics.cpp); false when it does not apply.
@@ -133,6 +147,10 @@ struct ChordCache {
   Eigen::MatrixXd J;
   Eigen::VectorXd q, robot;
   double stability = 0.0;
+  // Scratch of the quasi-Newton steps (storage reused between solves).
+  Eigen::MatrixXd scratch_J;
+  Eigen::PartialPivLU<Eigen::MatrixXd> scratch_lu;
+  Eigen::VectorXd scratch_step, scratch_r;
 };
 
 /// The loaded (Cosserat-rod) problem: the segments of a Problem plus the loads (loaded_kinematics.cpp).
@@ -182,6 +200,7 @@ struct Workspace::Impl {
   detail::Evaluator eval;
   detail::Outputs out;
   detail::LoadedWork loaded;
+  Eigen::VectorXd key, z_predicted, z_chord;  ///< scratch of a frictionless solve (storage reused between solves)
 };
 
 }  // namespace ctr

@@ -562,8 +562,8 @@ void Evaluator::evaluate(const Problem& P, const Eigen::VectorXd& z, bool jac, b
 void Evaluator::finish(const Problem& P, Outputs& out) {
   for (const PendingMoment& pm : pending_moments_) {
     ConcentratedMoment& cm = out.moments[pm.moment];
-    cm.magnitude =
-        endMoment(P, P.segments[pm.segment], &end_theta_[pm.theta], cm.tube, nullptr, &P.breakpoints[pm.segment].ending);
+    cm.magnitude = endMoment(P, P.segments[pm.segment], &end_theta_[pm.theta], cm.tube, nullptr,
+                             &P.breakpoints[pm.segment].ending);
   }
   pending_moments_.clear();
   if (!pose_pending_) return;
@@ -660,8 +660,7 @@ void recordInChain(WarmHistory& H, bool chained, const Eigen::VectorXd& qv, cons
 // (The loaded solver's base moments pass through a Solution in N m: the unknowns are compared to rounding.)
 bool continuesChain(const WarmHistory& H, const Configuration& warm_q, const Eigen::VectorXd& q_key,
                     const Eigen::VectorXd& z) {
-  if (!(H.count > 0 && warm_q.size() * 2 == q_key.size() && H.q[0].size() == q_key.size() &&
-        z.size() == H.z[0].size()))
+  if (!(H.count > 0 && warm_q.size() * 2 == q_key.size() && H.q[0].size() == q_key.size() && z.size() == H.z[0].size()))
     return false;
   const int n = warm_q.size();
   for (int i = 0; i < n; ++i)  // historyKey(warm_q) == H.q[0], without forming the key

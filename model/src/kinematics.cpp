@@ -107,8 +107,6 @@ void Problem::setup(const Robot& robot, const Configuration& q, const std::vecto
   }
   s_tip = end.maxCoeff();
   s_twist = end[0];
-  const double kmax = kappa.cwiseAbs().maxCoeff();
-  if (kmax > 0.0 && max_bending_per_step > 0.0) max_step = std::min(max_step, max_bending_per_step / kmax);
 
   // Active contacts (those with an unknown torque).
   contacts.clear();
@@ -152,7 +150,14 @@ void Problem::setup(const Robot& robot, const Configuration& q, const std::vecto
     sg.s0 = uniq[b];
     sg.s1 = uniq[b + 1];
     const double mid = 0.5 * (sg.s0 + sg.s1);
-    sg.steps = std::max(1, static_cast<int>(std::ceil((sg.s1 - sg.s0) / max_step - 1e-9)));
+    // Step: at most max_step, and at most max_bending_per_step over the largest precurvature of the tubes curved on
+    // this segment (the backbone curvature is a weighted mean of theirs; where no tube is curved nothing bends).
+    double kseg = 0.0;
+    for (int i = 0; i < n; ++i)
+      if (end[i] > mid && mid > disc[i]) kseg = std::max(kseg, std::abs(kappa[i]));
+    const double h_max =
+        kseg > 0.0 && max_bending_per_step > 0.0 ? std::min(max_step, max_bending_per_step / kseg) : max_step;
+    sg.steps = std::max(1, static_cast<int>(std::ceil((sg.s1 - sg.s0) / h_max - 1e-9)));
     sg.h = (sg.s1 - sg.s0) / sg.steps;
     sg.present.assign(static_cast<std::size_t>(n), 0);
     sg.a.setZero(n);
@@ -306,18 +311,27 @@ double endMoment(const Problem& P, const Segment& sg, const double* th, int i, E
     return ending && j < i && std::find(ending->begin(), ending->end(), j) != ending->end();
   };
   double A = 0.0, B = 0.0, K = sg.K;
+  double si = 0.0, ci = 0.0;  // sin, cos of th[i]
+  bool have_i = false;
   for (int j = 0; j < n; ++j) {
     if (excluded(j)) {
       if (sg.present[static_cast<std::size_t>(j)]) K -= P.kb[j];
       continue;
     }
     if (sg.w[j] != 0.0) {
-      A += sg.w[j] * std::cos(th[j]);
-      B += sg.w[j] * std::sin(th[j]);
+      double sj, cj;
+      ::sincos(th[j], &sj, &cj);
+      A += sg.w[j] * cj;
+      B += sg.w[j] * sj;
+      if (j == i) {
+        si = sj;
+        ci = cj;
+        have_i = true;
+      }
     }
   }
   const double chi_kappa = sg.w[i] != 0.0 ? P.kappa[i] : 0.0;
-  const double si = std::sin(th[i]), ci = std::cos(th[i]);
+  if (!have_i) ::sincos(th[i], &si, &ci);
   // v = u0 - chi kappa_i d(theta_i), d = (-sin, cos).
   const Eigen::Vector2d v(-B / K + chi_kappa * si, A / K - chi_kappa * ci);
   const double nv = v.norm();

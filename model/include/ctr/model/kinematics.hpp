@@ -44,7 +44,8 @@ struct ContactCondition {
 /// @brief Options of the kinematics solver.
 struct KinematicsOptions {
   double max_step = 1e-2;          ///< Largest RK4 step along s (m); segments are split evenly (see docs/model.md).
-  double max_bending_per_step = 0.12;  ///< Also limit the step to this angle / largest precurvature (rad).
+  /// Also limit the step to this angle over the largest precurvature of the tubes curved on the segment (rad).
+  double max_bending_per_step = 0.12;
   int max_iterations = 40;         ///< Newton iterations per solve.
   double tolerance = 1e-10;        ///< Converged when every scaled residual (1/m or rad) is below this.
   bool record_backbone = true;     ///< Store the backbone (theta, u_z, position, frame) at integration nodes.

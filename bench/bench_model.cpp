@@ -66,6 +66,7 @@ ctr::KinematicsOptions planningStepsOnly() {
   ctr::KinematicsOptions o;
   o.max_step = 0.04;
   o.max_bending_per_step = 0.3;
+  o.bending_limit_per_segment = false;
   return o;
 }
 

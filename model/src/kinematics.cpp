@@ -87,7 +87,7 @@ namespace detail {
 // Problem set-up: segments between discontinuities, breakpoints with their events, active contacts.
 // ---------------------------------------------------------------------------------------------------------------
 void Problem::setup(const Robot& robot, const Configuration& q, const std::vector<ContactCondition>* conditions,
-                    double max_step, double kappa_scale, double max_bending_per_step) {
+                    double max_step, double kappa_scale, double max_bending_per_step, bool per_segment) {
   n = robot.size();
   mu_boundary = robot.friction().boundary;
   kb.resize(n);
@@ -107,6 +107,7 @@ void Problem::setup(const Robot& robot, const Configuration& q, const std::vecto
   }
   s_tip = end.maxCoeff();
   s_twist = end[0];
+  const double kmax = kappa.cwiseAbs().maxCoeff();  // the whole robot's (bending limit not per segment)
 
   // Active contacts (those with an unknown torque).
   contacts.clear();
@@ -151,10 +152,12 @@ void Problem::setup(const Robot& robot, const Configuration& q, const std::vecto
     sg.s1 = uniq[b + 1];
     const double mid = 0.5 * (sg.s0 + sg.s1);
     // Step: at most max_step, and at most max_bending_per_step over the largest precurvature of the tubes curved on
-    // this segment (the backbone curvature is a weighted mean of theirs; where no tube is curved nothing bends).
+    // this segment (the backbone curvature is a weighted mean of theirs; where no tube is curved nothing bends), or
+    // of the whole robot when not per segment.
     double kseg = 0.0;
     for (int i = 0; i < n; ++i)
       if (end[i] > mid && mid > disc[i]) kseg = std::max(kseg, std::abs(kappa[i]));
+    if (!per_segment) kseg = kmax;
     const double h_max =
         kseg > 0.0 && max_bending_per_step > 0.0 ? std::min(max_step, max_bending_per_step / kseg) : max_step;
     sg.steps = std::max(1, static_cast<int>(std::ceil((sg.s1 - sg.s0) / h_max - 1e-9)));
@@ -989,7 +992,7 @@ Solution solveImpl(const Robot& robot, const Configuration& q, const std::vector
   auto& W = ws.impl();
   Problem& P = W.problem;
   const double mbps = opt.max_bending_per_step;
-  P.setup(robot, q, conditions, opt.max_step, 1.0, mbps);
+  P.setup(robot, q, conditions, opt.max_step, 1.0, mbps, opt.bending_limit_per_segment);
   Eigen::VectorXd z = initialGuess(P, warm);
   int iters = 0;
   double rn = 0.0;
@@ -1042,15 +1045,17 @@ Solution solveImpl(const Robot& robot, const Configuration& q, const std::vector
     const Eigen::VectorXd z_first = z;
     const bool ok_first = ok;
     auto finish = [&](Eigen::VectorXd& zc) {
-      P.setup(robot, q, conditions, opt.max_step, 1.0, mbps);
+      P.setup(robot, q, conditions, opt.max_step, 1.0, mbps, opt.bending_limit_per_segment);
       return newton(P, W.eval, W.out, zc, opt, iters, rn, why, rec) && W.out.stability > 0.0;
     };
     // Fallback 1: continuation in the precurvatures from the interaction-free robot (unique, stable solution).
     Eigen::VectorXd zh = Eigen::VectorXd::Zero(P.m);
     std::string hwhy;
-    bool found = continuation([&](double lam) { P.setup(robot, q, conditions, opt.max_step, lam, mbps); }, P,
-                              W.eval, W.out, zh, opt, iters, cont_steps, hwhy) &&
-                 finish(zh);
+    bool found =
+        continuation(
+            [&](double lam) { P.setup(robot, q, conditions, opt.max_step, lam, mbps, opt.bending_limit_per_segment); },
+            P, W.eval, W.out, zh, opt, iters, cont_steps, hwhy) &&
+        finish(zh);
     // Fallback 2: continuation in rotation from the aligned configuration (relative angles zero: untwisted
     // solution exact), along the shortest relative rotations (the model is 2 pi periodic in them).
     if (!found) {
@@ -1066,7 +1071,7 @@ Solution solveImpl(const Robot& robot, const Configuration& q, const std::vector
                   [&](double t) {
                     Configuration qt = qa;
                     qt.alpha = qa.alpha + t * rel;
-                    P.setup(robot, qt, conditions, opt.max_step, 1.0, mbps);
+                    P.setup(robot, qt, conditions, opt.max_step, 1.0, mbps, opt.bending_limit_per_segment);
                   },
                   P, W.eval, W.out, zh, opt, iters, cont_steps, rwhy) &&
               finish(zh);
@@ -1078,7 +1083,7 @@ Solution solveImpl(const Robot& robot, const Configuration& q, const std::vector
     } else {
       z = z_first;
       ok = ok_first;
-      P.setup(robot, q, conditions, opt.max_step, 1.0, mbps);
+      P.setup(robot, q, conditions, opt.max_step, 1.0, mbps, opt.bending_limit_per_segment);
       if (!ok) why += "; homotopy from zero precurvature: " + hwhy;
       W.eval.evaluate(P, z, true, rec, W.out);  // outputs of the returned point
       rn = maxAbs(W.eval.r);
@@ -1091,12 +1096,12 @@ Solution solveImpl(const Robot& robot, const Configuration& q, const std::vector
     int it2 = 0;
     double rn2 = 0;
     std::string w2;
-    P.setup(robot, q, conditions, 0.25 * opt.max_step, 1.0, 0.25 * mbps);
+    P.setup(robot, q, conditions, 0.25 * opt.max_step, 1.0, 0.25 * mbps, opt.bending_limit_per_segment);
     if (newton(P, W.eval, W.out, zr, opt, it2, rn2, w2, rec)) {
       z = zr;
       rn = rn2;
     } else {
-      P.setup(robot, q, conditions, opt.max_step, 1.0, mbps);
+      P.setup(robot, q, conditions, opt.max_step, 1.0, mbps, opt.bending_limit_per_segment);
       W.eval.evaluate(P, z, true, rec, W.out);
     }
     iters += it2;

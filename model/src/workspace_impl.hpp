@@ -44,8 +44,10 @@ struct Problem {
   std::vector<Segment> segments;
   std::vector<Breakpoint> breakpoints;
   std::vector<ActiveContact> contacts;
+  /// per_segment: the bending limit of a step uses the largest precurvature of the tubes curved on its segment
+  /// (KinematicsOptions::bending_limit_per_segment), else of the whole robot.
   void setup(const Robot& robot, const Configuration& q, const std::vector<ContactCondition>* conditions,
-             double max_step, double kappa_scale, double max_bending_per_step);
+             double max_step, double kappa_scale, double max_bending_per_step, bool per_segment);
 };
 
 struct Outputs {

@@ -374,6 +374,7 @@ void registerModel(pyb::module_& m) {
                                     "Options of the kinematics solver (ctr::KinematicsOptions).");
   ko.def_readwrite("max_step", &KinematicsOptions::max_step)
       .def_readwrite("max_bending_per_step", &KinematicsOptions::max_bending_per_step)
+      .def_readwrite("bending_limit_per_segment", &KinematicsOptions::bending_limit_per_segment)
       .def_readwrite("max_iterations", &KinematicsOptions::max_iterations)
       .def_readwrite("tolerance", &KinematicsOptions::tolerance)
       .def_readwrite("record_backbone", &KinematicsOptions::record_backbone)
@@ -387,9 +388,10 @@ void registerModel(pyb::module_& m) {
       .def_readwrite("loaded_model", &KinematicsOptions::loaded_model)
       .def_readwrite("extrapolate_warm_start", &KinematicsOptions::extrapolate_warm_start);
   addOptionsProtocol<KinematicsOptions>(
-      ko, {"max_step", "max_bending_per_step", "max_iterations", "tolerance", "record_backbone", "record_tube_states",
-           "homotopy", "homotopy_steps", "max_rotation_step", "max_translation_step", "snap_threshold",
-           "refine_below_stability", "loaded_model", "extrapolate_warm_start"});
+      ko,
+      {"max_step", "max_bending_per_step", "bending_limit_per_segment", "max_iterations", "tolerance",
+       "record_backbone", "record_tube_states", "homotopy", "homotopy_steps", "max_rotation_step",
+       "max_translation_step", "snap_threshold", "refine_below_stability", "loaded_model", "extrapolate_warm_start"});
 
   // ---- Solution ----
   pyb::class_<Solution>(m, "Solution",

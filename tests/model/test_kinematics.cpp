@@ -173,6 +173,45 @@ TEST(Kinematics, TotalTorsionalMomentIsZeroAlongTheRobot) {
   }
 }
 
+// The bending limit of a step per segment (KinematicsOptions::bending_limit_per_segment): where only the less curved
+// tube bends, steps of max_step instead of max_bending_per_step over the robot's largest precurvature; where the more
+// curved tube bends, the same steps; the tip as accurate as with the whole robot's limit.
+TEST(Kinematics, BendingLimitPerSegmentLengthensOnlyTheLessCurvedSegments) {
+  // Outer and middle: curved (4 1/m) over 0.15 m, rotated apart (they twist against each other). Inner: straight for
+  // 0.17 m, then curved (20 1/m) over 0.05 m.
+  const Robot robot("three",
+                    {makeTube("outer", 0.0, 0.15, 4.0, 0.05, 0.3), makeTube("middle", 0.0, 0.15, 4.0, 0.04, 0.3),
+                     makeTube("inner", 0.17, 0.05, 20.0, 0.01, 0.3)});
+  // The inner tube curved on s in [0.15, 0.2].
+  const Configuration q(Eigen::Vector3d(0.0, 2.0, 0.5), Eigen::Vector3d(0.0, 0.0, -0.02));
+  KinematicsOptions per_segment, whole;
+  whole.bending_limit_per_segment = false;
+  KinematicsOptions fine;
+  fine.max_step = 2.5e-4;
+  fine.tolerance = 1e-12;
+  Workspace ws;
+  const Solution a = solve(robot, q, ws, per_segment), b = solve(robot, q, ws, whole), ref = solve(robot, q, ws, fine);
+  ASSERT_TRUE(a.converged() && b.converged() && ref.converged());
+  auto largestStep = [](const Solution& s, double s0, double s1) {
+    double h = 0.0;
+    for (std::size_t k = 0; k + 1 < s.backbone.size(); ++k)
+      if (s.backbone[k].s >= s0 - 1e-12 && s.backbone[k + 1].s <= s1 + 1e-12)
+        h = std::max(h, s.backbone[k + 1].s - s.backbone[k].s);
+    return h;
+  };
+  // Only the 4 1/m tubes bend on [0, 0.15]: 10 mm steps (max_step; 0.12 / 4 = 30 mm) per segment, 6 mm (0.12 / 20)
+  // with the whole robot's limit. The inner tube's curved part: 6 mm either way.
+  EXPECT_NEAR(largestStep(a, 0.0, 0.15), 0.01, 1e-3);
+  EXPECT_LE(largestStep(b, 0.0, 0.15), 0.12 / 20.0 + 1e-12);
+  EXPECT_LE(largestStep(a, 0.15, 0.2), 0.12 / 20.0 + 1e-12);
+  EXPECT_LT(a.backbone.size(), b.backbone.size());
+  const double ea = (a.tip_position - ref.tip_position).norm(), eb = (b.tip_position - ref.tip_position).norm();
+  std::printf("[ measured ] tip error per segment %.2e m (%zu nodes), whole robot %.2e m (%zu nodes)\n", ea,
+              a.backbone.size(), eb, b.backbone.size());
+  EXPECT_LT(ea, 1e-8);
+  EXPECT_LT(eb, 1e-8);
+}
+
 TEST(Kinematics, ConvergesAtFourthOrderUnderStepRefinement) {
   // Every segment length is a multiple of 8 mm so that the step sizes halve exactly.
   const Robot robot("three", {makeTube("a", 0.032, 0.096, 5.0, 0.04, 0.3), makeTube("b", 0.064, 0.088, 9.0, 0.02, 0.35),
@@ -409,7 +448,7 @@ TEST(Kinematics, ShootingJacobianWithContactsMatchesCentralDifferences) {
   cond[sites.size() - 1] = {ContactCondition::Law::Free, 0.0};
   detail::Problem P;
   const KinematicsOptions o;
-  P.setup(robot, q, &cond, o.max_step, 1.0, o.max_bending_per_step);
+  P.setup(robot, q, &cond, o.max_step, 1.0, o.max_bending_per_step, o.bending_limit_per_segment);
   ASSERT_EQ(P.m, 3 + static_cast<int>(sites.size()));
   Eigen::VectorXd z(P.m);
   for (int i = 0; i < P.m; ++i) z[i] = 0.3 * std::sin(1.7 * i + 0.4);  // twist rates (1/m), scaled torques

@@ -14,6 +14,8 @@
 #include <sstream>
 #include <stdexcept>
 
+#include "workspace_impl.hpp"
+
 namespace ctr {
 namespace {
 
@@ -56,8 +58,8 @@ Solution warmFor(const HysteresisState& s, const Configuration& q, const Kinemat
       s.previous_base_twist_rate.size() != n || s.previous_torques.size() != static_cast<int>(s.contacts.size()))
     return w;
   Eigen::VectorXd back(2 * n), ahead(2 * n);
-  back << s.q.alpha - s.previous_q.alpha, 50.0 * (s.q.beta - s.previous_q.beta);
-  ahead << q.alpha - s.q.alpha, 50.0 * (q.beta - s.q.beta);
+  back << s.q.alpha - s.previous_q.alpha, detail::kHistoryBetaScale * (s.q.beta - s.previous_q.beta);
+  ahead << q.alpha - s.q.alpha, detail::kHistoryBetaScale * (q.beta - s.q.beta);
   const double len = back.norm(), dist = ahead.norm();
   if (!(len > 0.0) || !(dist > 0.0) || dist > 2.0 * len || ahead.dot(back) < 0.999 * dist * len) return w;
   const double f = dist / len;

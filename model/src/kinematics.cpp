@@ -605,7 +605,7 @@ Eigen::VectorXd historyKey(const Configuration& q) {
 
 void historyKey(const Configuration& q, Eigen::VectorXd& v) {
   v.resize(2 * q.size());
-  v << q.alpha, 50.0 * q.beta;
+  v << q.alpha, kHistoryBetaScale * q.beta;
 }
 
 // Continuation predictor: when q continues the straight line through the last solves of the chain (each step
@@ -681,7 +681,7 @@ bool continuesChain(const WarmHistory& H, const Configuration& warm_q, const Eig
     return false;
   const int n = warm_q.size();
   for (int i = 0; i < n; ++i)  // historyKey(warm_q) == H.q[0], without forming the key
-    if (!(warm_q.alpha[i] == H.q[0][i] && 50.0 * warm_q.beta[i] == H.q[0][n + i])) return false;
+    if (!(warm_q.alpha[i] == H.q[0][i] && kHistoryBetaScale * warm_q.beta[i] == H.q[0][n + i])) return false;
   return (z - H.z[0]).cwiseAbs().maxCoeff() <= 1e-13 * (1.0 + H.z[0].cwiseAbs().maxCoeff());
 }
 
@@ -950,19 +950,19 @@ void storeChord(detail::ChordCache& C, const Problem& P, const Evaluator& E, dou
 // runs Newton from the start. The stability is the cached one unless it is small enough for its sign to matter (then
 // the Jacobian is evaluated at the solution, as newton() does).
 bool chordSolve(const Problem& P, Evaluator& E, Outputs& out, Eigen::VectorXd& z, const KinematicsOptions& opt,
-                detail::ChordCache& C, int max_steps, int& iterations, double& res_norm, bool record) {
+                const detail::ChordCache& C, int max_steps, int& iterations, double& res_norm, bool record) {
   E.evaluate(P, z, false, record, out);
   if (!allFinite(E.r)) return false;
   double nr = maxAbs(E.r);
-  // The cache's scratch (kept between solves: no allocation per solve).
-  Eigen::MatrixXd& J = C.scratch_J;
-  Eigen::VectorXd& step = C.scratch_step;
-  Eigen::VectorXd& r_old = C.scratch_r;
+  // The evaluator's scratch (kept between solves: no allocation per solve).
+  Eigen::MatrixXd& J = E.J_quasi;
+  Eigen::VectorXd& step = E.dz;
+  Eigen::VectorXd& r_old = E.r_prev;
   J = C.J;
   for (int it = 0; it < max_steps && !(nr < opt.tolerance); ++it) {
     ++iterations;
-    C.scratch_lu.compute(J);
-    step.noalias() = C.scratch_lu.solve(-E.r);
+    E.lu.compute(J);
+    step.noalias() = E.lu.solve(-E.r);
     r_old = E.r;
     z += step;
     E.evaluate(P, z, false, record, out);

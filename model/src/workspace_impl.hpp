@@ -83,9 +83,11 @@ public:
   Eigen::MatrixXd J;
   Eigen::VectorXd r;
   long jacobian_evaluations = 0;  ///< Evaluations with the Jacobian so far (J belongs to the last of them).
-  /// Scratch of Newton's iteration (kinematics.cpp newton()): storage reused between solves.
+  /// Scratch of Newton's and the quasi-Newton iterations (kinematics.cpp newton(), chordSolve()): storage reused
+  /// between solves.
   Eigen::PartialPivLU<Eigen::MatrixXd> lu;
-  Eigen::VectorXd dz, zt;
+  Eigen::VectorXd dz, zt, r_prev;
+  Eigen::MatrixXd J_quasi;
 
 private:
   /// One step of the backbone pose: two SE(3) steps of length hh with the body curvatures w1, w2; `last`: the last
@@ -126,6 +128,9 @@ struct WarmHistory {
 };
 
 /// Actuation as one vector for the warm-start history: alpha, then beta in units of 2 cm (~1 rad).
+/// Translations count as this many radians per metre in the history key (2 cm ~ 1 rad).
+constexpr double kHistoryBetaScale = 50.0;
+
 Eigen::VectorXd historyKey(const Configuration& q);
 /// The same into v (its storage reused).
 void historyKey(const Configuration& q, Eigen::VectorXd& v);
@@ -149,10 +154,6 @@ struct ChordCache {
   Eigen::MatrixXd J;
   Eigen::VectorXd q, robot;
   double stability = 0.0;
-  // Scratch of the quasi-Newton steps (storage reused between solves).
-  Eigen::MatrixXd scratch_J;
-  Eigen::PartialPivLU<Eigen::MatrixXd> scratch_lu;
-  Eigen::VectorXd scratch_step, scratch_r;
 };
 
 /// The loaded (Cosserat-rod) problem: the segments of a Problem plus the loads (loaded_kinematics.cpp).

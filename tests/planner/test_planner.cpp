@@ -4,11 +4,13 @@
 
 #include <Eigen/Geometry>
 
+#include <cstdio>
 #include <filesystem>
 #include <fstream>
 #include <memory>
 #include <random>
 
+#include "ctr/environments/robot_geometry.hpp"
 #include "ctr/io/input_error.hpp"
 #include "ctr/model/jacobian.hpp"
 #include "ctr/io/robot_yaml.hpp"
@@ -273,6 +275,60 @@ TEST(Context, PlanningIntegrationIsAccurateToMicrometres) {
     }
     EXPECT_GE(compared, 40) << name;
     EXPECT_LT(worst, 2e-6) << name;
+  }
+}
+
+TEST(Context, CollisionCapsulesContainTheTubeAtPlanningSteps) {
+  // The capsules built from the planner's coarse integration (steps up to 40 mm) must contain the converged backbone
+  // (1 mm / 0.01 rad steps) with the tube's radius, and stay thin: every step's arc is followed by the Hermite
+  // refinement, so no capsule is inflated beyond the chord tolerance (+ the 1 µm the coarse nodes may be off).
+  KinematicsOptions ref;
+  ref.max_step = 1e-3;
+  ref.max_bending_per_step = 0.01;
+  ref.record_tube_states = false;
+  KinematicsOptions fast = planningKinematicsOptions();
+  fast.record_tube_states = false;
+  env::RobotGeometryOptions go;
+  go.safety_margin = 2e-4;
+  std::vector<env::Capsule> caps;
+  for (const char* name : {"medmpd_lung", "medmpd_liver", "proc_intracardiac", "proc_airway", "dupont_lab_3tube"}) {
+    const Robot r = io::loadRobot(src(std::string("examples/robots/") + name + ".yaml"));
+    const TranslationSampler sampler(r, 1e-3);
+    std::mt19937_64 rng(17);
+    Workspace ws;
+    double worst_outside = -1.0, widest = 0.0;
+    int compared = 0, refined = 0;
+    for (int k = 0; k < 40; ++k) {
+      const Configuration q = sampleConfiguration(r, sampler, rng);
+      const Solution a = solve(r, q, ws, ref);
+      if (!a.converged()) continue;
+      const Solution b = solve(r, q, ws, fast, &a);
+      ASSERT_TRUE(b.converged()) << name << " configuration " << k;
+      env::robotCapsules(r, b, Eigen::Isometry3d::Identity(), go, caps);
+      ASSERT_FALSE(caps.empty());
+      int steps = 0;
+      for (std::size_t i = 0; i + 1 < b.backbone.size(); ++i) steps += b.backbone[i + 1].s > b.backbone[i].s;
+      refined += static_cast<int>(caps.size()) > steps;
+      for (const auto& c : caps) widest = std::max(widest, c.radius - env::tubeRadius(r, c.tube, go));
+      for (const BackbonePoint& p : a.backbone) {
+        if (p.s < 0.0) continue;
+        // the union of the capsules near p.s (the refined points' arc lengths are those of the interpolant's
+        // parameter, within micrometres of the true ones) must hold the tube's cross-section at p
+        double best = 1e9;
+        for (const auto& c : caps)
+          if (p.s >= c.s0 - 1e-3 && p.s <= c.s1 + 1e-3)
+            best = std::min(best, (p.position - env::closestPointOnSegment(c.a, c.b, p.position)).norm() -
+                                      (c.radius - env::tubeRadius(r, c.tube, go)));
+        worst_outside = std::max(worst_outside, best);
+      }
+      ++compared;
+    }
+    EXPECT_GE(compared, 30) << name;
+    EXPECT_GT(refined, 0) << name << ": the planner's steps should need the refinement somewhere";
+    EXPECT_LT(worst_outside, 2e-6) << name;  // the coarse nodes are within 2 µm (PlanningIntegrationIsAccurate...)
+    EXPECT_LE(widest, go.chord_tolerance + 1e-6) << name;
+    std::printf("%s: %d shapes, converged backbone outside the capsules by at most %.3g m, widest inflation %.3g m\n",
+                name, compared, worst_outside, widest);
   }
 }
 

@@ -4,9 +4,11 @@
 ///
 /// A *section* is a maximal arc-length interval [s0, s1] with s0 >= 0 over which the same tube is outermost;
 /// section k (0-based, from the base) usually has tube k outermost. Everything at s < 0 (inside the actuation unit)
-/// is excluded (and, optionally, the first `exclude_proximal` metres). Consecutive backbone nodes are merged into one capsule while the chord stays within
-/// `chord_tolerance` of the curve; the capsule radius is increased by the chord's deviation, so the capsule chain
-/// always contains the swept tube.
+/// is excluded (and, optionally, the first `exclude_proximal` metres). Integration steps whose arc may leave the chord
+/// by more than half of `chord_tolerance` are split at points of the cubic Hermite interpolant of their end positions
+/// and tangents; consecutive points are merged into one capsule while the chord stays within `chord_tolerance` of the
+/// curve, and the capsule radius is increased by the chord's deviation, so the capsule chain contains the swept tube
+/// (docs/environments.md, "Collision geometry").
 #pragma once
 
 #include <Eigen/Geometry>

@@ -309,7 +309,10 @@ TEST(Context, CollisionCapsulesContainTheTubeAtPlanningSteps) {
       int steps = 0;
       for (std::size_t i = 0; i + 1 < b.backbone.size(); ++i) steps += b.backbone[i + 1].s > b.backbone[i].s;
       refined += static_cast<int>(caps.size()) > steps;
-      for (const auto& c : caps) widest = std::max(widest, c.radius - env::tubeRadius(r, c.tube, go));
+      for (const auto& c : caps) {
+        widest = std::max(widest, c.radius - env::tubeRadius(r, c.tube, go));
+        EXPECT_LE(c.s1 - c.s0, go.max_capsule_length + 1e-12) << name;  // also where one step is 40 mm long
+      }
       for (const BackbonePoint& p : a.backbone) {
         if (p.s < 0.0) continue;
         // the union of the capsules near p.s (the refined points' arc lengths are those of the interpolant's

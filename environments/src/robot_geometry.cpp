@@ -112,9 +112,9 @@ void robotCapsules(const Robot& robot, const Solution& sol, const Eigen::Isometr
     const double whole = kappa * len * len / 8.0;
     int k = 1;
     if (tol > 0.0 && whole > 0.5 * tol)
-      k = std::min(kMaxPiecesPerStep, static_cast<int>(std::ceil(std::sqrt(whole / (0.5 * tol)))));
+      k = static_cast<int>(std::min<double>(kMaxPiecesPerStep, std::ceil(std::sqrt(whole / (0.5 * tol)))));
     // Long steps (one step spans a straight segment) are split to the capsule length too.
-    if (len > max_len) k = std::max(k, std::min(1024, static_cast<int>(std::ceil(len / max_len - 1e-9))));
+    if (len > max_len) k = std::max(k, static_cast<int>(std::min(1024.0, std::ceil(len / max_len - 1e-9))));
     const bool connected = m > 0 && segs[m - 1].j == segs[m].i && segs[m - 1].tube == segs[m].tube;
     const double piece_sag = whole / (static_cast<double>(k) * k) + (k > 1 ? hermite : 0.0);
     if (!connected) {

@@ -2,6 +2,8 @@
 // motion) and friction-aware quasi-static motion steps (stick-slip step + collision check), 3-tube lung robot.
 #include <benchmark/benchmark.h>
 
+#include <algorithm>
+#include <cmath>
 #include <filesystem>
 
 #include "ctr/environments/environment_yaml.hpp"
@@ -57,6 +59,49 @@ void BM_ValidityAlongMotion(benchmark::State& st) {
   st.counters["valid_fraction"] = static_cast<double>(valid) / static_cast<double>(st.iterations());
 }
 
+// The same along a path the planner found (the motion above starts from a random configuration of lung 1, which
+// collides at the first capsules: it measures the model and the first capsules only). Lung patient 2: the path
+// RRT-Connect found in frictionless mode (`ctr plan examples/queries/medmpd_lung_patient2.yaml --mode frictionless
+// --planner rrtconnect --seed 1`, simplified by OMPL to a straight line from the query's start to the goal
+// configuration below), at 0.5 deg / 0.5 mm, checked forth and back, each check warm-started from the previous shape;
+// every shape is collision-free, so the whole capsule chain is checked.
+void BM_ValidityAlongPlannedPath(benchmark::State& st) {
+  static std::shared_ptr<const plan::Context> ctx_holder = [] {
+    const std::string envf = std::string(CTR_SOURCE_DIR) + "/examples/environments/medmpd_lung_patient2.yaml";
+    if (!std::filesystem::exists(std::string(CTR_SHARED_DIR) + "/data/med-mpd")) return std::shared_ptr<const plan::Context>();
+    auto env = std::make_shared<const env::Environment>(env::loadEnvironment(envf));
+    Robot r = io::loadRobot(std::string(CTR_SOURCE_DIR) + "/examples/robots/medmpd_lung.yaml").withFriction({0.1, 0.0});
+    plan::ContextOptions co;
+    co.friction.kinematics.record_backbone = true;
+    return std::make_shared<const plan::Context>(r, env, co, env::CollisionOptions::fromEnvironment(*env));
+  }();
+  if (!ctx_holder) return st.SkipWithError("../shared/data/med-mpd not found");
+  const plan::Context& ctx = *ctx_holder;
+  const Configuration a(Eigen::Vector3d(0.0, 0.0, 0.0), Eigen::Vector3d(-0.118, -0.218, -0.318));
+  const Configuration b(Eigen::Vector3d(-0.537556, -1.836102, -2.506250),
+                        Eigen::Vector3d(-0.096936, -0.150559, -0.250559));
+  const double n = std::max(std::ceil((b.alpha - a.alpha).cwiseAbs().maxCoeff() / 0.0087),
+                            std::ceil((b.beta - a.beta).cwiseAbs().maxCoeff() / 0.0005));
+  std::vector<Configuration> qs;
+  for (int k = 0; k <= static_cast<int>(n); ++k) {
+    const double t = k / n;
+    qs.emplace_back((1 - t) * a.alpha + t * b.alpha, (1 - t) * a.beta + t * b.beta);
+  }
+  plan::ConfigurationCheck prev = plan::checkFrictionless(ctx, qs[0], plan::scratch());
+  std::size_t k = 0, valid = 0;
+  const std::size_t period = 2 * (qs.size() - 1);
+  for (auto _ : st) {
+    const std::size_t j = k % period;
+    const Configuration& q = qs[j < qs.size() ? j : period - j];
+    ++k;
+    prev = plan::checkFrictionless(ctx, q, plan::scratch(), prev.shape.converged() ? &prev.shape : nullptr);
+    valid += prev.ok;
+  }
+  st.counters["checks/s"] = benchmark::Counter(static_cast<double>(st.iterations()), benchmark::Counter::kIsRate);
+  st.counters["valid_fraction"] = static_cast<double>(valid) / static_cast<double>(st.iterations());
+  st.counters["path_checks"] = static_cast<double>(qs.size());
+}
+
 void BM_FrictionMotionStep(benchmark::State& st) {
   auto ctx = lungContext();
   if (!ctx) return st.SkipWithError("../shared/data/med-mpd not found");
@@ -102,5 +147,6 @@ void BM_InverseKinematics(benchmark::State& st) {
 
 BENCHMARK(BM_ValidityCold)->Name("planner/lung1/frictionless_validity_cold")->Unit(benchmark::kMicrosecond);
 BENCHMARK(BM_ValidityAlongMotion)->Name("planner/lung1/frictionless_validity_along_motion")->Unit(benchmark::kMicrosecond);
+BENCHMARK(BM_ValidityAlongPlannedPath)->Name("planner/lung2/frictionless_validity_along_planned_path")->Unit(benchmark::kMicrosecond);
 BENCHMARK(BM_FrictionMotionStep)->Name("planner/lung1/friction_motion_step")->Unit(benchmark::kMicrosecond);
 BENCHMARK(BM_InverseKinematics)->Name("planner/lung1/goal_inverse_kinematics")->Arg(10)->Arg(20)->Arg(40)->Unit(benchmark::kMicrosecond);

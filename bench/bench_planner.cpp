@@ -15,16 +15,20 @@ namespace {
 
 using namespace ctr;
 
+// The planning context of Med-MPD lung patient `patient` with the lung robot (null without ../shared/data/med-mpd).
+std::shared_ptr<const plan::Context> makeLungContext(int patient) {
+  const std::string envf = std::string(CTR_SOURCE_DIR) + "/examples/environments/medmpd_lung_patient" +
+                           std::to_string(patient) + ".yaml";
+  if (!std::filesystem::exists(std::string(CTR_SHARED_DIR) + "/data/med-mpd")) return nullptr;
+  auto env = std::make_shared<const env::Environment>(env::loadEnvironment(envf));
+  Robot r = io::loadRobot(std::string(CTR_SOURCE_DIR) + "/examples/robots/medmpd_lung.yaml").withFriction({0.1, 0.0});
+  plan::ContextOptions co;
+  co.friction.kinematics.record_backbone = true;
+  return std::make_shared<const plan::Context>(r, env, co, env::CollisionOptions::fromEnvironment(*env));
+}
+
 std::shared_ptr<const plan::Context> lungContext() {
-  static std::shared_ptr<const plan::Context> ctx = [] {
-    const std::string envf = std::string(CTR_SOURCE_DIR) + "/examples/environments/medmpd_lung_patient1.yaml";
-    if (!std::filesystem::exists(std::string(CTR_SHARED_DIR) + "/data/med-mpd")) return std::shared_ptr<const plan::Context>();
-    auto env = std::make_shared<const env::Environment>(env::loadEnvironment(envf));
-    Robot r = io::loadRobot(std::string(CTR_SOURCE_DIR) + "/examples/robots/medmpd_lung.yaml").withFriction({0.1, 0.0});
-    plan::ContextOptions co;
-    co.friction.kinematics.record_backbone = true;
-    return std::make_shared<const plan::Context>(r, env, co, env::CollisionOptions::fromEnvironment(*env));
-  }();
+  static std::shared_ptr<const plan::Context> ctx = makeLungContext(1);
   return ctx;
 }
 
@@ -66,15 +70,7 @@ void BM_ValidityAlongMotion(benchmark::State& st) {
 // configuration below), at 0.5 deg / 0.5 mm, checked forth and back, each check warm-started from the previous shape;
 // every shape is collision-free, so the whole capsule chain is checked.
 void BM_ValidityAlongPlannedPath(benchmark::State& st) {
-  static std::shared_ptr<const plan::Context> ctx_holder = [] {
-    const std::string envf = std::string(CTR_SOURCE_DIR) + "/examples/environments/medmpd_lung_patient2.yaml";
-    if (!std::filesystem::exists(std::string(CTR_SHARED_DIR) + "/data/med-mpd")) return std::shared_ptr<const plan::Context>();
-    auto env = std::make_shared<const env::Environment>(env::loadEnvironment(envf));
-    Robot r = io::loadRobot(std::string(CTR_SOURCE_DIR) + "/examples/robots/medmpd_lung.yaml").withFriction({0.1, 0.0});
-    plan::ContextOptions co;
-    co.friction.kinematics.record_backbone = true;
-    return std::make_shared<const plan::Context>(r, env, co, env::CollisionOptions::fromEnvironment(*env));
-  }();
+  static std::shared_ptr<const plan::Context> ctx_holder = makeLungContext(2);
   if (!ctx_holder) return st.SkipWithError("../shared/data/med-mpd not found");
   const plan::Context& ctx = *ctx_holder;
   const Configuration a(Eigen::Vector3d(0.0, 0.0, 0.0), Eigen::Vector3d(-0.118, -0.218, -0.318));

@@ -116,7 +116,8 @@ void robotCapsules(const Robot& robot, const Solution& sol, const Eigen::Isometr
     // Long steps (one step spans a straight segment) are split to the capsule length too.
     if (len > max_len) k = std::max(k, static_cast<int>(std::min(1024.0, std::ceil(len / max_len - 1e-9))));
     const bool connected = m > 0 && segs[m - 1].j == segs[m].i && segs[m - 1].tube == segs[m].tube;
-    const double piece_sag = whole / (static_cast<double>(k) * k) + (k > 1 ? hermite : 0.0);
+    // Interpolated points (pieces, or the start clipped at s_min) add the interpolation error.
+    const double piece_sag = whole / (static_cast<double>(k) * k) + (k > 1 || tau0 > 0.0 ? hermite : 0.0);
     if (!connected) {
       Eigen::Vector3d p0 = n0.position;
       if (tau0 > 0.0) p0 = hermitePoint(n0, n1, h, tau0);

@@ -316,8 +316,7 @@ DistributedFrictionSolution solveDistributedFriction(const Robot& robot, const C
     throw std::invalid_argument("solveDistributedFriction: contacts needs one condition per contact site (" +
                                 std::to_string(contactSites(robot, q).size()) + ")");
   const std::vector<ContactCondition>* conditions = opt.contacts.empty() ? nullptr : &opt.contacts;
-  P.setup(robot, q, conditions, opt.kinematics.max_step, 1.0, opt.kinematics.max_bending_per_step,
-          opt.kinematics.bending_limit_per_segment);
+  P.setup(robot, q, conditions, opt.kinematics);
   const int nc = static_cast<int>(P.contacts.size());
   Model M;
   M.P = &P;

@@ -87,7 +87,10 @@ namespace detail {
 // Problem set-up: segments between discontinuities, breakpoints with their events, active contacts.
 // ---------------------------------------------------------------------------------------------------------------
 void Problem::setup(const Robot& robot, const Configuration& q, const std::vector<ContactCondition>* conditions,
-                    double max_step, double kappa_scale, double max_bending_per_step, bool per_segment) {
+                    const KinematicsOptions& opt, double kappa_scale, double step_factor) {
+  const double max_step = step_factor * opt.max_step;
+  const double max_bending_per_step = step_factor * opt.max_bending_per_step;
+  const bool per_segment = opt.bending_limit_per_segment;
   n = robot.size();
   mu_boundary = robot.friction().boundary;
   kb.resize(n);
@@ -154,10 +157,10 @@ void Problem::setup(const Robot& robot, const Configuration& q, const std::vecto
     // Step: at most max_step, and at most max_bending_per_step over the largest precurvature of the tubes curved on
     // this segment (the backbone curvature is a weighted mean of theirs; where no tube is curved nothing bends), or
     // of the whole robot when not per segment.
-    double kseg = 0.0;
-    for (int i = 0; i < n; ++i)
-      if (end[i] > mid && mid > disc[i]) kseg = std::max(kseg, std::abs(kappa[i]));
-    if (!per_segment) kseg = kmax;
+    double kseg = per_segment ? 0.0 : kmax;
+    if (per_segment)
+      for (int i = 0; i < n; ++i)
+        if (end[i] > mid && mid > disc[i]) kseg = std::max(kseg, std::abs(kappa[i]));
     const double h_max =
         kseg > 0.0 && max_bending_per_step > 0.0 ? std::min(max_step, max_bending_per_step / kseg) : max_step;
     sg.steps = std::max(1, static_cast<int>(std::ceil((sg.s1 - sg.s0) / h_max - 1e-9)));
@@ -991,8 +994,7 @@ Solution solveImpl(const Robot& robot, const Configuration& q, const std::vector
   if (!adm) return inadmissible(q, adm.message, robot.size());
   auto& W = ws.impl();
   Problem& P = W.problem;
-  const double mbps = opt.max_bending_per_step;
-  P.setup(robot, q, conditions, opt.max_step, 1.0, mbps, opt.bending_limit_per_segment);
+  P.setup(robot, q, conditions, opt);
   Eigen::VectorXd z = initialGuess(P, warm);
   int iters = 0;
   double rn = 0.0;
@@ -1045,17 +1047,15 @@ Solution solveImpl(const Robot& robot, const Configuration& q, const std::vector
     const Eigen::VectorXd z_first = z;
     const bool ok_first = ok;
     auto finish = [&](Eigen::VectorXd& zc) {
-      P.setup(robot, q, conditions, opt.max_step, 1.0, mbps, opt.bending_limit_per_segment);
+      P.setup(robot, q, conditions, opt);
       return newton(P, W.eval, W.out, zc, opt, iters, rn, why, rec) && W.out.stability > 0.0;
     };
     // Fallback 1: continuation in the precurvatures from the interaction-free robot (unique, stable solution).
     Eigen::VectorXd zh = Eigen::VectorXd::Zero(P.m);
     std::string hwhy;
-    bool found =
-        continuation(
-            [&](double lam) { P.setup(robot, q, conditions, opt.max_step, lam, mbps, opt.bending_limit_per_segment); },
-            P, W.eval, W.out, zh, opt, iters, cont_steps, hwhy) &&
-        finish(zh);
+    bool found = continuation([&](double lam) { P.setup(robot, q, conditions, opt, lam); }, P, W.eval, W.out, zh, opt,
+                              iters, cont_steps, hwhy) &&
+                 finish(zh);
     // Fallback 2: continuation in rotation from the aligned configuration (relative angles zero: untwisted
     // solution exact), along the shortest relative rotations (the model is 2 pi periodic in them).
     if (!found) {
@@ -1071,7 +1071,7 @@ Solution solveImpl(const Robot& robot, const Configuration& q, const std::vector
                   [&](double t) {
                     Configuration qt = qa;
                     qt.alpha = qa.alpha + t * rel;
-                    P.setup(robot, qt, conditions, opt.max_step, 1.0, mbps, opt.bending_limit_per_segment);
+                    P.setup(robot, qt, conditions, opt);
                   },
                   P, W.eval, W.out, zh, opt, iters, cont_steps, rwhy) &&
               finish(zh);
@@ -1083,7 +1083,7 @@ Solution solveImpl(const Robot& robot, const Configuration& q, const std::vector
     } else {
       z = z_first;
       ok = ok_first;
-      P.setup(robot, q, conditions, opt.max_step, 1.0, mbps, opt.bending_limit_per_segment);
+      P.setup(robot, q, conditions, opt);
       if (!ok) why += "; homotopy from zero precurvature: " + hwhy;
       W.eval.evaluate(P, z, true, rec, W.out);  // outputs of the returned point
       rn = maxAbs(W.eval.r);
@@ -1096,12 +1096,12 @@ Solution solveImpl(const Robot& robot, const Configuration& q, const std::vector
     int it2 = 0;
     double rn2 = 0;
     std::string w2;
-    P.setup(robot, q, conditions, 0.25 * opt.max_step, 1.0, 0.25 * mbps, opt.bending_limit_per_segment);
+    P.setup(robot, q, conditions, opt, 1.0, 0.25);
     if (newton(P, W.eval, W.out, zr, opt, it2, rn2, w2, rec)) {
       z = zr;
       rn = rn2;
     } else {
-      P.setup(robot, q, conditions, opt.max_step, 1.0, mbps, opt.bending_limit_per_segment);
+      P.setup(robot, q, conditions, opt);
       W.eval.evaluate(P, z, true, rec, W.out);
     }
     iters += it2;

@@ -46,8 +46,7 @@ void setLoadScale(LoadedProblem& L, const Robot& robot, double scale) {
 void setupLoaded(LoadedProblem& L, const Robot& robot, const Configuration& q,
                  const std::vector<ContactCondition>* conditions, const KinematicsOptions& opt, double step_factor) {
   Problem& P = L.P;
-  P.setup(robot, q, conditions, step_factor * opt.max_step, 1.0, step_factor * opt.max_bending_per_step,
-          opt.bending_limit_per_segment);
+  P.setup(robot, q, conditions, opt, 1.0, step_factor);
   const int n = P.n;
   L.rho.resize(n);
   L.length.resize(n);

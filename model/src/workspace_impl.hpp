@@ -44,10 +44,10 @@ struct Problem {
   std::vector<Segment> segments;
   std::vector<Breakpoint> breakpoints;
   std::vector<ActiveContact> contacts;
-  /// per_segment: the bending limit of a step uses the largest precurvature of the tubes curved on its segment
-  /// (KinematicsOptions::bending_limit_per_segment), else of the whole robot.
+  /// Steps from opt (max_step, max_bending_per_step, bending_limit_per_segment), both lengths scaled by step_factor;
+  /// precurvatures scaled by kappa_scale (the homotopy).
   void setup(const Robot& robot, const Configuration& q, const std::vector<ContactCondition>* conditions,
-             double max_step, double kappa_scale, double max_bending_per_step, bool per_segment);
+             const KinematicsOptions& opt, double kappa_scale = 1.0, double step_factor = 1.0);
 };
 
 struct Outputs {
@@ -122,15 +122,15 @@ private:
 /// Solves under contact laws (stick-slip steps) never use it: a step depends only on its HysteresisState and command.
 struct WarmHistory {
   static constexpr int kDepth = 4;  ///< Solves kept: up to a cubic extrapolation.
-  std::array<Eigen::VectorXd, kDepth> q;  ///< q[0] the last solve: actuation (alpha, then 50 x beta).
+  std::array<Eigen::VectorXd, kDepth> q;  ///< q[0] the last solve: its historyKey.
   std::array<Eigen::VectorXd, kDepth> z;  ///< Its unknowns.
   int count = 0;                          ///< Entries of the chain (0: none).
 };
 
-/// Actuation as one vector for the warm-start history: alpha, then beta in units of 2 cm (~1 rad).
 /// Translations count as this many radians per metre in the history key (2 cm ~ 1 rad).
 constexpr double kHistoryBetaScale = 50.0;
 
+/// Actuation as one vector for the warm-start history: alpha, then kHistoryBetaScale x beta.
 Eigen::VectorXd historyKey(const Configuration& q);
 /// The same into v (its storage reused).
 void historyKey(const Configuration& q, Eigen::VectorXd& v);

@@ -448,7 +448,7 @@ TEST(Kinematics, ShootingJacobianWithContactsMatchesCentralDifferences) {
   cond[sites.size() - 1] = {ContactCondition::Law::Free, 0.0};
   detail::Problem P;
   const KinematicsOptions o;
-  P.setup(robot, q, &cond, o.max_step, 1.0, o.max_bending_per_step, o.bending_limit_per_segment);
+  P.setup(robot, q, &cond, o);
   ASSERT_EQ(P.m, 3 + static_cast<int>(sites.size()));
   Eigen::VectorXd z(P.m);
   for (int i = 0; i < P.m; ++i) z[i] = 0.3 * std::sin(1.7 * i + 0.4);  // twist rates (1/m), scaled torques

@@ -134,6 +134,56 @@ inline Dual<N> sqrt(const Dual<N>& a) {
   const double s = std::sqrt(a.v);
   return chain(a, s, s > 0.0 ? 0.5 / s : 0.0);
 }
+// Fused forms of frequent expressions: the same operations in the same order as the plain expressions (so the same
+// results, bit for bit), without the temporaries.
+/// a b + c d
+template <int N>
+inline Dual<N> mulAdd(const Dual<N>& a, const Dual<N>& b, const Dual<N>& c, const Dual<N>& d) {
+  Dual<N> r;
+  r.v = a.v * b.v + c.v * d.v;
+  for (int k = 0; k < N; ++k) r.d[k] = (a.d[k] * b.v + a.v * b.d[k]) + (c.d[k] * d.v + c.v * d.d[k]);
+  return r;
+}
+inline double mulAdd(double a, double b, double c, double d) {
+  return a * b + c * d;
+}
+/// a b - c d
+template <int N>
+inline Dual<N> mulSub(const Dual<N>& a, const Dual<N>& b, const Dual<N>& c, const Dual<N>& d) {
+  Dual<N> r;
+  r.v = a.v * b.v - c.v * d.v;
+  for (int k = 0; k < N; ++k) r.d[k] = (a.d[k] * b.v + a.v * b.d[k]) - (c.d[k] * d.v + c.v * d.d[k]);
+  return r;
+}
+inline double mulSub(double a, double b, double c, double d) {
+  return a * b - c * d;
+}
+/// y + c x
+template <int N>
+inline Dual<N> axpy(const Dual<N>& y, const Dual<N>& c, const Dual<N>& x) {
+  Dual<N> r;
+  r.v = y.v + c.v * x.v;
+  for (int k = 0; k < N; ++k) r.d[k] = y.d[k] + (c.d[k] * x.v + c.v * x.d[k]);
+  return r;
+}
+inline double axpy(double y, double c, double x) {
+  return y + c * x;
+}
+/// y + h (k1 + 2 k2 + 2 k3 + k4), the RK4 update
+template <int N>
+inline Dual<N> rk4Sum(const Dual<N>& y, const Dual<N>& h, const Dual<N>& k1, const Dual<N>& k2, const Dual<N>& k3,
+                      const Dual<N>& k4) {
+  Dual<N> r;
+  const double sv = k1.v + 2.0 * k2.v + 2.0 * k3.v + k4.v;
+  r.v = y.v + h.v * sv;
+  for (int k = 0; k < N; ++k)
+    r.d[k] = y.d[k] + (h.d[k] * sv + h.v * (k1.d[k] + 2.0 * k2.d[k] + 2.0 * k3.d[k] + k4.d[k]));
+  return r;
+}
+inline double rk4Sum(double y, double h, double k1, double k2, double k3, double k4) {
+  return y + h * (k1 + 2.0 * k2 + 2.0 * k3 + k4);
+}
+
 /// sin and cos of one argument (one sincos for the value).
 template <int N>
 inline void sinCos(const Dual<N>& a, Dual<N>& s, Dual<N>& c) {

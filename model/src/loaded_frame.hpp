@@ -102,6 +102,11 @@ struct StageRotation<double> {
     o[1] = Bxy * v[0] + v[1] - Bxx * v[1] + Awx * v[2];
     o[2] = Awy * v[0] - Awx * v[1] + v[2] - (Bxx + Byy) * v[2];
   }
+  void thirdColumn(double* o) const {  // o = E e3
+    o[0] = Awy;
+    o[1] = -Awx;
+    o[2] = 1.0 - (Bxx + Byy);
+  }
   void times(const double* v, double* o) const {  // o = E v
     o[0] = v[0] - Byy * v[0] + Bxy * v[1] + Awy * v[2];
     o[1] = Bxy * v[0] + v[1] - Bxx * v[1] - Awx * v[2];
@@ -131,8 +136,9 @@ struct Frame<double> {
       for (int c = 0; c < 3; ++c) v[c] = w[c];
     }
     for (int c = 0; c < 3; ++c) mb[c] = v[c];
-    double e[3] = {0.0, 0.0, 1.0};
-    for (int j = k - 1; j >= 0; --j) {
+    double e[3];  // E_1 .. E_k e3: the last one's third column, then the others applied
+    E[k - 1]->thirdColumn(e);
+    for (int j = k - 2; j >= 0; --j) {
       E[j]->times(e, w);
       for (int c = 0; c < 3; ++c) e[c] = w[c];
     }

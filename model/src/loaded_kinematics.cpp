@@ -115,14 +115,43 @@ T loadedEndMoment(const Problem& P, const Segment& sg, const T* th, const T& mbx
   return P.kb[i] * sqrt(nv2);
 }
 
+// ys = y + c k over dim entries; for double also sh = c k over the n angles (the stage's angle increments).
+template <class T>
+__attribute__((always_inline)) inline void stageState(T* __restrict ys, const T* __restrict y, const T& c, const T* __restrict k, T* __restrict sh,
+                       int n, int dim) {
+  int d = 0;
+  if constexpr (std::is_same_v<T, double>) {
+    for (; d < n; ++d) {
+      sh[d] = c * k[d];
+      ys[d] = y[d] + sh[d];
+    }
+  }
+  for (; d < dim; ++d) ys[d] = axpy(y[d], c, k[d]);
+}
+
+// y += h6 (k1 + 2 k2 + 2 k3 + k4); for double also inc = that increment over the n angles.
+template <class T>
+__attribute__((always_inline)) inline void rk4Update(T* __restrict y, const T& h6, const T* __restrict k1, const T* __restrict k2,
+                      const T* __restrict k3, const T* __restrict k4, T* __restrict inc, int n, int dim) {
+  int d = 0;
+  if constexpr (std::is_same_v<T, double>) {
+    for (; d < n; ++d) {
+      inc[d] = h6 * (k1[d] + 2.0 * k2[d] + 2.0 * k3[d] + k4[d]);
+      y[d] += inc[d];
+    }
+  }
+  for (; d < dim; ++d) y[d] = rk4Sum(y[d], h6, k1[d], k2[d], k3[d], k4[d]);
+}
+
 /// The discrete loaded map. Inputs z (m unknowns), alpha, beta (n), F, M (3). Outputs the residual r (m), the tip
 /// position p (3) and frame R (9, row-major). With `rec` (double only) also twist, moments, contacts, backbone.
-template <class T>
+/// NT > 0: the tube count as a compile-time constant (P.n must equal it), so that the loops over the state unroll.
+template <class T, int NT = 0>
 void runLoaded(const LoadedProblem& L, const T* z, const T* alpha, const T* beta, const T* F, const T* M, T* r, T* tipP,
                T* tipR, T* tipTheta, LoadedOutputs* rec, bool record_nodes, bool record_tubes,
                bool want_position = true) {
   const Problem& P = L.P;
-  const int n = P.n, m = L.m;
+  const int n = NT > 0 ? NT : P.n, m = L.m;
   const int dim = 2 * n + 3;  // theta, u_z, m
   thread_local std::vector<T> buf;  // scratch of this instantiation on this thread (no allocation per evaluation)
   buf.resize(static_cast<std::size_t>(7 * dim + 6 * n));
@@ -135,6 +164,12 @@ void runLoaded(const LoadedProblem& L, const T* z, const T* alpha, const T* beta
   T* cs0 = sn0 + n;
   T* shift = cs0 + n;
   T* step_shift = shift + n;
+  thread_local std::vector<int> idx_store;
+  thread_local std::vector<double> seg_store;
+  idx_store.resize(static_cast<std::size_t>(2 * n));
+  seg_store.resize(static_cast<std::size_t>(2 * n));
+  int* idx_buf = idx_store.data();
+  double* seg_buf = seg_store.data();
   T* th = y;
   T* uz = y + n;
   T* mm = y + 2 * n;
@@ -182,46 +217,83 @@ void runLoaded(const LoadedProblem& L, const T* z, const T* alpha, const T* beta
     }
   };
 
-  // Curvature and derivative of (theta, u_z, m) at arc length s with rotation Rs; force n(s) = F + g (C - rho s).
+  // The tubes of the current segment (set at its start): `curved` the present curved ones (index, w_j = k_bj kappa_j,
+  // aK_j = (k_bj / k_tj) kappa_j), `straight_present` the present straight ones, and 1 / K. Rows of k[] that stay 0
+  // on the segment (absent tubes' theta', straight tubes' u_z') are zeroed once at its start.
+  int nc = 0, ns = 0;
+  int* curved = idx_buf;
+  int* straight_present = curved + n;
+  double* wq = seg_buf;
+  double* aq = wq + n;
+  double invK = 1.0;
+  auto startSegment = [&](const Segment& sg) {
+    nc = ns = 0;
+    for (int j = 0; j < n; ++j) {
+      const bool present = sg.present[static_cast<std::size_t>(j)] != 0;
+      if (sg.w[j] != 0.0) {
+        curved[nc] = j;
+        wq[nc] = sg.w[j];
+        aq[nc] = sg.a[j] * sg.K;
+        ++nc;
+      } else if (present) {
+        straight_present[ns++] = j;
+      }
+      for (int q = 0; q < 4; ++q) {
+        if (!present) k[q][j] = 0.0;
+        if (sg.w[j] == 0.0) k[q][n + j] = 0.0;
+      }
+    }
+    invK = 1.0 / sg.K;
+  };
+
   // Curvature and derivative of (theta, u_z, m) at arc length s, given the stage's (R^T m)_xy and tangent t = R e3;
-  // force n(s) = F + g (C - rho s).
+  // force n(s) = F + g (C - rho s). (Curved tubes are present: their theta' is u_z too.)
   // For double, the angles are the base's plus `sh` (when given) with sines and cosines by angle addition; `base`:
   // this evaluation is the new base (a step's first stage). A segment's first step calls libm (as kinematics.cpp).
-  auto deriv = [&](const Segment& sg, double rho, const T& C, const T& s, const T* ys, const T* mb, const T* t, T* dy,
-                   T& u0x, T& u0y, const T* sh, bool base) {
+  auto derivCore = [&](double rho, const T& C, const T& s, const T* ys, const T* mb, const T* t, T* dy, T& u0x, T& u0y,
+                       const T* sh, bool base) __attribute__((always_inline)) {
     const T* ths = ys;
     const T* uzs = ys + n;
     T A = 0.0, B = 0.0;
-    for (int j = 0; j < n; ++j) {
-      if (sg.w[j] != 0.0) {
-        if constexpr (std::is_same_v<T, double>) {
-          if (sh)
-            sinCosShifted(ths[j], sn0[j], cs0[j], sh[j], sn[j], cs[j]);
-          else
-            sinCos(ths[j], sn[j], cs[j]);
-          if (base) {
-            sn0[j] = sn[j];
-            cs0[j] = cs[j];
-          }
-        } else {
+    for (int q = 0; q < nc; ++q) {
+      const int j = curved[q];
+      if constexpr (std::is_same_v<T, double>) {
+        if (sh)
+          sinCosShifted(ths[j], sn0[j], cs0[j], sh[j], sn[j], cs[j]);
+        else
           sinCos(ths[j], sn[j], cs[j]);
+        if (base) {
+          sn0[j] = sn[j];
+          cs0[j] = cs[j];
         }
-        A += sg.w[j] * cs[j];
-        B += sg.w[j] * sn[j];
+      } else {
+        sinCos(ths[j], sn[j], cs[j]);
       }
+      A += wq[q] * cs[j];
+      B += wq[q] * sn[j];
     }
-    u0x = (mb[0] - B) / sg.K;
-    u0y = (A + mb[1]) / sg.K;
-    for (int i = 0; i < n; ++i) {
-      dy[i] = sg.present[static_cast<std::size_t>(i)] ? uzs[i] : T(0.0);
-      dy[n + i] = sg.a[i] != 0.0 ? (sg.a[i] * sg.K) * (cs[i] * u0x + sn[i] * u0y) : T(0.0);
+    u0x = (mb[0] - B) * invK;
+    u0y = (A + mb[1]) * invK;
+    for (int q = 0; q < nc; ++q) {
+      const int j = curved[q];
+      dy[j] = uzs[j];
+      dy[n + j] = aq[q] * mulAdd(cs[j], u0x, sn[j], u0y);
     }
+    for (int q = 0; q < ns; ++q) dy[straight_present[q]] = uzs[straight_present[q]];
     const T load = C - rho * s;
     T nv[3];
     for (int c = 0; c < 3; ++c) nv[c] = F[c] + L.g[c] * load;
-    dy[2 * n] = -(t[1] * nv[2] - t[2] * nv[1]);
-    dy[2 * n + 1] = -(t[2] * nv[0] - t[0] * nv[2]);
-    dy[2 * n + 2] = -(t[0] * nv[1] - t[1] * nv[0]);
+    dy[2 * n] = mulSub(t[2], nv[1], t[1], nv[2]);  // -t x n (b a - a b is -(a b - b a) exactly)
+    dy[2 * n + 1] = mulSub(t[0], nv[2], t[2], nv[0]);
+    dy[2 * n + 2] = mulSub(t[1], nv[0], t[0], nv[1]);
+  };
+  // derivCore is inlined at the four stages for double (the value evaluations, the hot path); the duals call one
+  // out-of-line copy (their code is large: inlining it four times per derivative size costs compile time, and the
+  // exact Jacobians are few).
+  constexpr bool kInline = std::is_same_v<T, double>;
+  auto derivOutOfLine = [&](double rho, const T& C, const T& s, const T* ys, const T* mb, const T* t, T* dy, T& u0x,
+                            T& u0y, const T* sh, bool base) __attribute__((noinline)) {
+    derivCore(rho, C, s, ys, mb, t, dy, u0x, u0y, sh, base);
   };
 
   auto pushNode = [&](double s, const Segment& sg, double u0x, double u0y, bool segment_start, const double* force) {
@@ -261,6 +333,7 @@ void runLoaded(const LoadedProblem& L, const T* z, const T* alpha, const T* beta
     for (int i = 0; i < n; ++i)
       if (sg.present[static_cast<std::size_t>(i)] && L.rho[i] != 0.0) C += L.rho[i] * (beta[i] + L.length[i]);
     const T hh = 0.5 * h;
+    startSegment(sg);
     for (int st = 0; st < sg.steps; ++st) {
       const T s = s_start + static_cast<double>(st) * h;
       T u01x, u01y, u02x, u02y, u03x, u03y, u04x, u04y;
@@ -268,42 +341,46 @@ void runLoaded(const LoadedProblem& L, const T* z, const T* alpha, const T* beta
       // Stage 1 at (y, R).
       R.transposeTimes(y + 2 * n, mb);
       R.tangent(t);
-      deriv(sg, rho, C, s, y, mb, t, k[0], u01x, u01y,
-            std::is_same_v<T, double> && st > 0 ? step_shift : nullptr, true);
+      T* const sh1 = kInline && st > 0 ? step_shift : nullptr;
+      if constexpr (kInline)
+        derivCore(rho, C, s, y, mb, t, k[0], u01x, u01y, sh1, true);
+      else
+        derivOutOfLine(rho, C, s, y, mb, t, k[0], u01x, u01y, sh1, true);
       if (rec && record_nodes) {
         double f[3];
         for (int c = 0; c < 3; ++c) f[c] = value(F[c]) + L.g[c] * (value(C) - rho * value(s));
         pushNode(value(s), sg, value(u01x), value(u01y), st == 0, f);
       }
       // Stage 2: y + h/2 k1 at R E2, E2 = exp(h/2 u01).
-      for (int d = 0; d < dim; ++d) yt[d] = y[d] + hh * k[0][d];
-      if constexpr (std::is_same_v<T, double>)
-        for (int j = 0; j < n; ++j) shift[j] = hh * k[0][j];
+      stageState(yt, y, hh, k[0], shift, n, dim);
       const StageRotation<T> E2(hh * u01x, hh * u01y);
       const StageRotation<T>* E[2] = {&E2, nullptr};
       R.stage(E, 1, yt + 2 * n, mb, t);
-      deriv(sg, rho, C, s + hh, yt, mb, t, k[1], u02x, u02y, shift, false);
+      if constexpr (kInline)
+        derivCore(rho, C, s + hh, yt, mb, t, k[1], u02x, u02y, shift, false);
+      else
+        derivOutOfLine(rho, C, s + hh, yt, mb, t, k[1], u02x, u02y, shift, false);
       // Stage 3: y + h/2 k2 at R exp(h/2 u02).
-      for (int d = 0; d < dim; ++d) yt[d] = y[d] + hh * k[1][d];
-      if constexpr (std::is_same_v<T, double>)
-        for (int j = 0; j < n; ++j) shift[j] = hh * k[1][j];
+      stageState(yt, y, hh, k[1], shift, n, dim);
       const StageRotation<T> E3(hh * u02x, hh * u02y);
       E[0] = &E3;
       R.stage(E, 1, yt + 2 * n, mb, t);
-      deriv(sg, rho, C, s + hh, yt, mb, t, k[2], u03x, u03y, shift, false);
+      if constexpr (kInline)
+        derivCore(rho, C, s + hh, yt, mb, t, k[2], u03x, u03y, shift, false);
+      else
+        derivOutOfLine(rho, C, s + hh, yt, mb, t, k[2], u03x, u03y, shift, false);
       // Stage 4: y + h k3 at R E2 E4, E4 = exp(h u03 - h/2 u01).
-      for (int d = 0; d < dim; ++d) yt[d] = y[d] + h * k[2][d];
-      if constexpr (std::is_same_v<T, double>)
-        for (int j = 0; j < n; ++j) shift[j] = h * k[2][j];
+      stageState(yt, y, h, k[2], shift, n, dim);
       const StageRotation<T> E4(h * u03x - hh * u01x, h * u03y - hh * u01y);
       E[0] = &E2;
       E[1] = &E4;
       R.stage(E, 2, yt + 2 * n, mb, t);
-      deriv(sg, rho, C, s + h, yt, mb, t, k[3], u04x, u04y, shift, false);
+      if constexpr (kInline)
+        derivCore(rho, C, s + h, yt, mb, t, k[3], u04x, u04y, shift, false);
+      else
+        derivOutOfLine(rho, C, s + h, yt, mb, t, k[3], u04x, u04y, shift, false);
       const T h6 = h / 6.0;
-      for (int d = 0; d < dim; ++d) y[d] += h6 * (k[0][d] + 2.0 * k[1][d] + 2.0 * k[2][d] + k[3][d]);
-      if constexpr (std::is_same_v<T, double>)
-        for (int j = 0; j < n; ++j) step_shift[j] = h6 * (k[0][j] + 2.0 * k[1][j] + 2.0 * k[2][j] + k[3][j]);
+      rk4Update(y, h6, k[0], k[1], k[2], k[3], step_shift, n, dim);
       const T h12 = h / 12.0;
       const T w1x = h12 * (3.0 * u01x + 2.0 * u02x + 2.0 * u03x - u04x);
       const T w1y = h12 * (3.0 * u01y + 2.0 * u02y + 2.0 * u03y - u04y);
@@ -426,8 +503,17 @@ void evalValue(LoadedWork& W, const Eigen::VectorXd& z, LoadedOutputs* rec, bool
   const int m = L.m;
   W.r.resize(m);
   double p[3], R[9], th;
-  runLoaded<double>(L, z.data(), L.P.alpha.data(), L.P.beta.data(), L.F.data(), L.M.data(), W.r.data(), p, R, &th,
-                    rec, nodes, tubes);
+  // The value evaluations of Newton are the hot path: 2- and 3-tube robots have their own instantiation.
+  auto run = [&](auto fn) {
+    fn(L, z.data(), L.P.alpha.data(), L.P.beta.data(), L.F.data(), L.M.data(), W.r.data(), p, R, &th, rec, nodes, tubes,
+       true);
+  };
+  if (L.P.n == 3)
+    run(runLoaded<double, 3>);
+  else if (L.P.n == 2)
+    run(runLoaded<double, 2>);
+  else
+    run(runLoaded<double, 0>);
   W.tip_p = Eigen::Vector3d(p[0], p[1], p[2]);
   for (int a = 0; a < 3; ++a)
     for (int b = 0; b < 3; ++b) W.tip_R(a, b) = R[3 * a + b];

@@ -117,8 +117,8 @@ T loadedEndMoment(const Problem& P, const Segment& sg, const T* th, const T& mbx
 
 // ys = y + c k over dim entries; for double also sh = c k over the n angles (the stage's angle increments).
 template <class T>
-__attribute__((always_inline)) inline void stageState(T* __restrict ys, const T* __restrict y, const T& c, const T* __restrict k, T* __restrict sh,
-                       int n, int dim) {
+__attribute__((always_inline)) inline void stageState(T* __restrict ys, const T* __restrict y, const T& c,
+                                                      const T* __restrict k, T* __restrict sh, int n, int dim) {
   int d = 0;
   if constexpr (std::is_same_v<T, double>) {
     for (; d < n; ++d) {
@@ -131,8 +131,9 @@ __attribute__((always_inline)) inline void stageState(T* __restrict ys, const T*
 
 // y += h6 (k1 + 2 k2 + 2 k3 + k4); for double also inc = that increment over the n angles.
 template <class T>
-__attribute__((always_inline)) inline void rk4Update(T* __restrict y, const T& h6, const T* __restrict k1, const T* __restrict k2,
-                      const T* __restrict k3, const T* __restrict k4, T* __restrict inc, int n, int dim) {
+__attribute__((always_inline)) inline void rk4Update(T* __restrict y, const T& h6, const T* __restrict k1,
+                                                     const T* __restrict k2, const T* __restrict k3,
+                                                     const T* __restrict k4, T* __restrict inc, int n, int dim) {
   int d = 0;
   if constexpr (std::is_same_v<T, double>) {
     for (; d < n; ++d) {
@@ -152,7 +153,7 @@ void runLoaded(const LoadedProblem& L, const T* z, const T* alpha, const T* beta
                bool want_position = true) {
   const Problem& P = L.P;
   const int n = NT > 0 ? NT : P.n, m = L.m;
-  const int dim = 2 * n + 3;  // theta, u_z, m
+  const int dim = 2 * n + 3;        // theta, u_z, m
   thread_local std::vector<T> buf;  // scratch of this instantiation on this thread (no allocation per evaluation)
   buf.resize(static_cast<std::size_t>(7 * dim + 6 * n));
   T* y = buf.data();
@@ -1003,8 +1004,7 @@ TipJacobian tipJacobian(const Robot& robot, const Solution& solution, Workspace&
   const int m = L.m;
   // The tip moment M enters the map only through the distal residuals, where the innermost tube ends at the tip:
   // there its columns are known in closed form (below) and are not carried as derivative directions.
-  const bool analytic_m =
-      with_compliance && !L.P.segments.empty() && L.P.end[n - 1] >= L.P.s_tip - detail::kSameS;
+  const bool analytic_m = with_compliance && !L.P.segments.empty() && L.P.end[n - 1] >= L.P.s_tip - detail::kSameS;
   const int nin = m + 2 * n + (with_compliance ? 6 : 0);
   const int carried = nin - (analytic_m ? 3 : 0);
   std::vector<int> dirs(static_cast<std::size_t>(carried));

@@ -184,6 +184,59 @@ inline double rk4Sum(double y, double h, double k1, double k2, double k3, double
   return y + h * (k1 + 2.0 * k2 + 2.0 * k3 + k4);
 }
 
+/// Number of derivative directions of a scalar type (0 for double).
+template <class T>
+struct DerivativeCount {
+  static constexpr int value = 0;
+};
+template <int N>
+struct DerivativeCount<Dual<N>> {
+  static constexpr int value = N;
+};
+template <class T>
+constexpr int derivativeCount() {
+  return DerivativeCount<T>::value;
+}
+
+/// The directions in which a has a nonzero derivative (at most N), for the sparse products below.
+template <int N>
+inline int nonzeroDirections(const Dual<N>& a, int* idx) {
+  int cnt = 0;
+  for (int k = 0; k < N; ++k)
+    if (a.d[k] != 0.0) idx[cnt++] = k;
+  return cnt;
+}
+inline int nonzeroDirections(double, int*) {
+  return 0;
+}
+/// axpy(y, c, x) for a c whose derivative is nonzero only in the directions cidx[0 .. cnt) (e.g. a step size that
+/// depends on a few translations): the same value, the derivative summed in another order.
+template <int N>
+inline Dual<N> axpySparse(const Dual<N>& y, const Dual<N>& c, const Dual<N>& x, const int* cidx, int cnt) {
+  Dual<N> r;
+  r.v = y.v + c.v * x.v;
+  for (int k = 0; k < N; ++k) r.d[k] = y.d[k] + c.v * x.d[k];
+  for (int q = 0; q < cnt; ++q) r.d[cidx[q]] += c.d[cidx[q]] * x.v;
+  return r;
+}
+inline double axpySparse(double y, double c, double x, const int*, int) {
+  return y + c * x;
+}
+/// rk4Sum with such a sparse h.
+template <int N>
+inline Dual<N> rk4SumSparse(const Dual<N>& y, const Dual<N>& h, const Dual<N>& k1, const Dual<N>& k2, const Dual<N>& k3,
+                            const Dual<N>& k4, const int* hidx, int cnt) {
+  Dual<N> r;
+  const double sv = k1.v + 2.0 * k2.v + 2.0 * k3.v + k4.v;
+  r.v = y.v + h.v * sv;
+  for (int k = 0; k < N; ++k) r.d[k] = y.d[k] + h.v * (k1.d[k] + 2.0 * k2.d[k] + 2.0 * k3.d[k] + k4.d[k]);
+  for (int q = 0; q < cnt; ++q) r.d[hidx[q]] += h.d[hidx[q]] * sv;
+  return r;
+}
+inline double rk4SumSparse(double y, double h, double k1, double k2, double k3, double k4, const int*, int) {
+  return y + h * (k1 + 2.0 * k2 + 2.0 * k3 + k4);
+}
+
 /// sin and cos of one argument (one sincos for the value).
 template <int N>
 inline void sinCos(const Dual<N>& a, Dual<N>& s, Dual<N>& c) {

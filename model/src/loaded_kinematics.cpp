@@ -118,30 +118,42 @@ T loadedEndMoment(const Problem& P, const Segment& sg, const T* th, const T& mbx
 // ys = y + c k over dim entries; for double also sh = c k over the n angles (the stage's angle increments).
 template <class T>
 __attribute__((always_inline)) inline void stageState(T* __restrict ys, const T* __restrict y, const T& c,
-                                                      const T* __restrict k, T* __restrict sh, int n, int dim) {
+                                                      const T* __restrict k, T* __restrict sh, int n, int dim,
+                                                      const int* cidx, int cnt) {
   int d = 0;
   if constexpr (std::is_same_v<T, double>) {
     for (; d < n; ++d) {
       sh[d] = c * k[d];
       ys[d] = y[d] + sh[d];
     }
+  } else {
+    for (; d < n; ++d) {
+      sh[d].v = c.v * k[d].v;  // the value only (the angle increment of the stage)
+      ys[d] = axpySparse(y[d], c, k[d], cidx, cnt);
+    }
   }
-  for (; d < dim; ++d) ys[d] = axpy(y[d], c, k[d]);
+  for (; d < dim; ++d) ys[d] = axpySparse(y[d], c, k[d], cidx, cnt);
 }
 
 // y += h6 (k1 + 2 k2 + 2 k3 + k4); for double also inc = that increment over the n angles.
 template <class T>
 __attribute__((always_inline)) inline void rk4Update(T* __restrict y, const T& h6, const T* __restrict k1,
                                                      const T* __restrict k2, const T* __restrict k3,
-                                                     const T* __restrict k4, T* __restrict inc, int n, int dim) {
+                                                     const T* __restrict k4, T* __restrict inc, int n, int dim,
+                                                     const int* hidx, int cnt) {
   int d = 0;
   if constexpr (std::is_same_v<T, double>) {
     for (; d < n; ++d) {
       inc[d] = h6 * (k1[d] + 2.0 * k2[d] + 2.0 * k3[d] + k4[d]);
       y[d] += inc[d];
     }
+  } else {
+    for (; d < n; ++d) {
+      inc[d].v = h6.v * (k1[d].v + 2.0 * k2[d].v + 2.0 * k3[d].v + k4[d].v);  // the value only
+      y[d] = rk4SumSparse(y[d], h6, k1[d], k2[d], k3[d], k4[d], hidx, cnt);
+    }
   }
-  for (; d < dim; ++d) y[d] = rk4Sum(y[d], h6, k1[d], k2[d], k3[d], k4[d]);
+  for (; d < dim; ++d) y[d] = rk4SumSparse(y[d], h6, k1[d], k2[d], k3[d], k4[d], hidx, cnt);
 }
 
 /// The discrete loaded map. Inputs z (m unknowns), alpha, beta (n), F, M (3). Outputs the residual r (m), the tip
@@ -161,7 +173,7 @@ void runLoaded(const LoadedProblem& L, const T* z, const T* alpha, const T* beta
   T* k[4] = {yt + dim, yt + 2 * dim, yt + 3 * dim, yt + 4 * dim};
   T* sn = yt + 5 * dim;
   T* cs = sn + n;
-  T* sn0 = cs + n;  // the base of the angle additions (double only; as kinematics.cpp's Evaluator::deriv)
+  T* sn0 = cs + n;  // the base of the angle additions (duals: values only; as kinematics.cpp's Evaluator::deriv)
   T* cs0 = sn0 + n;
   T* shift = cs0 + n;
   T* step_shift = shift + n;
@@ -249,8 +261,9 @@ void runLoaded(const LoadedProblem& L, const T* z, const T* alpha, const T* beta
 
   // Curvature and derivative of (theta, u_z, m) at arc length s, given the stage's (R^T m)_xy and tangent t = R e3;
   // force n(s) = F + g (C - rho s). (Curved tubes are present: their theta' is u_z too.)
-  // For double, the angles are the base's plus `sh` (when given) with sines and cosines by angle addition; `base`:
-  // this evaluation is the new base (a step's first stage). A segment's first step calls libm (as kinematics.cpp).
+  // The angles' values are the base's plus `sh` (when given), their sines and cosines by angle addition (for duals
+  // the values so, the derivatives by the chain rule); `base`: this evaluation is the new base (a step's first
+  // stage). A segment's first step calls libm (as kinematics.cpp).
   auto derivCore = [&](double rho, const T& C, const T& s, const T* ys, const T* mb, const T* t, T* dy, T& u0x, T& u0y,
                        const T* sh, bool base) __attribute__((always_inline)) {
     const T* ths = ys;
@@ -267,8 +280,18 @@ void runLoaded(const LoadedProblem& L, const T* z, const T* alpha, const T* beta
           sn0[j] = sn[j];
           cs0[j] = cs[j];
         }
-      } else {
-        sinCos(ths[j], sn[j], cs[j]);
+      } else {  // the values as for double, the derivatives by the chain rule
+        double sv, cv;
+        if (sh)
+          sinCosShifted(ths[j].v, sn0[j].v, cs0[j].v, sh[j].v, sv, cv);
+        else
+          ::sincos(ths[j].v, &sv, &cv);
+        if (base) {
+          sn0[j].v = sv;
+          cs0[j].v = cv;
+        }
+        sn[j] = chain(ths[j], sv, cv);
+        cs[j] = chain(ths[j], cv, -sv);
       }
       A += wq[q] * cs[j];
       B += wq[q] * sn[j];
@@ -334,6 +357,10 @@ void runLoaded(const LoadedProblem& L, const T* z, const T* alpha, const T* beta
     for (int i = 0; i < n; ++i)
       if (sg.present[static_cast<std::size_t>(i)] && L.rho[i] != 0.0) C += L.rho[i] * (beta[i] + L.length[i]);
     const T hh = 0.5 * h;
+    // h depends on the translations of the tubes that bound the segment only: the directions where its derivative
+    // is nonzero (none for double), for the products by h, h/2 and h/6 of the stage and RK4 updates.
+    int hidx[std::max(1, derivativeCount<T>())];
+    const int hcnt = nonzeroDirections(h, hidx);
     startSegment(sg);
     for (int st = 0; st < sg.steps; ++st) {
       const T s = s_start + static_cast<double>(st) * h;
@@ -342,7 +369,7 @@ void runLoaded(const LoadedProblem& L, const T* z, const T* alpha, const T* beta
       // Stage 1 at (y, R).
       R.transposeTimes(y + 2 * n, mb);
       R.tangent(t);
-      T* const sh1 = kInline && st > 0 ? step_shift : nullptr;
+      T* const sh1 = st > 0 ? step_shift : nullptr;
       if constexpr (kInline)
         derivCore(rho, C, s, y, mb, t, k[0], u01x, u01y, sh1, true);
       else
@@ -353,7 +380,7 @@ void runLoaded(const LoadedProblem& L, const T* z, const T* alpha, const T* beta
         pushNode(value(s), sg, value(u01x), value(u01y), st == 0, f);
       }
       // Stage 2: y + h/2 k1 at R E2, E2 = exp(h/2 u01).
-      stageState(yt, y, hh, k[0], shift, n, dim);
+      stageState(yt, y, hh, k[0], shift, n, dim, hidx, hcnt);
       const StageRotation<T> E2(hh * u01x, hh * u01y);
       const StageRotation<T>* E[2] = {&E2, nullptr};
       R.stage(E, 1, yt + 2 * n, mb, t);
@@ -362,7 +389,7 @@ void runLoaded(const LoadedProblem& L, const T* z, const T* alpha, const T* beta
       else
         derivOutOfLine(rho, C, s + hh, yt, mb, t, k[1], u02x, u02y, shift, false);
       // Stage 3: y + h/2 k2 at R exp(h/2 u02).
-      stageState(yt, y, hh, k[1], shift, n, dim);
+      stageState(yt, y, hh, k[1], shift, n, dim, hidx, hcnt);
       const StageRotation<T> E3(hh * u02x, hh * u02y);
       E[0] = &E3;
       R.stage(E, 1, yt + 2 * n, mb, t);
@@ -371,7 +398,7 @@ void runLoaded(const LoadedProblem& L, const T* z, const T* alpha, const T* beta
       else
         derivOutOfLine(rho, C, s + hh, yt, mb, t, k[2], u03x, u03y, shift, false);
       // Stage 4: y + h k3 at R E2 E4, E4 = exp(h u03 - h/2 u01).
-      stageState(yt, y, h, k[2], shift, n, dim);
+      stageState(yt, y, h, k[2], shift, n, dim, hidx, hcnt);
       const StageRotation<T> E4(h * u03x - hh * u01x, h * u03y - hh * u01y);
       E[0] = &E2;
       E[1] = &E4;
@@ -381,7 +408,7 @@ void runLoaded(const LoadedProblem& L, const T* z, const T* alpha, const T* beta
       else
         derivOutOfLine(rho, C, s + h, yt, mb, t, k[3], u04x, u04y, shift, false);
       const T h6 = h / 6.0;
-      rk4Update(y, h6, k[0], k[1], k[2], k[3], step_shift, n, dim);
+      rk4Update(y, h6, k[0], k[1], k[2], k[3], step_shift, n, dim, hidx, hcnt);
       const T h12 = h / 12.0;
       const T w1x = h12 * (3.0 * u01x + 2.0 * u02x + 2.0 * u03x - u04x);
       const T w1y = h12 * (3.0 * u01y + 2.0 * u02y + 2.0 * u03y - u04y);

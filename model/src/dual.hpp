@@ -158,31 +158,6 @@ inline Dual<N> mulSub(const Dual<N>& a, const Dual<N>& b, const Dual<N>& c, cons
 inline double mulSub(double a, double b, double c, double d) {
   return a * b - c * d;
 }
-/// y + c x
-template <int N>
-inline Dual<N> axpy(const Dual<N>& y, const Dual<N>& c, const Dual<N>& x) {
-  Dual<N> r;
-  r.v = y.v + c.v * x.v;
-  for (int k = 0; k < N; ++k) r.d[k] = y.d[k] + (c.d[k] * x.v + c.v * x.d[k]);
-  return r;
-}
-inline double axpy(double y, double c, double x) {
-  return y + c * x;
-}
-/// y + h (k1 + 2 k2 + 2 k3 + k4), the RK4 update
-template <int N>
-inline Dual<N> rk4Sum(const Dual<N>& y, const Dual<N>& h, const Dual<N>& k1, const Dual<N>& k2, const Dual<N>& k3,
-                      const Dual<N>& k4) {
-  Dual<N> r;
-  const double sv = k1.v + 2.0 * k2.v + 2.0 * k3.v + k4.v;
-  r.v = y.v + h.v * sv;
-  for (int k = 0; k < N; ++k)
-    r.d[k] = y.d[k] + (h.d[k] * sv + h.v * (k1.d[k] + 2.0 * k2.d[k] + 2.0 * k3.d[k] + k4.d[k]));
-  return r;
-}
-inline double rk4Sum(double y, double h, double k1, double k2, double k3, double k4) {
-  return y + h * (k1 + 2.0 * k2 + 2.0 * k3 + k4);
-}
 
 /// Number of derivative directions of a scalar type (0 for double).
 template <class T>
@@ -209,7 +184,7 @@ inline int nonzeroDirections(const Dual<N>& a, int* idx) {
 inline int nonzeroDirections(double, int*) {
   return 0;
 }
-/// axpy(y, c, x) for a c whose derivative is nonzero only in the directions cidx[0 .. cnt) (e.g. a step size that
+/// y + c x for a c whose derivative is nonzero only in the directions cidx[0 .. cnt) (e.g. a step size that
 /// depends on a few translations): the same value, the derivative summed in another order.
 template <int N>
 inline Dual<N> axpySparse(const Dual<N>& y, const Dual<N>& c, const Dual<N>& x, const int* cidx, int cnt) {
@@ -222,7 +197,7 @@ inline Dual<N> axpySparse(const Dual<N>& y, const Dual<N>& c, const Dual<N>& x, 
 inline double axpySparse(double y, double c, double x, const int*, int) {
   return y + c * x;
 }
-/// rk4Sum with such a sparse h.
+/// y + h (k1 + 2 k2 + 2 k3 + k4), the RK4 update, for such a sparse h.
 template <int N>
 inline Dual<N> rk4SumSparse(const Dual<N>& y, const Dual<N>& h, const Dual<N>& k1, const Dual<N>& k2, const Dual<N>& k3,
                             const Dual<N>& k4, const int* hidx, int cnt) {

@@ -115,7 +115,8 @@ T loadedEndMoment(const Problem& P, const Segment& sg, const T* th, const T& mbx
   return P.kb[i] * sqrt(nv2);
 }
 
-// ys = y + c k over dim entries; for double also sh = c k over the n angles (the stage's angle increments).
+// ys = y + c k over dim entries (c's derivative nonzero only in the directions cidx[0 .. cnt)); sh = the value of c k
+// over the n angles (the stage's angle increments).
 template <class T>
 __attribute__((always_inline)) inline void stageState(T* __restrict ys, const T* __restrict y, const T& c,
                                                       const T* __restrict k, T* __restrict sh, int n, int dim,
@@ -135,7 +136,8 @@ __attribute__((always_inline)) inline void stageState(T* __restrict ys, const T*
   for (; d < dim; ++d) ys[d] = axpySparse(y[d], c, k[d], cidx, cnt);
 }
 
-// y += h6 (k1 + 2 k2 + 2 k3 + k4); for double also inc = that increment over the n angles.
+// y += h6 (k1 + 2 k2 + 2 k3 + k4) (h6's derivative nonzero only in hidx[0 .. cnt)); inc = the value of that increment
+// over the n angles.
 template <class T>
 __attribute__((always_inline)) inline void rk4Update(T* __restrict y, const T& h6, const T* __restrict k1,
                                                      const T* __restrict k2, const T* __restrict k3,

@@ -127,21 +127,28 @@ struct Frame<double> {
     t[1] = R[5];
     t[2] = R[8];
   }
-  /// (R E_1 .. E_k)^T m and (R E_1 .. E_k) e3 for the stage rotations E.
-  void stage(const StageRotation<double>* const* E, int k, const double* m, double* mb, double* t) const {
-    double v[3], w[3];
+  /// (R E)^T m and (R E) e3 for a stage rotation E.
+  void stage(const StageRotation<double>& E, const double* m, double* mb, double* t) const {
+    double v[3], e[3];
     detail::transposeTimes(R, m, v);
-    for (int j = 0; j < k; ++j) {
-      E[j]->transposeTimes(v, w);
-      for (int c = 0; c < 3; ++c) v[c] = w[c];
-    }
-    for (int c = 0; c < 3; ++c) mb[c] = v[c];
-    double e[3];  // E_1 .. E_k e3: the last one's third column, then the others applied
-    E[k - 1]->thirdColumn(e);
-    for (int j = k - 2; j >= 0; --j) {
-      E[j]->times(e, w);
-      for (int c = 0; c < 3; ++c) e[c] = w[c];
-    }
+    E.transposeTimes(v, mb);
+    E.thirdColumn(e);
+    detail::times(R, e, t);
+  }
+  /// As stage(), and keeps (a copy of) E for stageFromKept.
+  void stageKeep(const StageRotation<double>& E, const double* m, double* mb, double* t) {
+    kept_ = E;
+    stage(E, m, mb, t);
+  }
+  /// (R E1 E)^T m and (R E1 E) e3, E1 the rotation last given to stageKeep. For double the product is not formed:
+  /// the rotations are applied to the two vectors.
+  void stageFromKept(const StageRotation<double>& E, const double* m, double* mb, double* t) const {
+    double v[3], w[3], e[3];
+    detail::transposeTimes(R, m, v);
+    kept_.transposeTimes(v, w);
+    E.transposeTimes(w, mb);
+    E.thirdColumn(w);
+    kept_.times(w, e);
     detail::times(R, e, t);
   }
   /// R <- R exp([w]x); with p: p <- p + R V(w) e3 a first (SE(3) step).
@@ -151,13 +158,25 @@ struct Frame<double> {
     for (int k = 0; k < 9; ++k) out[k] = R[k];
   }
   double at(int k) const { return R[k]; }
+
+ private:
+  StageRotation<double> kept_{0.0, 0.0};
 };
+
+/// Rows of N derivatives padded to an even length and 16-byte aligned (as Dual<N>::d), so that they are read and
+/// written in aligned pairs.
+template <int N>
+constexpr int paddedDirections() {
+  return (N + 1) / 2 * 2;
+}
 
 template <int N>
 struct StageRotation<Dual<N>> {
+  static constexpr int P = paddedDirections<N>();
+  alignas(16) double dwx[P];
+  alignas(16) double dwy[P];
   double E[9];          // row-major value
   double wx, wy, C, B;  // value of w and the coefficients of J_r(w)
-  double dwx[N], dwy[N];
   StageRotation(const Dual<N>& x, const Dual<N>& y) : wx(x.v), wy(y.v) {
     for (int k = 0; k < N; ++k) {
       dwx[k] = x.d[k];
@@ -168,17 +187,17 @@ struct StageRotation<Dual<N>> {
     C = c.C;
     rotationOf(c.A, c.B, wx, wy, E);
   }
-  /// xi <- E^T xi + J_r(w) dw: the tangent of R E from that of R.
-  void mapTangent(double (*xi)[N]) const {
+  /// xo = E^T xi + J_r(w) dw: the tangent of R E from that of R (xi, the tangent of R).
+  void mapTangent(const double (*__restrict xi)[P], double (*__restrict xo)[P]) const {
     const double x = wx * wx + wy * wy;
     const double f = 1.0 - C * x;
     for (int k = 0; k < N; ++k) {
       const double a = xi[0][k], b = xi[1][k], c = xi[2][k];
       const double dx = dwx[k], dy = dwy[k];
       const double wd = wx * dx + wy * dy;
-      xi[0][k] = E[0] * a + E[3] * b + E[6] * c + f * dx + C * wx * wd;
-      xi[1][k] = E[1] * a + E[4] * b + E[7] * c + f * dy + C * wy * wd;
-      xi[2][k] = E[2] * a + E[5] * b + E[8] * c - B * (wx * dy - wy * dx);
+      xo[0][k] = E[0] * a + E[3] * b + E[6] * c + f * dx + C * wx * wd;
+      xo[1][k] = E[1] * a + E[4] * b + E[7] * c + f * dy + C * wy * wd;
+      xo[2][k] = E[2] * a + E[5] * b + E[8] * c - B * (wx * dy - wy * dx);
     }
   }
 };
@@ -186,47 +205,64 @@ struct StageRotation<Dual<N>> {
 template <int N>
 struct Frame<Dual<N>> {
   using D = Dual<N>;
+  static constexpr int P = paddedDirections<N>();
+  alignas(16) double xi[3][P] = {};  // directions N .. P-1 unused
   double R[9] = {1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0};
-  double xi[3][N] = {};
 
   // o = R^T v; do_k = R^T dv_k - xi_k x (R^T v).
-  static void transposeTimesOf(const double* R, const double (*xi)[N], const D* v, D* o) {
+  static void transposeTimesOf(const double* R, const double (*xi)[P], const D* v, D* o) {
     double w[3];
     for (int c = 0; c < 3; ++c) w[c] = R[c] * v[0].v + R[3 + c] * v[1].v + R[6 + c] * v[2].v;
-    for (int c = 0; c < 3; ++c) {
-      o[c].v = w[c];
-      const int c1 = (c + 1) % 3, c2 = (c + 2) % 3;
-      for (int k = 0; k < N; ++k)
-        o[c].d[k] =
-            R[c] * v[0].d[k] + R[3 + c] * v[1].d[k] + R[6 + c] * v[2].d[k] - (xi[c1][k] * w[c2] - xi[c2][k] * w[c1]);
+    for (int c = 0; c < 3; ++c) o[c].v = w[c];
+    for (int k = 0; k < N; ++k) {
+      const double a = v[0].d[k], b = v[1].d[k], e = v[2].d[k];
+      const double x0 = xi[0][k], x1 = xi[1][k], x2 = xi[2][k];
+      o[0].d[k] = R[0] * a + R[3] * b + R[6] * e - (x1 * w[2] - x2 * w[1]);
+      o[1].d[k] = R[1] * a + R[4] * b + R[7] * e - (x2 * w[0] - x0 * w[2]);
+      o[2].d[k] = R[2] * a + R[5] * b + R[8] * e - (x0 * w[1] - x1 * w[0]);
     }
   }
   // t = R e3; dt_k = R (xi_k x e3) = R (xi_y, -xi_x, 0).
-  static void tangentOf(const double* R, const double (*xi)[N], D* t) {
-    for (int r = 0; r < 3; ++r) {
-      t[r].v = R[3 * r + 2];
-      for (int k = 0; k < N; ++k) t[r].d[k] = R[3 * r] * xi[1][k] - R[3 * r + 1] * xi[0][k];
+  static void tangentOf(const double* R, const double (*xi)[P], D* t) {
+    for (int r = 0; r < 3; ++r) t[r].v = R[3 * r + 2];
+    for (int k = 0; k < N; ++k) {
+      const double x0 = xi[0][k], x1 = xi[1][k];
+      t[0].d[k] = R[0] * x1 - R[1] * x0;
+      t[1].d[k] = R[3] * x1 - R[4] * x0;
+      t[2].d[k] = R[6] * x1 - R[7] * x0;
     }
   }
-  static void rotate(double* R, const double* E) {
-    double out[9];
+  // Ro = R E.
+  static void rotate(const double* __restrict R, const double* __restrict E, double* __restrict Ro) {
     for (int r = 0; r < 3; ++r)
       for (int col = 0; col < 3; ++col)
-        out[3 * r + col] = R[3 * r] * E[col] + R[3 * r + 1] * E[3 + col] + R[3 * r + 2] * E[6 + col];
-    for (int k = 0; k < 9; ++k) R[k] = out[k];
+        Ro[3 * r + col] = R[3 * r] * E[col] + R[3 * r + 1] * E[3 + col] + R[3 * r + 2] * E[6 + col];
   }
 
   void transposeTimes(const D* v, D* o) const { transposeTimesOf(R, xi, v, o); }
   void tangent(D* t) const { tangentOf(R, xi, t); }
-  void stage(const StageRotation<D>* const* E, int k, const D* m, D* mb, D* t) const {
-    double Rs[9], xs[3][N];
-    for (int c = 0; c < 9; ++c) Rs[c] = R[c];
-    for (int c = 0; c < 3; ++c)
-      for (int j = 0; j < N; ++j) xs[c][j] = xi[c][j];
-    for (int j = 0; j < k; ++j) {
-      E[j]->mapTangent(xs);
-      rotate(Rs, E[j]->E);
-    }
+  /// (R E)^T m and (R E) e3 for a stage rotation E.
+  void stage(const StageRotation<D>& E, const D* m, D* mb, D* t) const {
+    double Rs[9];
+    alignas(16) double xs[3][P];
+    E.mapTangent(xi, xs);
+    rotate(R, E.E, Rs);
+    transposeTimesOf(Rs, xs, m, mb);
+    tangentOf(Rs, xs, t);
+  }
+  /// As stage(), and keeps the frame R E (value and tangents) for stageFromKept.
+  void stageKeep(const StageRotation<D>& E, const D* m, D* mb, D* t) {
+    E.mapTangent(xi, xk_);
+    rotate(R, E.E, Rk_);
+    transposeTimesOf(Rk_, xk_, m, mb);
+    tangentOf(Rk_, xk_, t);
+  }
+  /// (R E1 E)^T m and (R E1 E) e3, E1 the rotation last given to stageKeep: from the kept frame R E1.
+  void stageFromKept(const StageRotation<D>& E, const D* m, D* mb, D* t) const {
+    double Rs[9];
+    alignas(16) double xs[3][P];
+    E.mapTangent(xk_, xs);
+    rotate(Rk_, E.E, Rs);
     transposeTimesOf(Rs, xs, m, mb);
     tangentOf(Rs, xs, t);
   }
@@ -238,15 +274,12 @@ struct Frame<Dual<N>> {
       // p <- p + R tau, tau = a V(w) e3 = a (B wy, -B wx, 1 - C x); dp_k += R (dtau_k + xi_k x tau).
       const D Bd = chain(x, c.B, c.dB), Cd = chain(x, c.C, c.dC);
       const D tau[3] = {a * (Bd * wy), -(a * (Bd * wx)), a * (1.0 - Cd * x)};
-      for (int r = 0; r < 3; ++r) {
-        const double* Rr = R + 3 * r;
-        p[r].v += Rr[0] * tau[0].v + Rr[1] * tau[1].v + Rr[2] * tau[2].v;
-        for (int k = 0; k < N; ++k) {
-          const double g0 = tau[0].d[k] + xi[1][k] * tau[2].v - xi[2][k] * tau[1].v;
-          const double g1 = tau[1].d[k] + xi[2][k] * tau[0].v - xi[0][k] * tau[2].v;
-          const double g2 = tau[2].d[k] + xi[0][k] * tau[1].v - xi[1][k] * tau[0].v;
-          p[r].d[k] += Rr[0] * g0 + Rr[1] * g1 + Rr[2] * g2;
-        }
+      for (int r = 0; r < 3; ++r) p[r].v += R[3 * r] * tau[0].v + R[3 * r + 1] * tau[1].v + R[3 * r + 2] * tau[2].v;
+      for (int k = 0; k < N; ++k) {
+        const double g0 = tau[0].d[k] + xi[1][k] * tau[2].v - xi[2][k] * tau[1].v;
+        const double g1 = tau[1].d[k] + xi[2][k] * tau[0].v - xi[0][k] * tau[2].v;
+        const double g2 = tau[2].d[k] + xi[0][k] * tau[1].v - xi[1][k] * tau[0].v;
+        for (int r = 0; r < 3; ++r) p[r].d[k] += R[3 * r] * g0 + R[3 * r + 1] * g1 + R[3 * r + 2] * g2;
       }
     }
     double E[9];
@@ -260,7 +293,9 @@ struct Frame<Dual<N>> {
       xi[1][k] = E[1] * a0 + E[4] * b0 + E[7] * c0 + f * dy + c.C * vy * wd;
       xi[2][k] = E[2] * a0 + E[5] * b0 + E[8] * c0 - c.B * (vx * dy - vy * dx);
     }
-    rotate(R, E);
+    double Ro[9];
+    rotate(R, E, Ro);
+    for (int c = 0; c < 9; ++c) R[c] = Ro[c];
   }
   void orthonormalize() { detail::orthonormalize(R); }
   // The dual matrix: dR_k = R [xi_k]x.
@@ -281,6 +316,10 @@ struct Frame<Dual<N>> {
     }
   }
   double at(int k) const { return R[k]; }
+
+ private:
+  alignas(16) double xk_[3][P];  // the frame kept by stageKeep: tangents and value
+  double Rk_[9];
 };
 
 }  // namespace ctr::detail

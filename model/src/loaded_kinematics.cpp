@@ -121,19 +121,16 @@ template <class T>
 __attribute__((always_inline)) inline void stageState(T* __restrict ys, const T* __restrict y, const T& c,
                                                       const T* __restrict k, T* __restrict sh, int n, int dim,
                                                       const int* cidx, int cnt) {
-  int d = 0;
   if constexpr (std::is_same_v<T, double>) {
-    for (; d < n; ++d) {
+    for (int d = 0; d < n; ++d) {
       sh[d] = c * k[d];
       ys[d] = y[d] + sh[d];
     }
+    axpySparse(ys + n, y + n, c, k + n, dim - n, cidx, cnt);
   } else {
-    for (; d < n; ++d) {
-      sh[d].v = c.v * k[d].v;  // the value only (the angle increment of the stage)
-      ys[d] = axpySparse(y[d], c, k[d], cidx, cnt);
-    }
+    for (int d = 0; d < n; ++d) sh[d].v = c.v * k[d].v;  // the value only (the angle increment of the stage)
+    axpySparse(ys, y, c, k, dim, cidx, cnt);
   }
-  for (; d < dim; ++d) ys[d] = axpySparse(y[d], c, k[d], cidx, cnt);
 }
 
 // y += h6 (k1 + 2 k2 + 2 k3 + k4) (h6's derivative nonzero only in hidx[0 .. cnt)); inc = the value of that increment
@@ -143,19 +140,17 @@ __attribute__((always_inline)) inline void rk4Update(T* __restrict y, const T& h
                                                      const T* __restrict k2, const T* __restrict k3,
                                                      const T* __restrict k4, T* __restrict inc, int n, int dim,
                                                      const int* hidx, int cnt) {
-  int d = 0;
   if constexpr (std::is_same_v<T, double>) {
-    for (; d < n; ++d) {
+    for (int d = 0; d < n; ++d) {
       inc[d] = h6 * (k1[d] + 2.0 * k2[d] + 2.0 * k3[d] + k4[d]);
       y[d] += inc[d];
     }
+    rk4SumSparse(y + n, h6, k1 + n, k2 + n, k3 + n, k4 + n, dim - n, hidx, cnt);
   } else {
-    for (; d < n; ++d) {
-      inc[d].v = h6.v * (k1[d].v + 2.0 * k2[d].v + 2.0 * k3[d].v + k4[d].v);  // the value only
-      y[d] = rk4SumSparse(y[d], h6, k1[d], k2[d], k3[d], k4[d], hidx, cnt);
-    }
+    for (int d = 0; d < n; ++d)  // the value only
+      inc[d].v = h6.v * (k1[d].v + 2.0 * k2[d].v + 2.0 * k3[d].v + k4[d].v);
+    rk4SumSparse(y, h6, k1, k2, k3, k4, dim, hidx, cnt);
   }
-  for (; d < dim; ++d) y[d] = rk4SumSparse(y[d], h6, k1[d], k2[d], k3[d], k4[d], hidx, cnt);
 }
 
 /// The discrete loaded map. Inputs z (m unknowns), alpha, beta (n), F, M (3). Outputs the residual r (m), the tip
@@ -384,8 +379,7 @@ void runLoaded(const LoadedProblem& L, const T* z, const T* alpha, const T* beta
       // Stage 2: y + h/2 k1 at R E2, E2 = exp(h/2 u01).
       stageState(yt, y, hh, k[0], shift, n, dim, hidx, hcnt);
       const StageRotation<T> E2(hh * u01x, hh * u01y);
-      const StageRotation<T>* E[2] = {&E2, nullptr};
-      R.stage(E, 1, yt + 2 * n, mb, t);
+      R.stageKeep(E2, yt + 2 * n, mb, t);
       if constexpr (kInline)
         derivCore(rho, C, s + hh, yt, mb, t, k[1], u02x, u02y, shift, false);
       else
@@ -393,18 +387,15 @@ void runLoaded(const LoadedProblem& L, const T* z, const T* alpha, const T* beta
       // Stage 3: y + h/2 k2 at R exp(h/2 u02).
       stageState(yt, y, hh, k[1], shift, n, dim, hidx, hcnt);
       const StageRotation<T> E3(hh * u02x, hh * u02y);
-      E[0] = &E3;
-      R.stage(E, 1, yt + 2 * n, mb, t);
+      R.stage(E3, yt + 2 * n, mb, t);
       if constexpr (kInline)
         derivCore(rho, C, s + hh, yt, mb, t, k[2], u03x, u03y, shift, false);
       else
         derivOutOfLine(rho, C, s + hh, yt, mb, t, k[2], u03x, u03y, shift, false);
-      // Stage 4: y + h k3 at R E2 E4, E4 = exp(h u03 - h/2 u01).
+      // Stage 4: y + h k3 at R E2 E4, E4 = exp(h u03 - h/2 u01) (R E2 kept from stage 2).
       stageState(yt, y, h, k[2], shift, n, dim, hidx, hcnt);
       const StageRotation<T> E4(h * u03x - hh * u01x, h * u03y - hh * u01y);
-      E[0] = &E2;
-      E[1] = &E4;
-      R.stage(E, 2, yt + 2 * n, mb, t);
+      R.stageFromKept(E4, yt + 2 * n, mb, t);
       if constexpr (kInline)
         derivCore(rho, C, s + h, yt, mb, t, k[3], u04x, u04y, shift, false);
       else

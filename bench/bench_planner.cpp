@@ -17,8 +17,8 @@ using namespace ctr;
 
 // The planning context of Med-MPD lung patient `patient` with the lung robot (null without ../shared/data/med-mpd).
 std::shared_ptr<const plan::Context> makeLungContext(int patient) {
-  const std::string envf = std::string(CTR_SOURCE_DIR) + "/examples/environments/medmpd_lung_patient" +
-                           std::to_string(patient) + ".yaml";
+  const std::string envf =
+      std::string(CTR_SOURCE_DIR) + "/examples/environments/medmpd_lung_patient" + std::to_string(patient) + ".yaml";
   if (!std::filesystem::exists(std::string(CTR_SHARED_DIR) + "/data/med-mpd")) return nullptr;
   auto env = std::make_shared<const env::Environment>(env::loadEnvironment(envf));
   Robot r = io::loadRobot(std::string(CTR_SOURCE_DIR) + "/examples/robots/medmpd_lung.yaml").withFriction({0.1, 0.0});
@@ -32,6 +32,12 @@ std::shared_ptr<const plan::Context> lungContext() {
   return ctx;
 }
 
+// Checks per second and the fraction of them that were valid.
+void reportValidity(benchmark::State& st, std::size_t valid) {
+  st.counters["checks/s"] = benchmark::Counter(static_cast<double>(st.iterations()), benchmark::Counter::kIsRate);
+  st.counters["valid_fraction"] = static_cast<double>(valid) / static_cast<double>(st.iterations());
+}
+
 void BM_ValidityCold(benchmark::State& st) {
   auto ctx = lungContext();
   if (!ctx) return st.SkipWithError("../shared/data/med-mpd not found");
@@ -40,8 +46,7 @@ void BM_ValidityCold(benchmark::State& st) {
   for (int k = 0; k < 512; ++k) qs.push_back(sampleConfiguration(ctx->robot(), ctx->translationSampler(), g));
   std::size_t k = 0, valid = 0;
   for (auto _ : st) valid += plan::checkFrictionless(*ctx, qs[k++ % qs.size()], plan::scratch()).ok;
-  st.counters["checks/s"] = benchmark::Counter(static_cast<double>(st.iterations()), benchmark::Counter::kIsRate);
-  st.counters["valid_fraction"] = static_cast<double>(valid) / static_cast<double>(st.iterations());
+  reportValidity(st, valid);
 }
 
 void BM_ValidityAlongMotion(benchmark::State& st) {
@@ -59,8 +64,7 @@ void BM_ValidityAlongMotion(benchmark::State& st) {
     prev = plan::checkFrictionless(*ctx, q, plan::scratch(), prev.shape.converged() ? &prev.shape : nullptr);
     valid += prev.ok;
   }
-  st.counters["checks/s"] = benchmark::Counter(static_cast<double>(st.iterations()), benchmark::Counter::kIsRate);
-  st.counters["valid_fraction"] = static_cast<double>(valid) / static_cast<double>(st.iterations());
+  reportValidity(st, valid);
 }
 
 // The same along a path the planner found (the motion above starts from a random configuration of lung 1, which
@@ -93,8 +97,7 @@ void BM_ValidityAlongPlannedPath(benchmark::State& st) {
     prev = plan::checkFrictionless(ctx, q, plan::scratch(), prev.shape.converged() ? &prev.shape : nullptr);
     valid += prev.ok;
   }
-  st.counters["checks/s"] = benchmark::Counter(static_cast<double>(st.iterations()), benchmark::Counter::kIsRate);
-  st.counters["valid_fraction"] = static_cast<double>(valid) / static_cast<double>(st.iterations());
+  reportValidity(st, valid);
   st.counters["path_checks"] = static_cast<double>(qs.size());
 }
 
@@ -128,7 +131,8 @@ void BM_InverseKinematics(benchmark::State& st) {
     const Configuration target = sampleConfiguration(ctx->robot(), ctx->translationSampler(), g);
     const Solution s = solve(ctx->frictionlessRobot(), target, ws, ctx->options().friction.kinematics);
     if (!s.converged()) continue;
-    cases.emplace_back(sampleConfiguration(ctx->robot(), ctx->translationSampler(), g), ctx->basePose() * s.tip_position);
+    cases.emplace_back(sampleConfiguration(ctx->robot(), ctx->translationSampler(), g),
+                       ctx->basePose() * s.tip_position);
   }
   std::size_t k = 0, reached = 0;
   for (auto _ : st) {
@@ -142,7 +146,16 @@ void BM_InverseKinematics(benchmark::State& st) {
 }  // namespace
 
 BENCHMARK(BM_ValidityCold)->Name("planner/lung1/frictionless_validity_cold")->Unit(benchmark::kMicrosecond);
-BENCHMARK(BM_ValidityAlongMotion)->Name("planner/lung1/frictionless_validity_along_motion")->Unit(benchmark::kMicrosecond);
-BENCHMARK(BM_ValidityAlongPlannedPath)->Name("planner/lung2/frictionless_validity_along_planned_path")->Unit(benchmark::kMicrosecond);
+BENCHMARK(BM_ValidityAlongMotion)
+    ->Name("planner/lung1/frictionless_validity_along_motion")
+    ->Unit(benchmark::kMicrosecond);
+BENCHMARK(BM_ValidityAlongPlannedPath)
+    ->Name("planner/lung2/frictionless_validity_along_planned_path")
+    ->Unit(benchmark::kMicrosecond);
 BENCHMARK(BM_FrictionMotionStep)->Name("planner/lung1/friction_motion_step")->Unit(benchmark::kMicrosecond);
-BENCHMARK(BM_InverseKinematics)->Name("planner/lung1/goal_inverse_kinematics")->Arg(10)->Arg(20)->Arg(40)->Unit(benchmark::kMicrosecond);
+BENCHMARK(BM_InverseKinematics)
+    ->Name("planner/lung1/goal_inverse_kinematics")
+    ->Arg(10)
+    ->Arg(20)
+    ->Arg(40)
+    ->Unit(benchmark::kMicrosecond);

@@ -203,8 +203,8 @@ inline void axpySparse(Dual<N>* __restrict ys, const Dual<N>* __restrict y, cons
     for (int e = 0; e < dim; ++e) ys[e].d[k] += ck * x[e].v;
   }
 }
-inline void axpySparse(double* __restrict ys, const double* __restrict y, double c, const double* __restrict x,
-                       int dim, const int*, int) {
+inline void axpySparse(double* __restrict ys, const double* __restrict y, double c, const double* __restrict x, int dim,
+                       const int*, int) {
   for (int e = 0; e < dim; ++e) ys[e] = y[e] + c * x[e];
 }
 /// y[d] += h (k1 + 2 k2 + 2 k3 + k4)[d] (d < dim), the RK4 update, for such a sparse h.

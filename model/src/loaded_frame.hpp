@@ -241,30 +241,27 @@ struct Frame<Dual<N>> {
 
   void transposeTimes(const D* v, D* o) const { transposeTimesOf(R, xi, v, o); }
   void tangent(D* t) const { tangentOf(R, xi, t); }
+  // The frame R0 E (tangents xo) of the frame R0 (tangents x0) and (R0 E)^T m, (R0 E) e3.
+  static void stageOf(const double* R0, const double (*x0)[P], const StageRotation<D>& E, const D* m, D* mb, D* t,
+                      double* Ro, double (*xo)[P]) {
+    E.mapTangent(x0, xo);
+    rotate(R0, E.E, Ro);
+    transposeTimesOf(Ro, xo, m, mb);
+    tangentOf(Ro, xo, t);
+  }
   /// (R E)^T m and (R E) e3 for a stage rotation E.
   void stage(const StageRotation<D>& E, const D* m, D* mb, D* t) const {
     double Rs[9];
     alignas(16) double xs[3][P];
-    E.mapTangent(xi, xs);
-    rotate(R, E.E, Rs);
-    transposeTimesOf(Rs, xs, m, mb);
-    tangentOf(Rs, xs, t);
+    stageOf(R, xi, E, m, mb, t, Rs, xs);
   }
   /// As stage(), and keeps the frame R E (value and tangents) for stageFromKept.
-  void stageKeep(const StageRotation<D>& E, const D* m, D* mb, D* t) {
-    E.mapTangent(xi, xk_);
-    rotate(R, E.E, Rk_);
-    transposeTimesOf(Rk_, xk_, m, mb);
-    tangentOf(Rk_, xk_, t);
-  }
+  void stageKeep(const StageRotation<D>& E, const D* m, D* mb, D* t) { stageOf(R, xi, E, m, mb, t, Rk_, xk_); }
   /// (R E1 E)^T m and (R E1 E) e3, E1 the rotation last given to stageKeep: from the kept frame R E1.
   void stageFromKept(const StageRotation<D>& E, const D* m, D* mb, D* t) const {
     double Rs[9];
     alignas(16) double xs[3][P];
-    E.mapTangent(xk_, xs);
-    rotate(Rk_, E.E, Rs);
-    transposeTimesOf(Rs, xs, m, mb);
-    tangentOf(Rs, xs, t);
+    stageOf(Rk_, xk_, E, m, mb, t, Rs, xs);
   }
   void step(const D& wx, const D& wy, D* p, const D& a) {
     const double vx = wx.v, vy = wy.v, xv = vx * vx + vy * vy;

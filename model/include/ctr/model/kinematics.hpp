@@ -47,8 +47,8 @@ struct KinematicsOptions {
   /// Also limit the step to this angle over the largest precurvature of the tubes curved on the segment (rad).
   double max_bending_per_step = 0.12;
   /// The bending limit per segment (above); false: over the largest precurvature of the whole robot on every segment
-  /// (before stop 25; shorter steps where only less curved tubes bend). The planner uses the per-segment limit too
-  /// (since stop 26: its collision capsules follow each step's arc, docs/planning.md).
+  /// (shorter steps where only less curved tubes bend). The planner uses the per-segment limit too (its collision
+  /// capsules follow each step's arc, docs/planning.md).
   bool bending_limit_per_segment = true;
   int max_iterations = 40;         ///< Newton iterations per solve.
   double tolerance = 1e-10;        ///< Converged when every scaled residual (1/m or rad) is below this.

@@ -2,7 +2,6 @@
 #include <algorithm>
 #include <cstdio>
 #include <iostream>
-#include <mutex>
 #include <sstream>
 
 #include "commands.hpp"
@@ -16,24 +15,35 @@ namespace ctr::cli {
 
 void registerDiagnose(CLI::App& app, Action& action) {
   struct Opts {
-    std::string robot, recording, frame = "base", json, report, plot, candidates, html;
+    std::string robot, recording, frame = "base", json, report, plot, candidates, html, noise, branch = "auto";
     int folds = 4, threads = 2, max_effects = 4;
     double bic_threshold = 10.0;
     bool quiet = false;
   };
   auto o = std::make_shared<Opts>();
-  CLI::App* sub = app.add_subcommand(
-      "diagnose", "Locate where a recording and the nominal model differ, name the left-out physics, fit it and "
-                  "score it on held-out blocks");
+  CLI::App* sub =
+      app.add_subcommand("diagnose",
+                         "Locate where a recording and the nominal model differ, name the left-out physics, fit it and "
+                         "score it on held-out blocks");
   sub->add_option("--robot", o->robot, "Nominal robot description YAML")->required();
   sub->add_option("--recording", o->recording, "Recording CSV (formats.md), rows in the order taken")->required();
-  sub->add_option("--frame", o->frame, "Frame of measured tips: base, or unknown (registration estimated in every model)")
+  sub->add_option("--frame", o->frame,
+                  "Frame of measured tips: base, or unknown (registration estimated in every model)")
       ->check(CLI::IsMember({"base", "unknown"}));
   sub->add_option("--json", o->json, "Diagnosis JSON to write (formats.md)")->required();
   sub->add_option("--report", o->report, "Plain-language Markdown report to write");
   sub->add_option("--plot-data", o->plot, "Plot data JSON to write (measured/nominal/fitted curves, binned residuals)");
   sub->add_option("--html", o->html, "Self-contained HTML report to write (plots, candidates; docs/reports.md)");
   sub->add_option("--candidates", o->candidates, "Comma-separated effect names to try (default: all)");
+  sub->add_option("--noise", o->noise,
+                  "The tracker's noise, 1 sigma per component (tangent: per direction normal to it), e.g. "
+                  "tip_position=0.5mm,tip_tangent=1deg,twist=2deg; quantities not given are estimated from the "
+                  "recording (repeated poses, else neighbouring rows)");
+  sub->add_option("--branch", o->branch,
+                  "How the replay reaches each row's equilibrium: auto (continuation along moves of at most 30 deg / "
+                  "10 mm from the previous row, from rest after larger ones), path (always continuation: the robot "
+                  "moved straight between rows), rest (always from rest: the path between rows is unknown)")
+      ->check(CLI::IsMember({"auto", "path", "rest"}));
   sub->add_option("--folds", o->folds, "Contiguous held-out blocks")->check(CLI::Range(2, 20));
   sub->add_option("--threads", o->threads, "Candidates fitted in parallel")->check(CLI::Range(1, 64));
   sub->add_option("--max-effects", o->max_effects, "Largest combination of effects")->check(CLI::Range(0, 6));
@@ -42,15 +52,18 @@ void registerDiagnose(CLI::App& app, Action& action) {
   sub->callback([o, &action]() {
     action = [o]() {
       requireHtmlReports(o->html);
-      for (const auto& [opt, path] : {std::pair<std::string, std::string>{"--json", o->json}, {"--report", o->report},
-                                      {"--plot-data", o->plot}, {"--html", o->html}})
+      for (const auto& [opt, path] : {std::pair<std::string, std::string>{"--json", o->json},
+                                      {"--report", o->report},
+                                      {"--plot-data", o->plot},
+                                      {"--html", o->html}})
         checkOutputPath(opt, path, {{"--robot", o->robot}, {"--recording", o->recording}});
       const Robot robot = io::loadRobot(o->robot);
       const io::Recording rec = io::loadRecording(o->recording, robot.size(), true);
       for (const auto& w : rec.warnings) std::cerr << "warning: " << o->recording << ": " << w << "\n";
       if (rec.rows() < 8)  // diagnosis::diagnose needs 8 rows (held-out blocks); say which file is too short
-        throw io::InputError(o->recording, 0, "", "the recording has " + std::to_string(rec.rows()) +
-                                                      " data row(s); the diagnosis needs at least 8");
+        throw io::InputError(
+            o->recording, 0, "",
+            "the recording has " + std::to_string(rec.rows()) + " data row(s); the diagnosis needs at least 8");
       diagnosis::DiagnoseOptions d;
       d.frame = o->frame == "unknown" ? diagnosis::FrameMode::Unknown : diagnosis::FrameMode::Base;
       d.folds = o->folds;
@@ -68,47 +81,42 @@ void registerDiagnose(CLI::App& app, Action& action) {
           }
         }
       }
-      // Progress: the diagnosis' messages as before, plus a status line counting the selection rounds (at most
-      // --max-effects) and the candidates fitted in the current round (read from the messages).
+      if (!o->noise.empty()) {
+        try {
+          d.noise = diagnosis::parseGivenNoise(o->noise);
+        } catch (const std::invalid_argument& e) {
+          throw UsageError(std::string("--noise: ") + e.what());
+        }
+      }
+      d.predict.branch = parseBranchRule(o->branch);
+      // Progress: every message of the diagnosis, and a status line counting the selection rounds run (at most
+      // --max-effects) and the candidates screened in the current one.
       Progress progress("diagnose", static_cast<std::size_t>(std::max(1, o->max_effects)), "rounds", o->quiet);
-      struct RoundCount {
-        std::mutex m;
-        int round = 0, candidates = 0, fitted = 0;
-      };
-      auto rc = std::make_shared<RoundCount>();
       if (!o->quiet)
-        d.progress = [&progress, rc](const std::string& s) {
-          progress.note(s);
-          const auto b = s.find("] ");
-          const std::string m = s.rfind("[", 0) == 0 && b != std::string::npos ? s.substr(b + 2) : s;
-          std::lock_guard<std::mutex> lock(rc->m);
-          int r = 0, k = 0;
-          if (std::sscanf(m.c_str(), "round %d: fitting %d candidates", &r, &k) == 2) {
-            rc->round = r;
-            rc->candidates = k;
-            rc->fitted = 0;
-            progress.set(static_cast<std::size_t>(std::max(0, r - 1)));
-          } else if (std::sscanf(m.c_str(), "round %d:", &r) == 1) {
-            progress.set(static_cast<std::size_t>(r));
-            rc->candidates = 0;
-          } else if (rc->candidates > 0 && m.rfind("  ", 0) == 0) {
-            ++rc->fitted;
-          }
-          progress.setDetail(rc->candidates > 0 ? "round " + std::to_string(rc->round) + ": " +
-                                                      std::to_string(std::min(rc->fitted, rc->candidates)) + "/" +
-                                                      std::to_string(rc->candidates) + " candidates"
-                                                : std::string());
+        d.progress = [&progress](const diagnosis::DiagnoseProgress& p) {
+          char t[32];
+          std::snprintf(t, sizeof t, "[%6.1f s] ", p.seconds);
+          progress.note(t + p.message);
+          progress.set(static_cast<std::size_t>(p.rounds));
+          const bool in_round = p.stage == diagnosis::DiagnoseProgress::Stage::Screening ||
+                                p.stage == diagnosis::DiagnoseProgress::Stage::Finalists ||
+                                p.stage == diagnosis::DiagnoseProgress::Stage::LookAlikes;
+          progress.setDetail(in_round ? "round " + std::to_string(p.round) + ": " + std::to_string(p.screened) + "/" +
+                                            std::to_string(p.candidates) + " candidates screened"
+                                      : std::string(diagnosis::toString(p.stage)));
         };
       const diagnosis::DiagnosisReport rep = diagnosis::diagnose(robot, rec, d);
-      progress.setDetail("");
-      progress.set(progress.total());
+      // The rounds actually run (the selection stops when no candidate passes).
+      progress.setTotal(static_cast<std::size_t>(std::max(1, rep.rounds)));
+      progress.set(static_cast<std::size_t>(rep.rounds));
+      progress.setDetail(std::to_string(rep.final_effects.size()) + " effect(s) in the final model, " +
+                         std::to_string(rep.evaluations) + " replays");
       progress.finish();
       io::writeFileAtomic(o->json, diagnosis::reportToJson(rep));
       if (!o->report.empty()) io::writeFileAtomic(o->report, diagnosis::reportToMarkdown(rep, rec));
       if (!o->plot.empty()) io::writeFileAtomic(o->plot, diagnosis::plotDataJson(rep, rec));
 #ifdef CTR_WITH_REPORTS
-      if (!o->html.empty())
-        reports::writeHtml(o->html, reports::diagnosisHtml(rep, rec, "Diagnosis: " + o->recording));
+      if (!o->html.empty()) reports::writeHtml(o->html, reports::diagnosisHtml(rep, rec, "Diagnosis: " + o->recording));
 #endif
       std::cout << "verdict: [";
       for (std::size_t k = 0; k < rep.verdict.size(); ++k) std::cout << (k ? ", " : "") << rep.verdict[k];

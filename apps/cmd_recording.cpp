@@ -23,8 +23,9 @@ void registerImport(CLI::App* parent, Action& action) {
   };
   auto o = std::make_shared<Opts>();
   CLI::App* sub = parent->add_subcommand(
-      "import", "Convert a lab table (whitespace/comma columns) into a formats.md recording: column mapping, unit "
-                "scaling, sign flips, angle unwrapping");
+      "import",
+      "Convert a lab table (whitespace/comma columns) into a formats.md recording: column mapping, unit "
+      "scaling, sign flips, angle unwrapping");
   sub->add_option("--format", o->format, "dupont-lab (hjhdog1/ConcentricTubes jointTipTrajectory) or table")
       ->check(CLI::IsMember({"dupont-lab", "table"}));
   sub->add_option("--input", o->input, "Source table")->required();
@@ -39,7 +40,8 @@ void registerImport(CLI::App* parent, Action& action) {
   sub->callback([o, &action]() {
     action = [o]() {
       checkOutputPath("--out", o->out, {{"--input", o->input}});
-      diagnosis::ImportOptions io = o->format == "dupont-lab" ? diagnosis::dupontLabImportOptions() : diagnosis::ImportOptions{};
+      diagnosis::ImportOptions io =
+          o->format == "dupont-lab" ? diagnosis::dupontLabImportOptions() : diagnosis::ImportOptions{};
       for (const auto& c : o->columns) {
         try {
           io.columns[diagnosis::parseColumnMapping(c).first] = diagnosis::parseColumnMapping(c).second;
@@ -70,9 +72,9 @@ void registerInject(CLI::App* parent, Action& action) {
   struct Opts {
     std::string robot, actuation, pattern = "sweep", out, truth, measure = "twist,tip_position,tip_tangent";
     std::vector<std::string> effects;
-    std::string noise_twist = "0.5deg", noise_tangent = "0.2deg";
-    double noise_position = 1e-4, dt = 0.1, step_deg = 10, max_speed = 1.0;
-    int rows = 150;
+    std::string noise_twist = "0.5deg", noise_tangent = "0.2deg", repeat_tangent = "0", branch = "auto";
+    double noise_position = 1e-4, dt = 0.1, step_deg = 10, max_speed = 1.0, returns = 0.0, repeat_position = 0.0;
+    int rows = 150, frames = 1;
     bool translate = false, sensor_frame = false;
     unsigned long long seed = 1;
   };
@@ -81,20 +83,35 @@ void registerInject(CLI::App* parent, Action& action) {
       "inject", "Simulate a recording with effects injected (same forward model the diagnosis fits) plus noise");
   sub->add_option("--robot", o->robot, "Nominal robot description YAML")->required();
   sub->add_option("--actuation", o->actuation, "Actuation CSV (alpha_*, beta_*, optional time); default: --pattern");
-  sub->add_option("--pattern", o->pattern, "Generated actuation: sweep (paper protocol), random (random order), random-walk")
+  sub->add_option("--pattern", o->pattern,
+                  "Generated actuation: sweep (paper protocol), random (random order), random-walk")
       ->check(CLI::IsMember({"sweep", "random", "random-walk"}));
   sub->add_option("--rows", o->rows, "Rows of random / random-walk patterns");
   sub->add_option("--step-deg", o->step_deg, "Sweep step (deg)");
   sub->add_option("--dt", o->dt, "Time step of the generated time column (s); 0 = no time column");
   sub->add_option("--max-speed", o->max_speed, "Random-walk rotation speed (rad/s)");
   sub->add_flag("--translate", o->translate, "Also vary the innermost tube's translation");
-  sub->add_option("--effect", o->effects, "Effect to inject, e.g. boundary_friction:mu=0.12, "
-                                          "actuator_backlash:tube=2,width=12deg, tip_load:force=0.05,0,-0.1 (N, base "
-                                          "frame) or gravity:scale=1,direction=0,-1,0 (repeatable; loads are "
-                                          "simulated with the loaded model)");
+  sub->add_option("--returns", o->returns, "Random pattern: fraction of poses that return to an earlier pose")
+      ->check(CLI::Range(0.0, 0.9));
+  sub->add_option("--frames", o->frames, "Log every pose this many times in a row (a tracker's repeated frames)")
+      ->check(CLI::Range(1, 1000));
+  sub->add_option("--branch", o->branch,
+                  "How the robot reaches each row: auto, path (straight between rows), rest (from rest); as "
+                  "`ctr simulate --branch`")
+      ->check(CLI::IsMember({"auto", "path", "rest"}));
+  sub->add_option("--effect", o->effects,
+                  "Effect to inject, e.g. boundary_friction:mu=0.12, "
+                  "actuator_backlash:tube=2,width=12deg, tip_load:force=0.05,0,-0.1 (N, base "
+                  "frame) or gravity:scale=1,direction=0,-1,0 (repeatable; loads are "
+                  "simulated with the loaded model)");
   sub->add_option("--noise-twist", o->noise_twist, "Twist noise sd (rad or deg suffix)");
   sub->add_option("--noise-position", o->noise_position, "Tip position noise sd per component (m)");
   sub->add_option("--noise-tangent", o->noise_tangent, "Tangent noise sd per component (rad or deg suffix)");
+  sub->add_option("--repeatability-position", o->repeat_position,
+                  "Tip position error drawn once per visit of a pose, per component (m): a robot that does not return "
+                  "exactly; the --noise-* values are then the frame-to-frame jitter");
+  sub->add_option("--repeatability-tangent", o->repeat_tangent,
+                  "Tangent error drawn once per visit, per component (rad or deg suffix)");
   sub->add_option("--measure", o->measure, "Recorded quantities: comma list of twist, tip_position, tip_tangent");
   sub->add_flag("--sensor-frame", o->sensor_frame, "Express tips in a random rigid sensor frame (for --frame unknown)");
   sub->add_option("--seed", o->seed, "Random seed");
@@ -133,7 +150,7 @@ void registerInject(CLI::App* parent, Action& action) {
         }
       } else {
         diagnosis::ActuationOptions a;
-        a.pattern = o->pattern == "sweep" ? diagnosis::ActuationPattern::Sweep
+        a.pattern = o->pattern == "sweep"    ? diagnosis::ActuationPattern::Sweep
                     : o->pattern == "random" ? diagnosis::ActuationPattern::Random
                                              : diagnosis::ActuationPattern::RandomWalk;
         a.rows = o->rows;
@@ -141,6 +158,8 @@ void registerInject(CLI::App* parent, Action& action) {
         a.dt = o->dt;
         a.max_speed = o->max_speed;
         a.translate = o->translate;
+        a.returns = o->returns;
+        a.frames = o->frames;
         a.seed = o->seed;
         diagnosis::makeActuation(robot, a, commands, time);
         for (std::size_t r = 0; r < commands.size(); ++r) {
@@ -152,6 +171,9 @@ void registerInject(CLI::App* parent, Action& action) {
       s.twist_sd = parseNumber(o->noise_twist, "--noise-twist", true);
       s.tangent_sd = parseNumber(o->noise_tangent, "--noise-tangent", true);
       s.position_sd = o->noise_position;
+      s.repeatability_position_sd = o->repeat_position;
+      s.repeatability_tangent_sd = parseNumber(o->repeat_tangent, "--repeatability-tangent", true);
+      s.predict.branch = parseBranchRule(o->branch);
       s.twist = o->measure.find("twist") != std::string::npos;
       s.tip_position = o->measure.find("tip_position") != std::string::npos;
       s.tip_tangent = o->measure.find("tip_tangent") != std::string::npos;

@@ -4,23 +4,30 @@
 #include "commands.hpp"
 #include "ctr/io/recording.hpp"
 #include "ctr/io/robot_yaml.hpp"
-#include "ctr/model/friction.hpp"
+#include "ctr/model/replay.hpp"
 
 namespace ctr::cli {
 
 void registerSimulate(CLI::App& app, Action& action) {
   struct Opts {
-    std::string robot, actuation, out;
+    std::string robot, actuation, out, branch = "auto";
     bool allow_failures = false;
     FrictionCli friction;
     LoadsCli loads;
   };
   auto o = std::make_shared<Opts>();
-  CLI::App* sub = app.add_subcommand("simulate", "Replay an actuation CSV (alpha_*, beta_* rows in order) and write a recording");
+  CLI::App* sub =
+      app.add_subcommand("simulate", "Replay an actuation CSV (alpha_*, beta_* rows in order) and write a recording");
   sub->add_option("--robot", o->robot, "Robot description YAML")->required();
-  sub->add_option("--actuation", o->actuation, "CSV with alpha_1..n, beta_1..n (and optional time) columns")->required();
+  sub->add_option("--actuation", o->actuation, "CSV with alpha_1..n, beta_1..n (and optional time) columns")
+      ->required();
   sub->add_option("--out", o->out, "Recording CSV to write (formats.md columns)")->required();
   sub->add_flag("--allow-failures", o->allow_failures, "Write rows that did not converge with empty measurements");
+  sub->add_option("--branch", o->branch,
+                  "How each row's equilibrium is reached: auto (continuation along small moves from the previous "
+                  "row, from rest after the first row and moves beyond 30 deg / 10 mm), path (always continuation), "
+                  "rest (always from rest); docs/friction.md \"Replaying a sequence\"")
+      ->check(CLI::IsMember({"auto", "path", "rest"}));
   o->friction.add(sub);
   o->loads.add(sub);
   sub->callback([o, &action]() {
@@ -33,11 +40,14 @@ void registerSimulate(CLI::App& app, Action& action) {
       for (int r = 0; r < act.rows(); ++r) {
         const Admissibility adm = projectAdmissible(robot, act.commands[static_cast<std::size_t>(r)]);
         if (!adm)
-          throw io::InputError(o->actuation, act.lineOf(r), "", "row " + std::to_string(r + 1) + " is not admissible: " +
-                                                            adm.message);
+          throw io::InputError(o->actuation, act.lineOf(r), "",
+                               "row " + std::to_string(r + 1) + " is not admissible: " + adm.message);
       }
       Workspace ws;
-      const std::vector<StepResult> res = replay(robot, act.commands, ws, o->friction.options());
+      ReplayOptions ro;
+      ro.friction = o->friction.options();
+      ro.branch = parseBranchRule(o->branch);
+      const std::vector<ReplayRow> res = replay(robot, act.commands, ws, ro);
       const int n = robot.size();
       io::Recording rec;
       rec.tubes = n;
@@ -49,13 +59,16 @@ void registerSimulate(CLI::App& app, Action& action) {
       rec.tip_tangent = Eigen::MatrixXd::Constant(rows, 3, std::numeric_limits<double>::quiet_NaN());
       int failures = 0;
       for (int r = 0; r < rows; ++r) {
-        const Solution& s = res[static_cast<std::size_t>(r)].solution;
-        if (!s.converged()) {
-          ++failures;
-          std::cerr << "warning: row " << r + 1 << " did not converge: " << res[static_cast<std::size_t>(r)].summary.message
-                    << "\n";
+        const ReplayRow& row = res[static_cast<std::size_t>(r)];
+        if (!row.ok) {
+          // A snap is a prediction (the robot jumps to another branch; where it lands is not quasi-static): the row is
+          // written empty with a warning, as the diagnosis leaves it out. Anything else is a failure.
+          const bool snap = row.reason.rfind("snapped", 0) == 0;
+          failures += snap ? 0 : 1;
+          std::cerr << "warning: row " << r + 1 << (snap ? " " : " could not be evaluated: ") << row.reason << "\n";
           continue;
         }
+        const Solution& s = row.result.solution;
         if (n > 1) rec.twist.row(r) = s.twist.transpose();
         rec.tip_position.row(r) = s.tip_position.transpose();
         rec.tip_tangent.row(r) = s.tipTangent().transpose();
@@ -63,7 +76,7 @@ void registerSimulate(CLI::App& app, Action& action) {
       if (n == 1) rec.twist.resize(rows, 0);
       if (failures && !o->allow_failures) {
         std::cerr << "error: " << failures << " of " << rows
-                  << " rows did not converge; nothing written (use --allow-failures to write them empty)\n";
+                  << " rows could not be evaluated; nothing written (use --allow-failures to write them empty)\n";
         return static_cast<int>(kRuntimeFailure);
       }
       io::saveRecording(rec, o->out);

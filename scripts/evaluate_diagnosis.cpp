@@ -131,7 +131,7 @@ int main(int argc, char** argv) {
     s.seed = k.seed + 100;
     DiagnoseOptions o;
     o.max_effects = max_effects;
-    if (verbose) o.progress = [](const std::string& m) { std::cerr << "  " << m << "\n"; };
+    if (verbose) o.progress = [](const DiagnoseProgress& p) { std::cerr << "  " << p.message << "\n"; };
     if (k.position_only) {
       s.twist = s.tip_tangent = false;
       Registration reg;

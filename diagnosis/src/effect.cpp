@@ -22,6 +22,7 @@ struct KindFacts {
   bool stateful;
   int group;        // 1 = lag, 2 = shift, 3 = load, 0 = none (lookAlikeGroup)
   int coordinates;  // fitted coordinates (parameterCount)
+  bool generic = false;
 };
 
 // One row per kind, in the order of formats.md.
@@ -38,8 +39,12 @@ constexpr KindFacts kFacts[] = {
     {EffectKind::Gravity, "gravity", "scale", "", false, false, 3, 3},
     {EffectKind::TipLoad, "tip_load", "force", "N", false, false, 3, 3},
     {EffectKind::SensorLatency, "sensor_latency", "delay", "s", false, false, 1, 1},
+    {EffectKind::DriveRatio, "drive_ratio", "coefficients", "", true, false, 0, 1, true},
+    {EffectKind::DrivePeriodic, "drive_periodic", "coefficients", "rad", true, false, 0, 4, true},
+    {EffectKind::StageError, "stage_error", "coefficients", "m", true, false, 0, 3, true},
+    {EffectKind::TrackerDrift, "tracker_drift", "coefficients", "m", false, false, 0, 6, true},
 };
-static_assert(sizeof(kFacts) / sizeof(kFacts[0]) == static_cast<std::size_t>(EffectKind::TipLoad) + 1,
+static_assert(sizeof(kFacts) / sizeof(kFacts[0]) == static_cast<std::size_t>(EffectKind::TrackerDrift) + 1,
               "one row of facts per EffectKind");
 
 const KindFacts& facts(EffectKind k) {
@@ -53,10 +58,25 @@ const KindFacts& facts(EffectKind k) {
 const std::vector<EffectKind>& allEffectKinds() {
   static const std::vector<EffectKind> k = [] {
     std::vector<EffectKind> v;
-    for (const KindFacts& f : kFacts) v.push_back(f.kind);
+    for (const KindFacts& f : kFacts)
+      if (!f.generic) v.push_back(f.kind);
     return v;
   }();
   return k;
+}
+
+const std::vector<EffectKind>& genericEffectKinds() {
+  static const std::vector<EffectKind> k = [] {
+    std::vector<EffectKind> v;
+    for (const KindFacts& f : kFacts)
+      if (f.generic) v.push_back(f.kind);
+    return v;
+  }();
+  return k;
+}
+
+bool isGeneric(EffectKind k) {
+  return facts(k).generic;
 }
 
 const char* effectName(EffectKind k) {
@@ -93,6 +113,55 @@ bool isLookAlike(EffectKind k) {
   return false;
 }
 
+std::string describePhysics(EffectKind k) {
+  switch (k) {
+    case EffectKind::BoundaryFriction:
+      return "Coulomb friction torque mu'|m| at the concentrated bending moments (tube ends, curvature "
+             "discontinuities) with stick-slip memory (Lock & Dupont 2011, sec. II.D): the twist lags the "
+             "commanded rotation in the direction of motion, most where the moments are largest";
+    case EffectKind::DistributedFriction:
+      return "Coulomb friction of the distributed inter-tube contact forces (sec. II.B)";
+    case EffectKind::TorsionalStiffness:
+      return "a different ratio of bending to torsional stiffness (Poisson ratio), which changes how much the "
+             "tubes wind up between base and tip (the paper itself moved nu from 0.3 to 0.6)";
+    case EffectKind::Precurvature:
+      return "a tube's precurvature differing from its description";
+    case EffectKind::BendingStiffness:
+      return "a tube's bending stiffness (stiffness ratio) differing from its description";
+    case EffectKind::ActuatorBacklash:
+      return "a dead band in a rotation drive: after each reversal the tube does not turn until the play is taken up, "
+             "giving a constant-width direction-dependent offset";
+    case EffectKind::ActuatorOffset:
+      return "a constant offset between commanded and true rotation of a tube";
+    case EffectKind::SensorLatency:
+      return "the measurement lagging the joint reading: a direction-dependent error whose size grows with the "
+             "actuator speed rather than with the bending moment";
+    case EffectKind::TranslationBacklash:
+      return "play in a linear stage: after each reversal of the translation the tube does not move until the play "
+             "is taken up";
+    case EffectKind::TranslationOffset:
+      return "a zero error of a linear stage: the tube is translated by a constant amount more or less than commanded";
+    case EffectKind::Gravity:
+      return "the robot's own weight (a distributed dead load on every tube outside the actuation unit, in a fixed "
+             "direction of the base frame), which bends it more where it is long and where its tubes are flexible";
+    case EffectKind::TipLoad:
+      return "a constant external force at the tip (a dead load in the base frame), which bends the robot like a "
+             "weight hung on its tip";
+    case EffectKind::DriveRatio:
+      return "a ratio error of a rotation drive (the tube turns a constant factor more or less than commanded, e.g. "
+             "a wrong gear ratio): not physics of the library, a description of the remainder";
+    case EffectKind::DrivePeriodic:
+      return "a periodic transmission error of a rotation drive, one or two cycles per turn of the drive (an "
+             "eccentric gear or coupling): not physics of the library, a description of the remainder";
+    case EffectKind::StageError:
+      return "a smooth error of a translation stage along its travel (a lead-screw pitch error, a bent rail): not "
+             "physics of the library, a description of the remainder";
+    case EffectKind::TrackerDrift:
+      return "the tracker's measurements drifting with time: not physics of the robot, a description of the remainder";
+  }
+  return "";
+}
+
 EffectKind parseEffectKind(const std::string& name) {
   for (EffectKind k : allEffectKinds())
     if (name == effectName(k)) return k;
@@ -108,14 +177,36 @@ std::string Effect::label() const {
 }
 
 double Effect::coordinate(int i) const {
+  if (isGeneric(kind)) return coef[i];
   return parameterCount(kind) == 1 ? value : vec[i];
 }
 
 void Effect::setCoordinate(int i, double v) {
-  if (parameterCount(kind) == 1)
+  if (isGeneric(kind))
+    coef[i] = v;
+  else if (parameterCount(kind) == 1)
     value = v;
   else
     vec[i] = v;
+}
+
+double Effect::genericAt(double x, int axis) const {
+  switch (kind) {
+    case EffectKind::DriveRatio:
+      return coef[0] * (x - ref[0]);
+    case EffectKind::DrivePeriodic:
+      return coef[0] * std::cos(x) + coef[1] * std::sin(x) + coef[2] * std::cos(2 * x) + coef[3] * std::sin(2 * x);
+    case EffectKind::StageError: {
+      const double u = (x - ref[0]) / ref[1];
+      return u * (coef[0] + u * (coef[1] + u * coef[2]));
+    }
+    case EffectKind::TrackerDrift: {
+      const double t = (x - ref[0]) / ref[1];
+      return coef[axis] * t + coef[3 + axis] * t * t;
+    }
+    default:
+      return 0.0;
+  }
 }
 
 Eigen::Vector3d Effect::gravityDirection() const {
@@ -140,6 +231,15 @@ std::string Effect::valueText() const {
       return "scale = " + g4(gravityScale()) + ", direction = " + vec3(gravityDirection());
     case EffectKind::TipLoad:
       return "force = " + vec3(vec) + " N";
+    case EffectKind::DriveRatio:
+      return "ratio error " + g4(coef[0]);
+    case EffectKind::DrivePeriodic:
+      return "1st harmonic " + g4(std::hypot(coef[0], coef[1]) * 180 / M_PI) + " deg, 2nd harmonic " +
+             g4(std::hypot(coef[2], coef[3]) * 180 / M_PI) + " deg";
+    case EffectKind::StageError:
+      return "u, u^2, u^3 terms " + g4(coef[0] * 1e3) + ", " + g4(coef[1] * 1e3) + ", " + g4(coef[2] * 1e3) + " mm";
+    case EffectKind::TrackerDrift:
+      return "linear " + vec3(coef.head<3>() * 1e3) + " mm, quadratic " + vec3(coef.segment<3>(3) * 1e3) + " mm";
     default:
       return std::string(parameterName(kind)) + " = " + g4(value);
   }
@@ -174,6 +274,16 @@ std::vector<NamedParameter> namedParameters(const Effect& e, const EffectUncerta
       }
       out.push_back(sc);
       out.push_back(dir);
+      break;
+    }
+    case EffectKind::DriveRatio:
+    case EffectKind::DrivePeriodic:
+    case EffectKind::StageError:
+    case EffectKind::TrackerDrift: {
+      NamedParameter p{"coefficients", {}, {}};
+      for (int i = 0; i < parameterCount(e.kind); ++i) p.value.push_back(e.coef[i]);
+      if (have && static_cast<int>(u->interval95.size()) == parameterCount(e.kind)) p.interval95 = u->interval95;
+      out.push_back(p);
       break;
     }
     default: {
@@ -291,8 +401,7 @@ Effect nominalEffect(const Robot& nominal, EffectKind kind, int tube) {
   e.kind = kind;
   e.tube = isPerTube(kind) ? tube : 0;
   if (kind == EffectKind::Gravity)
-    e.vec = nominal.hasWeight() ? Eigen::Vector3d(nominal.loads().gravity / kStandardGravity)
-                                : Eigen::Vector3d::Zero();
+    e.vec = nominal.hasWeight() ? Eigen::Vector3d(nominal.loads().gravity / kStandardGravity) : Eigen::Vector3d::Zero();
   else if (kind == EffectKind::TipLoad)
     e.vec = nominal.loads().tip_force;
   else
@@ -349,6 +458,12 @@ Robot applyToRobot(const Robot& nominal, const std::vector<Effect>& effects) {
         check(e);
         break;
       case EffectKind::SensorLatency:
+      case EffectKind::TrackerDrift:
+        break;
+      case EffectKind::DriveRatio:
+      case EffectKind::DrivePeriodic:
+      case EffectKind::StageError:
+        check(e);
         break;
       case EffectKind::TipLoad:
         loads.tip_force = e.vec;

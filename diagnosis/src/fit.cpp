@@ -92,6 +92,20 @@ ParameterRange parameterRange(const Robot& nominal, const io::Recording& rec, Ef
       r = {c - fmax, c + fmax, {c - 0.3 * fmax, c - 0.1 * fmax, c + 0.1 * fmax, c + 0.3 * fmax}};
       break;
     }
+    // Generic models, started at zero (no grid): a ratio error up to 25 %, harmonics up to 20 deg; stage errors up
+    // to 5 mm per term; a tracker drift up to 10 mm per term.
+    case EffectKind::DriveRatio:
+      r = {-0.25, 0.25, {}};
+      break;
+    case EffectKind::DrivePeriodic:
+      r = {-0.35, 0.35, {}};
+      break;
+    case EffectKind::StageError:
+      r = {-0.005, 0.005, {}};
+      break;
+    case EffectKind::TrackerDrift:
+      r = {-0.01, 0.01, {}};
+      break;
   }
   return r;
 }
@@ -365,8 +379,7 @@ void addLinearisation(Model& m, const std::vector<double>& x, FitResult& f) {
     bool hac_ok = true;
     for (int a = 0; a < nb; ++a) hac_ok = hac_ok && Hc(a, a) > 0;
     Eigen::VectorXd d(nb);
-    for (int a = 0; a < nb; ++a)
-      d[a] = m.span(j0 + a) * (hac_ok ? std::sqrt(std::max(1.0, Cc(a, a) / Hc(a, a))) : 1.0);
+    for (int a = 0; a < nb; ++a) d[a] = m.span(j0 + a) * (hac_ok ? std::sqrt(std::max(1.0, Cc(a, a) / Hc(a, a))) : 1.0);
     EffectUncertainty& u = f.uncertainty[static_cast<std::size_t>(e)];
     u.covariance = d.asDiagonal() * (hac_ok ? Hc : Cc) * d.asDiagonal();
     for (int a = 0; a < nb; ++a) {
@@ -511,8 +524,8 @@ CrossValidation crossValidate(const Robot& nominal, const io::Recording& rec, co
   std::vector<FitResult> fits(static_cast<std::size_t>(nf));
   const int ncoord = coordinateCount(start);
   const bool one_step =
-      full && !start.empty() && full->jacobian.cols() == ncoord &&
-      full->x.size() == static_cast<std::size_t>(ncoord) && full->components > 0 &&
+      full && !start.empty() && full->jacobian.cols() == ncoord && full->x.size() == static_cast<std::size_t>(ncoord) &&
+      full->components > 0 &&
       full->jacobian.rows() == static_cast<Eigen::Index>(full->jacobian_rows.size()) * full->components;
   auto fitFold = [&](int f, Workspace& w) {
     std::vector<char> train(static_cast<std::size_t>(rows));
@@ -537,8 +550,7 @@ CrossValidation crossValidate(const Robot& nominal, const io::Recording& rec, co
       for (Effect& ef : e)
         for (int c = 0; c < parameterCount(ef.kind); ++c, ++j) {
           const ParameterRange pr = parameterRange(nominal, rec, ef.kind, ef.tube, c);
-          const double xj =
-              std::clamp(full->x[static_cast<std::size_t>(j)] + (dx.allFinite() ? dx[j] : 0.0), 0.0, 1.0);
+          const double xj = std::clamp(full->x[static_cast<std::size_t>(j)] + (dx.allFinite() ? dx[j] : 0.0), 0.0, 1.0);
           ef.setCoordinate(c, pr.lo + xj * (pr.hi - pr.lo));
         }
       fits[static_cast<std::size_t>(f)] = evaluateModel(nominal, rec, e, train, o, w);

@@ -99,7 +99,8 @@ io::Recording importTableText(const std::string& text, const std::string& source
   for (int i = 1; i <= n; ++i)
     for (const char* p : {"alpha_", "beta_"})
       if (!o.columns.count(p + std::to_string(i)))
-        throw io::InputError(source, 0, p + std::to_string(i), "column not mapped (every alpha_i and beta_i is required)");
+        throw io::InputError(source, 0, p + std::to_string(i),
+                             "column not mapped (every alpha_i and beta_i is required)");
   // Parse rows.
   std::vector<std::vector<double>> table;
   std::vector<int> line_of;
@@ -152,9 +153,9 @@ io::Recording importTableText(const std::string& text, const std::string& source
     for (int r = 0; r < rows; ++r) {
       const auto& row = table[static_cast<std::size_t>(r)];
       if (s.column > static_cast<int>(row.size()))
-        throw io::InputError(source, line_of[static_cast<std::size_t>(r)], name,
-                             "row has " + std::to_string(row.size()) + " columns, column " + std::to_string(s.column) +
-                                 " is mapped");
+        throw io::InputError(
+            source, line_of[static_cast<std::size_t>(r)], name,
+            "row has " + std::to_string(row.size()) + " columns, column " + std::to_string(s.column) + " is mapped");
       v[r] = s.scale * row[static_cast<std::size_t>(s.column - 1)] + s.offset;
     }
     if (std::find(o.unwrap.begin(), o.unwrap.end(), name) != o.unwrap.end()) unwrapAngles(v);
@@ -173,7 +174,8 @@ io::Recording importTableText(const std::string& text, const std::string& source
       q.alpha[i] = a[static_cast<std::size_t>(i)][r];
       q.beta[i] = b[static_cast<std::size_t>(i)][r];
       if (!std::isfinite(q.alpha[i]) || !std::isfinite(q.beta[i]))
-        throw io::InputError(source, line_of[static_cast<std::size_t>(r)], "alpha/beta", "actuation must be given in every row");
+        throw io::InputError(source, line_of[static_cast<std::size_t>(r)], "alpha/beta",
+                             "actuation must be given in every row");
     }
     rec.commands.push_back(q);
   }
@@ -199,8 +201,8 @@ io::Recording importTableText(const std::string& text, const std::string& source
     }
   for (const auto& kv : o.columns) {
     const std::string& k = kv.first;
-    const bool known = k == "time" || k.rfind("alpha_", 0) == 0 || k.rfind("beta_", 0) == 0 || k.rfind("twist_", 0) == 0 ||
-                       k.rfind("tip_", 0) == 0;
+    const bool known = k == "time" || k.rfind("alpha_", 0) == 0 || k.rfind("beta_", 0) == 0 ||
+                       k.rfind("twist_", 0) == 0 || k.rfind("tip_", 0) == 0;
     if (!known) rec.warnings.push_back("mapping for unknown column '" + k + "' ignored");
   }
   if (!rec.hasTwist() && !rec.hasTipPosition() && !rec.hasTipTangent())

@@ -1,5 +1,6 @@
-// First-order screen of the load candidates: per-row sensitivities of the model to the load coordinates and the
-// linear least-squares estimate (registration profiled out) with the BIC change it predicts.
+// First-order screen of candidates that are costly to fit by replays (loads, generic models): per-row sensitivities of
+// the model to their coordinates and the linear least-squares estimate (registration profiled out) with the BIC change
+// it predicts.
 #include "ctr/diagnosis/load_screen.hpp"
 
 #include <Eigen/Dense>
@@ -11,10 +12,11 @@
 
 namespace ctr::diagnosis {
 
-std::vector<LoadScreen> screenLoads(const Robot& nominal, const io::Recording& rec, const std::vector<Effect>& model,
-                                    const FitResult& model_fit, const std::vector<Effect>& candidates,
-                                    const std::vector<char>& use, const FitOptions& o, Workspace& ws) {
-  std::vector<LoadScreen> out(candidates.size());
+std::vector<FirstOrderScreen> screenFirstOrder(const Robot& nominal, const io::Recording& rec,
+                                               const std::vector<Effect>& model, const FitResult& model_fit,
+                                               const std::vector<Effect>& candidates, const std::vector<char>& use,
+                                               const FitOptions& o, Workspace& ws) {
+  std::vector<FirstOrderScreen> out(candidates.size());
   for (std::size_t i = 0; i < candidates.size(); ++i) out[i].effect = candidates[i];
   if (candidates.empty()) return out;
   const int rows = rec.rows();
@@ -22,9 +24,7 @@ std::vector<LoadScreen> screenLoads(const Robot& nominal, const io::Recording& r
   PredictOptions po = o.predict;
   po.keep_solutions = true;
   const Prediction p = predict(nominal, rec.commands, rec.time, model, ws, po);
-  const Robot base = applyToRobot(nominal, model);
-  const bool friction = base.friction().boundary > 0.0 || base.friction().distributed > 0.0;
-  const KinematicsOptions kin = friction ? po.friction.kinematics : po.kinematics;
+  const KinematicsOptions kin = po.friction.kinematics;
   const std::vector<Quantity> qs = presentQuantities(rec);
   const int n = rec.tubes;
   int comps = 0;
@@ -52,7 +52,9 @@ std::vector<LoadScreen> screenLoads(const Robot& nominal, const io::Recording& r
     }
     return v;
   };
-  // Perturbed robots: each candidate's coordinates at nominal +- h.
+  // Perturbations of each candidate coordinate by +- h: a robot-side effect (a load) changes the robot; a generic
+  // input-side model (drive or stage error) moves the row's actuation by h times its basis function at the joint's
+  // value; a tracker drift adds h times its basis (in time) to the measured position directly.
   struct Side {
     Robot plus, minus;
     double h;
@@ -63,6 +65,10 @@ std::vector<LoadScreen> screenLoads(const Robot& nominal, const io::Recording& r
     for (int j = 0; j < parameterCount(c.kind); ++j) {
       const ParameterRange r = parameterRange(nominal, rec, c.kind, c.tube, j);
       const double h = 0.01 * (r.hi - r.lo);
+      if (isGeneric(c.kind)) {
+        sides[i].push_back({nominal, nominal, h});
+        continue;
+      }
       std::vector<Effect> ep = model, em = model;
       Effect a = c, b = c;
       a.setCoordinate(j, c.coordinate(j) + h);
@@ -72,39 +78,83 @@ std::vector<LoadScreen> screenLoads(const Robot& nominal, const io::Recording& r
       sides[i].push_back({applyToRobot(nominal, ep), applyToRobot(nominal, em), h});
     }
   }
+  const Robot base = applyToRobot(nominal, model);
   // Sensitivities d(outputs)/d(coordinate) per used row (NaN when a perturbed solve failed).
   std::vector<Eigen::MatrixXd> S(candidates.size());
   for (std::size_t i = 0; i < candidates.size(); ++i)
-    S[i] = Eigen::MatrixXd::Constant(static_cast<Eigen::Index>(used.size()) * comps,
-                                     parameterCount(candidates[i].kind), std::numeric_limits<double>::quiet_NaN());
+    S[i] = Eigen::MatrixXd::Constant(static_cast<Eigen::Index>(used.size()) * comps, parameterCount(candidates[i].kind),
+                                     std::numeric_limits<double>::quiet_NaN());
   detail::parallelFor(static_cast<int>(used.size()), std::max(1, o.threads), ws, [&](int u, Workspace& w) {
-    const Solution& s0 = p.solutions[static_cast<std::size_t>(used[static_cast<std::size_t>(u)])];
+    const int row = used[static_cast<std::size_t>(u)];
+    const Solution& s0 = p.solutions[static_cast<std::size_t>(row)];
     std::vector<ContactCondition> laws;
     for (const ContactResult& c : s0.contacts) laws.push_back(c.condition);
-    auto solveAt = [&](const Robot& r) {
-      if (laws.empty() || laws.size() != contactSites(r, s0.q).size()) return solve(r, s0.q, w, kin, &s0);
-      return solveWithContacts(r, s0.q, laws, w, kin, &s0);
+    auto solveAt = [&](const Robot& r, const Configuration& q) {
+      if (laws.empty() || laws.size() != contactSites(r, q).size()) return solve(r, q, w, kin, &s0);
+      return solveWithContacts(r, q, laws, w, kin, &s0);
     };
-    for (std::size_t i = 0; i < candidates.size(); ++i)
+    for (std::size_t i = 0; i < candidates.size(); ++i) {
+      const Effect& e = candidates[i];
       for (std::size_t j = 0; j < sides[i].size(); ++j) {
-        const Solution sp = solveAt(sides[i][j].plus), sm = solveAt(sides[i][j].minus);
-        if (!sp.converged() || !sm.converged() || sp.summary.snapped || sm.summary.snapped) continue;
-        Eigen::VectorXd d = outputs(sp) - outputs(sm);
+        const double h = sides[i][j].h;
+        Eigen::VectorXd d;
+        if (e.kind == EffectKind::TrackerDrift) {
+          // d(measured position)/d(coefficient): the basis in time along one base axis, seen through the sensor
+          // frame's rotation.
+          if (!rec.hasTime()) continue;
+          Effect unit = e;
+          unit.coef.setZero();
+          unit.coef[static_cast<Eigen::Index>(j)] = 1.0;
+          d = Eigen::VectorXd::Zero(comps);
+          int at = 0;
+          for (Quantity q : qs) {
+            if (q == Quantity::TipPosition) {
+              Eigen::Vector3d v;
+              for (int a = 0; a < 3; ++a) v[a] = unit.genericAt(rec.time[row], a);
+              d.segment(at, 3) = reg.rotation * v * (2 * h);
+            }
+            at += q == Quantity::Twist ? n - 1 : 3;
+          }
+        } else if (isGeneric(e.kind)) {
+          // The actuation of this row moved by +-h times the basis function at the joint's value.
+          Effect unit = e;
+          unit.coef.setZero();
+          unit.coef[static_cast<Eigen::Index>(j)] = 1.0;
+          Configuration qp = s0.q, qm = s0.q;
+          const bool rot = e.kind == EffectKind::DriveRatio || e.kind == EffectKind::DrivePeriodic;
+          Eigen::VectorXd& xp = rot ? qp.alpha : qp.beta;
+          Eigen::VectorXd& xm = rot ? qm.alpha : qm.beta;
+          const double step = h * unit.genericAt(xp[e.tube - 1]);
+          xp[e.tube - 1] += step;
+          xm[e.tube - 1] -= step;
+          if (std::abs(step) < 1e-15) {
+            d = Eigen::VectorXd::Zero(comps);
+          } else {
+            if (!rot && (!projectAdmissible(base, qp, 1e-3) || !projectAdmissible(base, qm, 1e-3))) continue;
+            const Solution sp = solveAt(base, qp), sm = solveAt(base, qm);
+            if (!sp.converged() || !sm.converged() || sp.summary.snapped || sm.summary.snapped) continue;
+            d = outputs(sp) - outputs(sm);
+          }
+        } else {
+          const Solution sp = solveAt(sides[i][j].plus, s0.q), sm = solveAt(sides[i][j].minus, s0.q);
+          if (!sp.converged() || !sm.converged() || sp.summary.snapped || sm.summary.snapped) continue;
+          d = outputs(sp) - outputs(sm);
+        }
         for (int c = 0, at = 0; c < static_cast<int>(qs.size()); ++c) {
           const int m = qs[static_cast<std::size_t>(c)] == Quantity::Twist ? n - 1 : 3;
           if (qs[static_cast<std::size_t>(c)] == Quantity::Twist)
             for (int k = at; k < at + m; ++k) d[k] = std::remainder(d[k], 2 * M_PI);
           at += m;
         }
-        S[i].block(static_cast<Eigen::Index>(u) * comps, static_cast<Eigen::Index>(j), comps, 1) =
-            d / (2 * sides[i][j].h);
+        S[i].block(static_cast<Eigen::Index>(u) * comps, static_cast<Eigen::Index>(j), comps, 1) = d / (2 * h);
       }
+    }
   });
   // Weighted least squares per candidate: residual ~ nuisance (registration) + S dx.
   const bool unknown = o.frame == FrameMode::Unknown && (rec.hasTipPosition() || rec.hasTipTangent());
   const int nn = unknown ? 7 : 0;  // rotation (3), translation (3), tip offset (1)
   for (std::size_t i = 0; i < candidates.size(); ++i) {
-    LoadScreen& ls = out[i];
+    FirstOrderScreen& ls = out[i];
     const int kc = parameterCount(candidates[i].kind);
     std::vector<Eigen::VectorXd> A_rows;
     std::vector<double> y;
@@ -135,8 +185,7 @@ std::vector<LoadScreen> screenLoads(const Robot& nominal, const io::Recording& r
               a[6] = ts[j];
             }
           }
-          for (int c2 = 0; c2 < kc; ++c2)
-            a[nn + c2] = S[i](static_cast<Eigen::Index>(u) * comps + at, c2);
+          for (int c2 = 0; c2 < kc; ++c2) a[nn + c2] = S[i](static_cast<Eigen::Index>(u) * comps + at, c2);
           A_rows.push_back(a / sigma);
           y.push_back(r / sigma);
           qi.push_back(static_cast<int>(c));

@@ -28,8 +28,10 @@ void directionAndSpeed(const io::Recording& rec, const Eigen::VectorXd& cont, Co
   const double eps = 1e-9;
   for (int k = 1; k < rows; ++k) {
     const double d = cont[k] - cont[k - 1];
-    if (d > eps) dir = 1;
-    else if (d < -eps) dir = -1;
+    if (d > eps)
+      dir = 1;
+    else if (d < -eps)
+      dir = -1;
     v.direction[k] = dir;
     if (rec.hasTime() && rec.time[k] > rec.time[k - 1]) v.speed[k] = std::abs(d) / (rec.time[k] - rec.time[k - 1]);
   }
@@ -41,6 +43,8 @@ std::vector<ConfigVariable> configVariables(const io::Recording& rec) {
   std::vector<ConfigVariable> out;
   const int n = rec.tubes, rows = rec.rows();
   if (rows == 0) return out;
+  bool tube1_turns = false;
+  for (const Configuration& q : rec.commands) tube1_turns = tube1_turns || q.alpha[0] != 0.0;
   for (int i = 0; i < n; ++i) {
     Eigen::VectorXd a(rows);
     for (int k = 0; k < rows; ++k) {
@@ -49,9 +53,9 @@ std::vector<ConfigVariable> configVariables(const io::Recording& rec) {
     }
     if (a.maxCoeff() - a.minCoeff() > 1e-6) {
       ConfigVariable v;
-      v.name = "alpha_" + std::to_string(i + 1);
+      v.name = "alpha_" + std::to_string(i + 1) + (i > 0 && tube1_turns ? "-alpha_1" : "");
       v.angle = true;
-      v.value = a.unaryExpr([](double x) { double m = std::fmod(x, 2 * M_PI); return m < 0 ? m + 2 * M_PI : m; });
+      v.value = a.unaryExpr([](double x) { return x - 2 * M_PI * std::floor((x + M_PI) / (2 * M_PI)); });
       directionAndSpeed(rec, a, v);
       out.push_back(std::move(v));
     }
@@ -76,33 +80,45 @@ MismatchReport locateMismatch(const io::Recording& rec, const Prediction& p, con
   const int rows = rec.rows();
   const std::vector<Quantity> qs = presentQuantities(rec);
   const std::vector<ConfigVariable> vars = configVariables(rec);
-  // Global chi-square.
+  // Global test per quantity: the mean square against the noise variance, an F test when the noise was estimated
+  // (its degrees of freedom), chi-square when given; Bonferroni over the quantities. The family-wise false-alarm
+  // rate alpha is shared equally by the four families of tests (global, bins, direction, scaling).
   double chi = 0;
   int dof = 0;
+  double p_global = 1.0;
   for (Quantity q : qs) {
     const Eigen::MatrixXd& R = r.of(q);
     const double s = noise.of(q);
-    for (Eigen::Index k = 0; k < R.size(); ++k)
-      if (std::isfinite(R.data()[k])) {
-        chi += R.data()[k] * R.data()[k] / (s * s);
-        ++dof;
+    double cq = 0;
+    int dq = 0;
+    for (Eigen::Index k = 0; k < R.rows(); ++k)
+      if (R.row(k).allFinite()) {
+        cq += R.row(k).squaredNorm() / (s * s);
+        dq += rowDof(q, R.cols());
       }
+    chi += cq;
+    dof += dq;
+    if (dq > 0) p_global = std::min(p_global, stats::fSf(cq / dq, dq, noise.dof(q)) * static_cast<double>(qs.size()));
   }
-  rep.global_p_value = stats::chiSquareSf(chi, dof);
-  rep.exceeds_noise = rep.global_p_value < o.alpha && chi > 1.3 * dof;
+  rep.global_p_value = std::min(1.0, p_global);
+  rep.exceeds_noise = rep.global_p_value < o.alpha / 4 && chi > 1.3 * dof;
   {
-    MismatchFinding g{"exceeds_noise", "all", "all", rep.global_p_value, dof ? chi / dof : 0.0,
+    MismatchFinding g{"exceeds_noise",
+                      "all",
+                      "all",
+                      rep.global_p_value,
+                      dof ? chi / dof : 0.0,
                       fmt("all rows: residuals are %.2f x the noise variance", dof ? chi / dof : 0.0)};
     rep.tests.push_back(g);
   }
   const int B = std::max(2, o.bins);
-  const double alpha_bins = o.alpha / std::max<std::size_t>(1, B * vars.size() * qs.size());
-  const double alpha_vars = o.alpha / std::max<std::size_t>(1, vars.size() * qs.size());
+  const double alpha_bins = o.alpha / 4 / std::max<std::size_t>(1, B * vars.size() * qs.size());
+  const double alpha_vars = o.alpha / 4 / std::max<std::size_t>(1, vars.size() * qs.size());
   // Per-row signed hysteresis values collected for the scaling tests.
   Eigen::VectorXd hyst = Eigen::VectorXd::Constant(rows, kNaN);
   double best_dir_p = 1.0;
   for (const ConfigVariable& v : vars) {
-    double lo = v.angle ? 0.0 : v.value.minCoeff(), hi = v.angle ? 2 * M_PI : v.value.maxCoeff();
+    double lo = v.angle ? -M_PI : v.value.minCoeff(), hi = v.angle ? M_PI : v.value.maxCoeff();
     if (!(hi > lo)) continue;
     auto binOf = [&](double x) { return std::clamp(static_cast<int>((x - lo) / (hi - lo) * B), 0, B - 1); };
     const double unit = v.angle ? 180.0 / M_PI : 1e3;
@@ -119,15 +135,15 @@ MismatchReport locateMismatch(const io::Recording& rec, const Prediction& p, con
         const int b = binOf(v.value[k]);
         members[static_cast<std::size_t>(b)].push_back(k);
         bchi[static_cast<std::size_t>(b)] += R.row(k).squaredNorm() / (s * s);
-        bcnt[static_cast<std::size_t>(b)] += C;
+        bcnt[static_cast<std::size_t>(b)] += rowDof(q, C);
         brows[static_cast<std::size_t>(b)] += 1;
       }
       // Bins beyond the noise.
       std::vector<std::pair<double, int>> sig;
       for (int b = 0; b < B; ++b) {
         if (bcnt[static_cast<std::size_t>(b)] == 0) continue;
-        const double pb = stats::chiSquareSf(bchi[static_cast<std::size_t>(b)], bcnt[static_cast<std::size_t>(b)]);
         const double ratio = bchi[static_cast<std::size_t>(b)] / bcnt[static_cast<std::size_t>(b)];
+        const double pb = stats::fSf(ratio, bcnt[static_cast<std::size_t>(b)], noise.dof(q));
         if (pb < alpha_bins && ratio > 1.5) sig.push_back({pb, b});
       }
       std::sort(sig.begin(), sig.end());
@@ -135,7 +151,11 @@ MismatchReport locateMismatch(const io::Recording& rec, const Prediction& p, con
         const int b = sig[j].second;
         const double a0 = lo + (hi - lo) * b / B, a1 = lo + (hi - lo) * (b + 1) / B;
         const double ratio = std::sqrt(bchi[static_cast<std::size_t>(b)] / bcnt[static_cast<std::size_t>(b)]);
-        MismatchFinding f{"exceeds_noise", v.name, quantityName(q), sig[j].first, ratio,
+        MismatchFinding f{"exceeds_noise",
+                          v.name,
+                          quantityName(q),
+                          sig[j].first,
+                          ratio,
                           v.name + fmt(" in [%.1f, %.1f] ", a0 * unit, a1 * unit) + uname + ": " + quantityName(q) +
                               fmt(" residual RMS %.1f x noise (%.0f rows)", ratio, brows[static_cast<std::size_t>(b)])};
         rep.findings.push_back(f);
@@ -201,8 +221,9 @@ MismatchReport locateMismatch(const io::Recording& rec, const Prediction& p, con
         fits.push_back(bf);
       }
       if (fits.size() >= 1 && pooled_dof >= 3) {
-        // The pooled variance is at least the noise variance (residual model error inflates it, never deflates).
-        const double s2 = std::max(pooled_ss / pooled_dof, s * s);
+        // The pooled variance is at least the noise variance per component (residual model error inflates it, never
+        // deflates; a tangent's noise variance s^2 is spread over its 3 components as 2 s^2 / 3).
+        const double s2 = std::max(pooled_ss / pooled_dof, s * s * rowDof(q, C) / C);
         double chid = 0;
         int dofd = 0;
         double width = 0;
@@ -215,8 +236,12 @@ MismatchReport locateMismatch(const io::Recording& rec, const Prediction& p, con
         MismatchFinding f{"direction_dependent", v.name, quantityName(q), pd, chid / std::max(1, dofd), ""};
         f.where = quantityName(q) + std::string(" differs between approaching ") + v.name +
                   " from below and from above at the same configuration" +
-                  fmt(": largest gap %.3g ", width * (q == Quantity::Twist ? 180 / M_PI : q == Quantity::TipPosition ? 1e3 : 1.0)) +
-                  (q == Quantity::Twist ? "deg" : q == Quantity::TipPosition ? "mm" : "(unit vector)") +
+                  fmt(": largest gap %.3g ", width * (q == Quantity::Twist         ? 180 / M_PI
+                                                      : q == Quantity::TipPosition ? 1e3
+                                                                                   : 1.0)) +
+                  (q == Quantity::Twist         ? "deg"
+                   : q == Quantity::TipPosition ? "mm"
+                                                : "(unit vector)") +
                   fmt(", %.0f bins compared", static_cast<double>(fits.size()));
         rep.tests.push_back(f);
         if (pd < alpha_vars) {
@@ -227,7 +252,8 @@ MismatchReport locateMismatch(const io::Recording& rec, const Prediction& p, con
             if (c.norm() <= 0) continue;
             const Eigen::VectorXd u = c / c.norm();
             for (int k : bf.rows) {
-              const Eigen::VectorXd base = bf.coef.row(0).transpose() + bf.coef.row(1).transpose() * (v.value[k] - bf.xbar) / (hi - lo);
+              const Eigen::VectorXd base =
+                  bf.coef.row(0).transpose() + bf.coef.row(1).transpose() * (v.value[k] - bf.xbar) / (hi - lo);
               const double h = v.direction[k] * u.dot(R.row(k).transpose() - base);
               if (!std::isfinite(hyst[k]) || std::abs(h) > std::abs(hyst[k])) hyst[k] = h;
             }
@@ -244,11 +270,12 @@ MismatchReport locateMismatch(const io::Recording& rec, const Prediction& p, con
       const double typical = v.speed.array().isFinite().select(v.speed, 0.0).maxCoeff();
       if (!(typical > 0)) continue;
       for (int k = 0; k < rows; ++k)
-        if (std::isfinite(v.speed[k])) speed[k] = std::max(std::isfinite(speed[k]) ? speed[k] : 0.0, v.speed[k] / typical);
+        if (std::isfinite(v.speed[k]))
+          speed[k] = std::max(std::isfinite(speed[k]) ? speed[k] : 0.0, v.speed[k] / typical);
     }
   Eigen::VectorXd t(rows);
   for (int k = 0; k < rows; ++k) t[k] = rec.hasTime() ? rec.time[k] : k;
-  const double a3 = o.alpha / 3;
+  const double a3 = o.alpha / 4 / 6;  // the scaling family: at most 6 correlation tests
   auto scaling = [&](const Eigen::VectorXd& y, const char* what, bool directional) {
     bool any = false;
     struct Cov {
@@ -262,12 +289,16 @@ MismatchReport locateMismatch(const io::Recording& rec, const Prediction& p, con
     for (const Cov& c : covs) {
       const stats::Correlation cr = stats::spearman(*c.x, y);
       if (cr.n < 8) continue;
-      MismatchFinding f{c.sig, c.var, what, cr.p_value, cr.r,
+      MismatchFinding f{c.sig,
+                        c.var,
+                        what,
+                        cr.p_value,
+                        cr.r,
                         std::string(directional ? "the direction-dependent part" : "the size") + " of the residuals " +
                             (cr.r > 0 ? "grows" : "shrinks") + " with " +
-                            (std::string(c.var) == "moment" ? "the concentrated bending moment"
+                            (std::string(c.var) == "moment"  ? "the concentrated bending moment"
                              : std::string(c.var) == "speed" ? "the actuator speed"
-                                                              : "time (drift)") +
+                                                             : "time (drift)") +
                             fmt(" (Spearman r = %.2f, n = %.0f)", cr.r, cr.n)};
       rep.tests.push_back(f);
       if (cr.p_value < a3 && cr.r > 0) {
@@ -280,7 +311,7 @@ MismatchReport locateMismatch(const io::Recording& rec, const Prediction& p, con
   bool scaled = false;
   if (best_dir_p < o.alpha) scaled = scaling(hyst, "hysteresis", true) || scaled;
   if (rep.exceeds_noise) scaled = scaling(e, "all", false) || scaled;
-  if (rep.exceeds_noise && !scaled && best_dir_p >= o.alpha)
+  if (rep.exceeds_noise && !scaled && best_dir_p >= alpha_vars)
     rep.findings.push_back({"constant", "all", "all", rep.global_p_value, 0.0,
                             "residuals exceed the noise but depend neither on direction, moment, speed nor time"});
   std::stable_sort(rep.findings.begin(), rep.findings.end(),

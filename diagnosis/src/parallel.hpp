@@ -13,7 +13,8 @@
 
 namespace ctr::diagnosis::detail {
 
-inline void parallelFor(int count, int threads, Workspace& caller_ws, const std::function<void(int, Workspace&)>& body) {
+inline void parallelFor(int count, int threads, Workspace& caller_ws,
+                        const std::function<void(int, Workspace&)>& body) {
   const int nt = std::max(1, std::min(threads, count));
   if (nt == 1) {
     for (int i = 0; i < count; ++i) body(i, caller_ws);

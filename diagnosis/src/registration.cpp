@@ -7,12 +7,13 @@
 namespace ctr::diagnosis {
 
 namespace {
-bool finiteRow(const Eigen::MatrixXd& M, Eigen::Index k) { return M.cols() == 3 && M.row(k).allFinite(); }
+bool finiteRow(const Eigen::MatrixXd& M, Eigen::Index k) {
+  return M.cols() == 3 && M.row(k).allFinite();
+}
 }  // namespace
 
 Registration fitRegistration(const Eigen::MatrixXd& P, const Eigen::MatrixXd& T, const Eigen::MatrixXd& MP,
-                             const Eigen::MatrixXd& MT, const std::vector<char>& use,
-                             const RegistrationOptions& o) {
+                             const Eigen::MatrixXd& MT, const std::vector<char>& use, const RegistrationOptions& o) {
   Registration reg;
   const Eigen::Index rows = P.rows();
   const bool hasP = MP.cols() == 3, hasT = MT.cols() == 3;

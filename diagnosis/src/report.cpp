@@ -201,9 +201,7 @@ std::string reportToJson(const DiagnosisReport& r) {
     un["fraction_explained"] = num(u.fraction_explained);
     un["heldout_rmse"] = mapJson(u.heldout_rmse);
     json nz = json::object();
-    if (r.noise.twist > 0) nz["twist"] = r.noise.twist;
-    if (r.noise.tip_position > 0) nz["tip_position"] = r.noise.tip_position;
-    if (r.noise.tip_tangent > 0) nz["tip_tangent"] = r.noise.tip_tangent;
+    for (const auto& [q, e] : r.noise.by_quantity) nz[quantityName(q)] = num(e.sigma);
     un["noise"] = nz;
     json um = json::array();
     for (const auto& f : u.mismatch) um.push_back(mismatchJson(f));
@@ -211,12 +209,48 @@ std::string reportToJson(const DiagnosisReport& r) {
     un["heldout_ratio"] = num(u.heldout_ratio);
     un["heldout_p"] = num(u.heldout_p);
     un["where"] = u.where;
+    if (!u.described.empty()) {
+      json d = json::array();
+      for (const GenericDescription& g : u.described)
+        d.push_back(json{{"model", effectName(g.model.kind)},
+                         {"parameters", parametersJson(namedParameters(g.model))},
+                         {"description", g.description},
+                         {"delta_bic", num(g.delta_bic)},
+                         {"heldout_rmse", mapJson(g.heldout_rmse)},
+                         {"heldout_ratio", num(g.heldout_ratio)},
+                         {"heldout_gain", num(g.heldout_gain)},
+                         {"heldout_p", num(g.heldout_p)},
+                         {"replaces", g.replaces}});
+      un["described"] = d;
+    }
     j["unexplained"] = un;
   }
+  json branch = json::array();
+  for (const BranchAmbiguousRow& b : r.branch_ambiguous_rows) {
+    json a = json::array();
+    for (double mm : b.alternatives_mm) a.push_back(num(mm));
+    branch.push_back(json{{"row", b.row}, {"alternatives_mm", a}, {"excluded", b.excluded}});
+  }
+  j["branch_ambiguous_rows"] = branch;
+  j["branch_rule"] = r.branch;
+  // The noise of every quantity: sigma (per component; the tangent's per direction normal to it), its source
+  // (given, repeated, neighbours), its uncertainty and whether the recording separates it from model error.
   j["noise"] = json::object();
-  if (r.noise.twist > 0) j["noise"]["twist"] = r.noise.twist;
-  if (r.noise.tip_position > 0) j["noise"]["tip_position"] = r.noise.tip_position;
-  if (r.noise.tip_tangent > 0) j["noise"]["tip_tangent"] = r.noise.tip_tangent;
+  for (const auto& [q, e] : r.noise.by_quantity) {
+    json x{{"sigma", num(e.sigma)},
+           {"source", e.source},
+           {"dof", std::isfinite(e.dof) ? json(e.dof) : json("infinite")},
+           {"interval95", json::array({num(e.interval95[0]), num(e.interval95[1])})},
+           {"supported", e.supported},
+           {"differences", e.pairs},
+           {"note", e.note}};
+    if (e.jitter > 0) {
+      x["jitter"] = num(e.jitter);
+      x["frames"] = e.frames;
+    }
+    if (q == Quantity::TipTangent) x["per"] = "direction normal to the tangent";
+    j["noise"][quantityName(q)] = x;
+  }
   j["frame"] = r.frame == FrameMode::Unknown ? "unknown" : "base";
   if (r.frame == FrameMode::Unknown) {
     json reg;
@@ -231,7 +265,10 @@ std::string reportToJson(const DiagnosisReport& r) {
     j["registration"] = reg;
   }
   j["rows"] = r.rows;
+  j["recording_rows"] = r.recording_rows;
+  j["visits"] = r.visits;
   j["stride"] = r.stride;
+  j["rounds"] = r.rounds;
   j["folds"] = r.folds;
   j["seconds"] = r.seconds;
   j["replays"] = r.evaluations;
@@ -241,8 +278,7 @@ std::string reportToJson(const DiagnosisReport& r) {
 }
 
 std::string reportToMarkdown(const DiagnosisReport& r, const io::Recording& full) {
-  const io::Recording dec = r.stride > 1 ? decimateRecording(full, r.stride) : io::Recording{};
-  const io::Recording& rec = r.stride > 1 ? dec : full;
+  const io::Recording rec = diagnosedRows(full, r.stride);
   std::ostringstream o;
   o << "# Diagnosis\n\n";
   o << "Recording: " << r.rows << " rows, " << rec.tubes << " tubes, measured:";
@@ -255,7 +291,9 @@ std::string reportToMarkdown(const DiagnosisReport& r, const io::Recording& full
   if (r.verdict.empty())
     o << (r.unexplained.present ? "not explained by any candidate (a mismatch remains that no effect in the library "
                                   "explains)"
-                                : "nothing left out (the nominal model explains the data within the noise)");
+          : r.noise.supported() ? "nothing left out (the nominal model explains the data within the noise)"
+                                : "nothing named (the residuals are no larger than the differences between "
+                                  "neighbouring rows; the recording cannot tell its noise from model error)");
   for (std::size_t k = 0; k < r.verdict.size(); ++k) o << (k ? ", " : "") << "`" << r.verdict[k] << "`";
   if (!r.verdict.empty() && r.unexplained.present) o << " (partial explanation)";
   if (!r.reliable) o << " — **unreliable** (too many rows could not be evaluated)";
@@ -301,14 +339,38 @@ std::string reportToMarkdown(const DiagnosisReport& r, const io::Recording& full
     }
     o << "\n";
   }
-  o << "## Where the nominal model misses\n\n";
-  o << "Estimated noise (1 sigma per component):";
-  if (r.noise.twist > 0) o << " twist " << f4(r.noise.twist * 180 / M_PI) << " deg;";
-  if (r.noise.tip_position > 0) o << " tip position " << f4(r.noise.tip_position * 1e3) << " mm;";
-  if (r.noise.tip_tangent > 0) o << " tip tangent " << f4(r.noise.tip_tangent) << ";";
-  o << "\n\n";
+  if (!r.branch_ambiguous_rows.empty()) {
+    o << "## Rows with other stable equilibria\n\nThe replay reaches each row by the branch rule `" << r.branch
+      << "` (docs/diagnosis.md). At these rows the model has other stable equilibria the robot may have reached by "
+         "a path the recording does not show; rows whose measurement lies nearer one of them are excluded.\n\n| row | "
+         "alternatives (tip distance, mm) | excluded |\n|---|---|---|\n";
+    std::size_t shown = 0;
+    for (const BranchAmbiguousRow& b : r.branch_ambiguous_rows) {
+      if (++shown > 50) {
+        o << "| ... | " << r.branch_ambiguous_rows.size() - 50 << " more in the JSON | |\n";
+        break;
+      }
+      o << "| " << b.row << " | ";
+      for (double mm : b.alternatives_mm) o << f4(mm) << " ";
+      o << "| " << (b.excluded ? "yes" : "no") << " |\n";
+    }
+    o << "\n";
+  }
+  o << "## Noise\n\n| quantity | sigma | source | 95 % interval | degrees of freedom | how "
+       "|\n|---|---|---|---|---|---|\n";
+  for (const auto& [q, e] : r.noise.by_quantity) {
+    const double u = q == Quantity::TipPosition ? 1e3 : 180 / M_PI;
+    const std::string unit = q == Quantity::TipPosition ? " mm" : " deg";
+    o << "| " << quantityName(q) << (q == Quantity::TipTangent ? " (per normal direction)" : "") << " | "
+      << f4(e.sigma * u) << unit << " | " << e.source << (e.supported ? "" : " (upper bound)") << " | ["
+      << f4(e.interval95[0] * u) << ", " << f4(e.interval95[1] * u) << "]" << unit << " | "
+      << (std::isfinite(e.dof) ? f4(e.dof) : std::string("given")) << " | " << e.note
+      << (e.jitter > 0 ? "; frame jitter " + f4(e.jitter * u) + unit : std::string()) << " |\n";
+  }
+  o << "\n## Where the nominal model misses\n\n";
   if (r.mismatch.findings.empty()) {
-    o << "No test found residuals beyond the noise.\n\n";
+    o << "No test found residuals beyond the noise" << (r.noise.supported() ? "" : " (an upper bound of it)")
+      << ".\n\n";
   } else {
     o << "| signature | variable | quantity | p-value | where |\n|---|---|---|---|---|\n";
     for (const auto& f : r.mismatch.findings)
@@ -361,8 +423,7 @@ std::string reportToMarkdown(const DiagnosisReport& r, const io::Recording& full
 }
 
 std::string plotDataJson(const DiagnosisReport& r, const io::Recording& full) {
-  const io::Recording dec = r.stride > 1 ? decimateRecording(full, r.stride) : io::Recording{};
-  const io::Recording& rec = r.stride > 1 ? dec : full;
+  const io::Recording rec = diagnosedRows(full, r.stride);
   json j;
   j["rows"] = r.rows;
   j["final_model"] = r.final.model;

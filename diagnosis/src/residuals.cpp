@@ -28,6 +28,22 @@ std::vector<Quantity> presentQuantities(const io::Recording& rec) {
   return q;
 }
 
+int rowDof(Quantity q, Eigen::Index columns) {
+  return q == Quantity::Twist ? static_cast<int>(columns) : q == Quantity::TipPosition ? 3 : 2;
+}
+
+double NoiseLevels::dof(Quantity q) const {
+  switch (q) {
+    case Quantity::Twist:
+      return twist_dof;
+    case Quantity::TipPosition:
+      return tip_position_dof;
+    case Quantity::TipTangent:
+      return tip_tangent_dof;
+  }
+  return 0.0;
+}
+
 double NoiseLevels::of(Quantity q) const {
   switch (q) {
     case Quantity::Twist:
@@ -78,93 +94,6 @@ Registration mapToSensor(const io::Recording& rec, Prediction& p, FrameMode fram
                       rec.hasTipTangent() ? rec.tip_tangent : none, use, o);
   applyRegistration(reg, p.tip_position, p.tip_tangent);
   return reg;
-}
-
-namespace {
-double robustSpread(std::vector<double>& d) {
-  if (d.size() < 3) return std::numeric_limits<double>::quiet_NaN();
-  std::nth_element(d.begin(), d.begin() + static_cast<long>(d.size() / 2), d.end());
-  return 1.4826 * d[d.size() / 2] / std::sqrt(2.0);
-}
-
-Eigen::MatrixXd configFeatures(const io::Recording& rec) {
-  // Relative angles as (cos, sin) and translations scaled by 1/(1 cm): a metric where 1 ~ 1 rad ~ 1 cm.
-  const int n = rec.tubes, rows = rec.rows();
-  Eigen::MatrixXd F(rows, 3 * n);
-  for (int k = 0; k < rows; ++k) {
-    const Configuration& q = rec.commands[static_cast<std::size_t>(k)];
-    for (int i = 0; i < n; ++i) {
-      const double a = q.alpha[i] - (i > 0 ? q.alpha[0] : 0.0);
-      F(k, 3 * i) = std::cos(a);
-      F(k, 3 * i + 1) = std::sin(a);
-      F(k, 3 * i + 2) = q.beta[i] / 0.01;
-    }
-  }
-  return F;
-}
-}  // namespace
-
-NoiseLevels estimateNoise(const io::Recording& rec, const Residuals& r) {
-  NoiseLevels out;
-  const int rows = rec.rows();
-  const Eigen::MatrixXd F = configFeatures(rec);
-  std::vector<int> nn(static_cast<std::size_t>(rows), -1);
-  for (int k = 0; k < rows; ++k) {
-    double best = std::numeric_limits<double>::infinity();
-    for (int j = 0; j < rows; ++j) {
-      if (j == k) continue;
-      const double d = (F.row(k) - F.row(j)).squaredNorm();
-      if (d < best) {
-        best = d;
-        nn[static_cast<std::size_t>(k)] = j;
-      }
-    }
-  }
-  for (Quantity q : presentQuantities(rec)) {
-    const Eigen::MatrixXd& R = r.of(q);
-    double s = std::numeric_limits<double>::quiet_NaN();
-    if (q == Quantity::Twist) {
-      // Per component: robust spread of the differences.
-      std::vector<double> ds, dn;
-      for (int k = 0; k < rows; ++k)
-        for (Eigen::Index c = 0; c < R.cols(); ++c) {
-          if (!std::isfinite(R(k, c))) continue;
-          if (k > 0 && std::isfinite(R(k - 1, c))) ds.push_back(std::abs(R(k, c) - R(k - 1, c)));
-          const int j = nn[static_cast<std::size_t>(k)];
-          if (j >= 0 && j > k && std::isfinite(R(j, c))) dn.push_back(std::abs(R(k, c) - R(j, c)));
-        }
-      const double s1 = robustSpread(ds), s2 = robustSpread(dn);
-      s = std::isfinite(s1) && std::isfinite(s2) ? std::min(s1, s2) : std::isfinite(s1) ? s1 : s2;
-    } else {
-      // Vectors: the median squared norm of the row differences against the chi-square median of the noise's
-      // dimension. A position has isotropic noise in 3 components; a measured unit tangent only in the 2 directions
-      // normal to it (its component along itself is second order), so pooling its 3 components as if each were
-      // Gaussian under-estimates the noise. The level returned is per component, as the chi-square tests use it:
-      // E|r|^2 / 3 per row.
-      const double dim = q == Quantity::TipPosition ? 3.0 : 2.0;
-      const double chi2_median = q == Quantity::TipPosition ? 2.365973884 : 1.386294361;  // medians of chi2(3), chi2(2)
-      std::vector<double> ds, dn;
-      auto finite = [&](int k) { return R.row(k).allFinite(); };
-      for (int k = 0; k < rows; ++k) {
-        if (!finite(k)) continue;
-        if (k > 0 && finite(k - 1)) ds.push_back((R.row(k) - R.row(k - 1)).squaredNorm());
-        const int j = nn[static_cast<std::size_t>(k)];
-        if (j >= 0 && j > k && finite(j)) dn.push_back((R.row(k) - R.row(j)).squaredNorm());
-      }
-      auto level = [&](std::vector<double>& d) {
-        if (d.size() < 3) return std::numeric_limits<double>::quiet_NaN();
-        std::nth_element(d.begin(), d.begin() + static_cast<long>(d.size() / 2), d.end());
-        const double sigma2_axis = d[d.size() / 2] / (2.0 * chi2_median);  // per noisy axis (a difference doubles it)
-        return std::sqrt(sigma2_axis * dim / 3.0);
-      };
-      const double s1 = level(ds), s2 = level(dn);
-      s = std::isfinite(s1) && std::isfinite(s2) ? std::min(s1, s2) : std::isfinite(s1) ? s1 : s2;
-    }
-    const double floor = q == Quantity::TipPosition ? 1e-7 : 1e-5;
-    if (!std::isfinite(s) || s < floor) s = floor;
-    (q == Quantity::Twist ? out.twist : q == Quantity::TipPosition ? out.tip_position : out.tip_tangent) = s;
-  }
-  return out;
 }
 
 SumSquares sumSquares(const Eigen::MatrixXd& r, const std::vector<char>& use) {
@@ -248,10 +177,13 @@ double bic(const io::Recording& rec, const Residuals& r, const std::vector<char>
   double b = 0.0;
   int total = 0;
   for (Quantity q : presentQuantities(rec)) {
-    const SumSquares s = sumSquares(r.of(q), use);
+    const Eigen::MatrixXd& R = r.of(q);
+    const SumSquares s = sumSquares(R, use);
     if (s.count == 0) continue;
-    b += s.count * std::log(std::max(1e-300, s.ss / s.count));
-    total += s.count;
+    // Independent components: a unit tangent's 3 residual components carry 2 (its noise is normal to it).
+    const double n = static_cast<double>(s.count) * rowDof(q, R.cols()) / std::max<Eigen::Index>(1, R.cols());
+    b += n * std::log(std::max(1e-300, s.ss / n));
+    total += static_cast<int>(std::lround(n));
   }
   return b + parameters * std::log(std::max(1, total));
 }

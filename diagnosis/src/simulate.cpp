@@ -53,7 +53,8 @@ void makeActuation(const Robot& robot, const ActuationOptions& o, std::vector<Co
         const int j = s <= steps ? s : 2 * steps - s;
         Configuration q = q0;
         q.alpha[tube] = rotLo(tube) + j * o.step_deg * deg;
-        if (robot.tube(tube).rotation_limits) q.alpha[tube] = std::min(q.alpha[tube], (*robot.tube(tube).rotation_limits)[1]);
+        if (robot.tube(tube).rotation_limits)
+          q.alpha[tube] = std::min(q.alpha[tube], (*robot.tube(tube).rotation_limits)[1]);
         commands.push_back(q);
       }
       if (n == 1) break;
@@ -68,9 +69,15 @@ void makeActuation(const Robot& robot, const ActuationOptions& o, std::vector<Co
     }
   } else if (o.pattern == ActuationPattern::Random) {
     for (int r = 0; r < o.rows; ++r) {
+      if (r > 0 && o.returns > 0 && U(rng) < o.returns) {
+        commands.push_back(commands[static_cast<std::size_t>(U(rng) * r) % static_cast<std::size_t>(r)]);
+        continue;
+      }
       Configuration q = q0;
       for (int i = 1; i < n; ++i) {
-        const double lo = rotLo(i), hi = robot.tube(i).rotation_limits ? std::min(lo + 2 * M_PI, (*robot.tube(i).rotation_limits)[1]) : lo + 2 * M_PI;
+        const double lo = rotLo(i), hi = robot.tube(i).rotation_limits
+                                             ? std::min(lo + 2 * M_PI, (*robot.tube(i).rotation_limits)[1])
+                                             : lo + 2 * M_PI;
         q.alpha[i] = lo + (hi - lo) * U(rng);
       }
       if (o.translate && n >= 2) q.beta[n - 1] = range.first + U(rng) * (range.second - range.first);
@@ -82,7 +89,8 @@ void makeActuation(const Robot& robot, const ActuationOptions& o, std::vector<Co
     std::vector<double> v(static_cast<std::size_t>(n), 0.0);
     double vb = 0.0;
     Configuration q = q0;
-    for (int i = 1; i < n; ++i) v[static_cast<std::size_t>(i)] = (U(rng) < 0.5 ? -1 : 1) * o.max_speed * (0.3 + 0.7 * U(rng));
+    for (int i = 1; i < n; ++i)
+      v[static_cast<std::size_t>(i)] = (U(rng) < 0.5 ? -1 : 1) * o.max_speed * (0.3 + 0.7 * U(rng));
     vb = (range.second - range.first) / 8.0;
     for (int r = 0; r < o.rows; ++r) {
       commands.push_back(q);
@@ -90,18 +98,36 @@ void makeActuation(const Robot& robot, const ActuationOptions& o, std::vector<Co
         double& vi = v[static_cast<std::size_t>(i)];
         if (U(rng) < 0.06) vi = (vi > 0 ? -1 : 1) * o.max_speed * (0.3 + 0.7 * U(rng));
         double a = q.alpha[i] + vi * dt;
-        if (a > M_PI) { a = 2 * M_PI - a; vi = -std::abs(vi); }
-        if (a < -M_PI) { a = -2 * M_PI - a; vi = std::abs(vi); }
+        if (a > M_PI) {
+          a = 2 * M_PI - a;
+          vi = -std::abs(vi);
+        }
+        if (a < -M_PI) {
+          a = -2 * M_PI - a;
+          vi = std::abs(vi);
+        }
         q.alpha[i] = a;
       }
       if (o.translate && n >= 2) {
         if (U(rng) < 0.04) vb = -vb;
         double b = q.beta[n - 1] + vb * dt;
-        if (b > range.second) { b = range.second; vb = -std::abs(vb); }
-        if (b < range.first) { b = range.first; vb = std::abs(vb); }
+        if (b > range.second) {
+          b = range.second;
+          vb = -std::abs(vb);
+        }
+        if (b < range.first) {
+          b = range.first;
+          vb = std::abs(vb);
+        }
         q.beta[n - 1] = b;
       }
     }
+  }
+  if (o.frames > 1) {
+    std::vector<Configuration> repeated;
+    for (const Configuration& q : commands)
+      for (int f = 0; f < o.frames; ++f) repeated.push_back(q);
+    commands = std::move(repeated);
   }
   const int rows = static_cast<int>(commands.size());
   if (o.dt > 0) {
@@ -137,12 +163,24 @@ io::Recording simulateRecording(const Robot& nominal, const std::vector<Configur
     rec.twist = p.twist;
     for (Eigen::Index k = 0; k < rec.twist.size(); ++k) rec.twist.data()[k] += o.twist_sd * N(rng);
   }
+  // Repeatability: one error per visit (consecutive rows with the same command), the same for all its frames.
+  Eigen::MatrixXd visit_p = Eigen::MatrixXd::Zero(rows, 3), visit_t = Eigen::MatrixXd::Zero(rows, 3);
+  if (o.repeatability_position_sd > 0 || o.repeatability_tangent_sd > 0)
+    for (int k = 0; k < rows; ++k) {
+      const bool same =
+          k > 0 && commands[static_cast<std::size_t>(k)].alpha == commands[static_cast<std::size_t>(k - 1)].alpha &&
+          commands[static_cast<std::size_t>(k)].beta == commands[static_cast<std::size_t>(k - 1)].beta;
+      for (int c = 0; c < 3; ++c) {
+        visit_p(k, c) = same ? visit_p(k - 1, c) : o.repeatability_position_sd * N(rng);
+        visit_t(k, c) = same ? visit_t(k - 1, c) : o.repeatability_tangent_sd * N(rng);
+      }
+    }
   if (o.tip_position) {
-    rec.tip_position = p.tip_position;
+    rec.tip_position = p.tip_position + visit_p;
     for (Eigen::Index k = 0; k < rec.tip_position.size(); ++k) rec.tip_position.data()[k] += o.position_sd * N(rng);
   }
   if (o.tip_tangent) {
-    rec.tip_tangent = p.tip_tangent;
+    rec.tip_tangent = p.tip_tangent + visit_t;
     for (Eigen::Index k = 0; k < rows; ++k) {
       for (int c = 0; c < 3; ++c) rec.tip_tangent(k, c) += o.tangent_sd * N(rng);
       rec.tip_tangent.row(k).normalize();

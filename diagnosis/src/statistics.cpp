@@ -7,6 +7,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <numeric>
 #include <random>
 #include <stdexcept>
@@ -14,7 +15,9 @@
 
 namespace ctr::diagnosis::stats {
 
-double normalSf(double z) { return 0.5 * std::erfc(z / std::sqrt(2.0)); }
+double normalSf(double z) {
+  return 0.5 * std::erfc(z / std::sqrt(2.0));
+}
 
 namespace {
 
@@ -64,6 +67,32 @@ double chiSquareSf(double x, double k) {
   return gammaQContinuedFraction(a, xx, std::lgamma(a));
 }
 
+double chiSquareQuantile(double p, double k) {
+  if (!(p > 0)) return 0.0;
+  if (!(p < 1)) return std::numeric_limits<double>::infinity();
+  // Bisection on the CDF (monotone): bracket, then 200 halvings (relative precision far below what is used).
+  double lo = 0.0, hi = std::max(1.0, k);
+  while (1.0 - chiSquareSf(hi, k) < p) hi *= 2.0;
+  for (int i = 0; i < 200 && hi - lo > 1e-14 * hi; ++i) {
+    const double mid = 0.5 * (lo + hi);
+    (1.0 - chiSquareSf(mid, k) < p ? lo : hi) = mid;
+  }
+  return 0.5 * (lo + hi);
+}
+
+double chiSquarePdf(double x, double k) {
+  if (!(x > 0) || !(k > 0)) return 0.0;
+  return std::exp((0.5 * k - 1.0) * std::log(x) - 0.5 * x - 0.5 * k * std::log(2.0) - std::lgamma(0.5 * k));
+}
+
+double fSf(double x, double d1, double d2) {
+  if (!(x > 0)) return 1.0;
+  if (!(d1 > 0)) return 0.0;
+  if (!std::isfinite(d2) || d2 > 1e7) return chiSquareSf(x * d1, d1);
+  if (!(d2 > 0)) return 1.0;
+  return betaI(0.5 * d2, 0.5 * d1, d2 / (d2 + d1 * x));
+}
+
 namespace {
 double betacf(double a, double b, double x) {
   const double qab = a + b, qap = a + 1.0, qam = a - 1.0;
@@ -97,7 +126,8 @@ double betacf(double a, double b, double x) {
 double betaI(double a, double b, double x) {
   if (x <= 0) return 0.0;
   if (x >= 1) return 1.0;
-  const double bt = std::exp(std::lgamma(a + b) - std::lgamma(a) - std::lgamma(b) + a * std::log(x) + b * std::log(1 - x));
+  const double bt =
+      std::exp(std::lgamma(a + b) - std::lgamma(a) - std::lgamma(b) + a * std::log(x) + b * std::log(1 - x));
   if (x < (a + 1.0) / (a + b + 2.0)) return bt * betacf(a, b, x) / a;
   return 1.0 - bt * betacf(b, a, 1.0 - x) / b;
 }

@@ -381,24 +381,6 @@ StepResult step(const Robot& robot, const HysteresisState& from, const Configura
   return res;
 }
 
-std::vector<StepResult> replay(const Robot& robot, const std::vector<Configuration>& commands, Workspace& ws,
-                               const FrictionOptions& opt) {
-  std::vector<StepResult> out;
-  out.reserve(commands.size());
-  if (commands.empty()) return out;
-  out.push_back(initialState(robot, commands[0], ws, opt));
-  for (std::size_t k = 1; k < commands.size(); ++k) {
-    const StepResult& last = out.back();
-    if (last.state.valid) {
-      out.push_back(step(robot, last.state, commands[k], ws, opt));
-    } else {
-      out.push_back(initialState(robot, commands[k], ws, opt));  // restart after a failure (reported per row)
-      out.back().summary.message = "restarted from a frictionless state after an earlier failure";
-    }
-  }
-  return out;
-}
-
 FrictionBand frictionBand(const Robot& robot, const Configuration& q, Workspace& ws, const FrictionBandOptions& opt) {
   FrictionBand band;
   const std::vector<ContactSite> sites = contactSites(robot, q);

@@ -1,4 +1,5 @@
 // Bindings of recordings (ctr::io) and ctr::diagnosis: diagnose(...) returns the dict of the diagnosis JSON.
+#include <cstdio>
 #include <sstream>
 
 #include "common.hpp"
@@ -64,7 +65,8 @@ void registerDiagnosis(pyb::module_& m) {
       "diagnose",
       [](const Robot& robot, const pyb::object& recording, const std::string& frame, int folds, int threads,
          int max_effects, double bic_threshold, const std::optional<std::vector<std::string>>& candidates,
-         const pyb::object& progress, bool with_report) {
+         const pyb::object& progress, bool with_report, const std::optional<std::string>& noise,
+         const std::string& branch) {
         const io::Recording rec = recordingFrom(recording, robot.size());
         if (rec.rows() < 8) {
           const std::string file = pyb::isinstance<io::Recording>(recording) ? std::string("<recording>")
@@ -95,12 +97,26 @@ void registerDiagnosis(pyb::module_& m) {
               throw pyb::value_error(std::string("candidates: ") + e.what());
             }
           }
+        if (noise) {
+          try {
+            d.noise = diagnosis::parseGivenNoise(*noise);
+          } catch (const std::invalid_argument& e) {
+            throw pyb::value_error(std::string("noise: ") + e.what());
+          }
+        }
+        try {
+          d.predict.branch = parseBranchRule(branch);
+        } catch (const std::invalid_argument& e) {
+          throw pyb::value_error(std::string("branch: ") + e.what());
+        }
         if (!progress.is_none()) {
-          // Called from the diagnosis's threads: take the GIL for the Python callback.
+          // Called from the diagnosis's threads: take the GIL for the Python callback (one line per step).
           auto cb = std::make_shared<pyb::object>(progress);
-          d.progress = [cb](const std::string& s) {
+          d.progress = [cb](const diagnosis::DiagnoseProgress& p) {
+            char t[32];
+            std::snprintf(t, sizeof t, "[%6.1f s] ", p.seconds);
             pyb::gil_scoped_acquire acquire;
-            (*cb)(s);
+            (*cb)(std::string(t) + p.message);
           };
         }
         std::string json, markdown;
@@ -117,11 +133,12 @@ void registerDiagnosis(pyb::module_& m) {
       },
       arg("robot"), arg("recording"), arg("frame") = "base", arg("folds") = 4, arg("threads") = 2,
       arg("max_effects") = 4, arg("bic_threshold") = 10.0, arg("candidates") = pyb::none(),
-      arg("progress") = pyb::none(), arg("with_report") = false,
+      arg("progress") = pyb::none(), arg("with_report") = false, arg("noise") = pyb::none(), arg("branch") = "auto",
       "`ctr diagnose`: where the recording (a path or a ctr.Recording) and the nominal robot differ, and which "
       "left-out physics explains it. Returns the dict of the diagnosis JSON (formats.md; the same object as "
       "--json writes); with_report=True returns (dict, Markdown report). progress: a callable taking a str. "
-      "Runs without the GIL.");
+      "noise: the tracker's noise as `--noise` takes it ('tip_position=0.5mm,tip_tangent=1deg'); branch: 'auto', "
+      "'path' or 'rest' (docs/diagnosis.md). Runs without the GIL.");
 }
 
 }  // namespace ctr::py

@@ -4,6 +4,7 @@
 
 #include "common.hpp"
 #include "ctr/model/friction.hpp"
+#include "ctr/model/replay.hpp"
 
 namespace ctr::py {
 
@@ -214,7 +215,7 @@ void registerFriction(pyb::module_& m) {
   m.def(
       "simulate",
       [](const Robot& r, const pyb::object& alpha, const pyb::object& beta, std::optional<FrictionOptions> options,
-         bool keep_states) {
+         bool keep_states, const std::string& branch) {
         const int n = r.size();
         const Eigen::MatrixXd A = toMatrix(alpha, "alpha", n), B = toMatrix(beta, "beta", n);
         if (A.rows() != B.rows())
@@ -226,20 +227,27 @@ void registerFriction(pyb::module_& m) {
           if (!adm) throw pyb::value_error("row " + std::to_string(k + 1) + " is not admissible: " + adm.message);
           qs.push_back(std::move(q));
         }
-        const FrictionOptions fo = arrayOptions(options);
-        std::vector<StepResult> res;
+        ReplayOptions ro;
+        ro.friction = arrayOptions(options);
+        try {
+          ro.branch = parseBranchRule(branch);
+        } catch (const std::invalid_argument& e) {
+          throw pyb::value_error(std::string("branch: ") + e.what());
+        }
+        std::vector<ReplayRow> res;
         {
           pyb::gil_scoped_release release;
-          res = replay(r, qs, workspace(), fo);
+          res = replay(r, qs, workspace(), ro);
         }
         std::vector<const Solution*> sols;
         pyb::array_t<bool> snapped(static_cast<pyb::ssize_t>(res.size()));
-        pyb::list messages, states;
+        pyb::list messages, states, reached;
         for (std::size_t k = 0; k < res.size(); ++k) {
-          sols.push_back(&res[k].solution);
-          snapped.mutable_at(static_cast<pyb::ssize_t>(k)) = res[k].summary.snapped;
-          messages.append(res[k].summary.message);
-          if (keep_states) states.append(pyb::cast(res[k].state));
+          sols.push_back(&res[k].result.solution);
+          snapped.mutable_at(static_cast<pyb::ssize_t>(k)) = res[k].result.summary.snapped;
+          messages.append(res[k].ok ? res[k].result.summary.message : res[k].reason);
+          reached.append(toString(res[k].reached));
+          if (keep_states) states.append(pyb::cast(res[k].result.state));
         }
         pyb::dict d = solutionRows(sols, n);
         const pyb::tuple ab = configurationArrays(qs, n);
@@ -247,14 +255,17 @@ void registerFriction(pyb::module_& m) {
         d["beta"] = ab[1];
         d["snapped"] = snapped;
         d["message"] = messages;
+        d["reached"] = reached;
         if (keep_states) d["states"] = states;
         return d;
       },
       arg("robot"), arg("alpha"), arg("beta"), arg("options") = pyb::none(), arg("keep_states") = false,
-      "Replays K commands (alpha, beta: (K, n)) through the stateful friction model from a frictionless start at the "
-      "first (as `ctr simulate`). Dict of arrays: alpha, beta, twist, tip_position, tip_tangent (NaN where not "
-      "converged), stability, converged, stable, snapped, status and message (+ states: the HysteresisState after "
-      "each row, with keep_states). Runs without the GIL.");
+      arg("branch") = "auto",
+      "Replays K commands (alpha, beta: (K, n)) through the stateful friction model as `ctr simulate` (branch: "
+      "'auto', 'path' or 'rest', docs/friction.md \"Replaying a sequence\"). Dict of arrays: alpha, beta, twist, "
+      "tip_position, tip_tangent (NaN where not converged), stability, converged, stable, snapped, status, message "
+      "and reached ('path', 'rest' or 'restart' per row) (+ states: the HysteresisState after each row, with "
+      "keep_states). Runs without the GIL.");
 
   m.def(
       "sweep",

@@ -205,7 +205,7 @@ TEST(Diagnose, NullSweepGivesEmptyVerdictAndJson) {
   EXPECT_NE(js.find("\"findings\""), std::string::npos);
   EXPECT_NE(reportToMarkdown(rep, rec).find("Verdict"), std::string::npos);
   EXPECT_NE(plotDataJson(rep, rec).find("residual_bins"), std::string::npos);
-  EXPECT_NEAR(rep.noise.twist, s.twist_sd, 0.4 * s.twist_sd);
+  EXPECT_NEAR(rep.noise.levels().twist, s.twist_sd, 0.4 * s.twist_sd);
 }
 
 // The replay tries coarse sub-steps per row and falls back to the fine ones; sub-steps only carry the branch, so

@@ -6,6 +6,7 @@
 
 #include "ctr/model/distributed_friction.hpp"
 #include "ctr/model/friction.hpp"
+#include "ctr/model/replay.hpp"
 #include "tube_factory.hpp"
 
 using namespace ctr;
@@ -123,12 +124,14 @@ TEST(DistributedFriction, SelectedThroughTheRobotFrictionBlockInReplay) {
   std::vector<Configuration> path;
   for (int k = 0; k <= 9; ++k) path.emplace_back(Eigen::Vector2d(0, k * 0.1), Eigen::Vector2d(-0.018, -0.018));
   for (int k = 8; k >= 0; --k) path.emplace_back(Eigen::Vector2d(0, k * 0.1), Eigen::Vector2d(-0.018, -0.018));
-  const std::vector<StepResult> res = replay(r, path, ws, fo);
+  ReplayOptions ro;
+  ro.friction = fo;
+  const std::vector<ReplayRow> res = replay(r, path, ws, ro);
   ASSERT_EQ(res.size(), path.size());
-  for (const auto& s : res) ASSERT_TRUE(s.summary.converged) << s.summary.message;
+  for (const auto& s : res) ASSERT_TRUE(s.ok) << s.reason;
   // Tiny but present envelope at 0.5 rad (rows 5 and 13): down branch above the up branch.
-  EXPECT_GT(res[13].solution.twist[0] - res[5].solution.twist[0], 1e-5);
-  EXPECT_LT(res[13].solution.twist[0] - res[5].solution.twist[0], 0.02);
+  EXPECT_GT(res[13].result.solution.twist[0] - res[5].result.solution.twist[0], 1e-5);
+  EXPECT_LT(res[13].result.solution.twist[0] - res[5].result.solution.twist[0], 0.02);
   EXPECT_TRUE(initialState(pairB().withFriction({0.1, 0.5}), path[0], ws, fo).summary.converged);
 }
 

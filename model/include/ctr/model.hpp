@@ -9,5 +9,6 @@
 #include "ctr/model/loads.hpp"
 #include "ctr/model/robot.hpp"
 #include "ctr/model/friction.hpp"
+#include "ctr/model/replay.hpp"
 #include "ctr/model/distributed_friction.hpp"
 #include "ctr/model/sampling.hpp"

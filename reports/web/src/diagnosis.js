@@ -8,7 +8,13 @@ const plot = data.plot;
 const app = document.getElementById('app');
 
 const quantities = Object.keys(rep.baseline.heldout_rmse || {});
-const noiseOf = (q) => (rep.noise || {})[q];
+// The noise of a quantity: {sigma, source, ...} (a number in reports written before the noise carried its source).
+const noiseOf = (q) => {
+  const n = (rep.noise || {})[q];
+  return n == null ? null : (typeof n === 'number' ? n : n.sigma);
+};
+// RMS of the per-row error norm of pure noise: a position has 3 noisy components, a unit tangent 2.
+const noiseNormFactor = (q) => (q === 'twist' ? 1 : q === 'tip_tangent' ? Math.SQRT2 : Math.sqrt(3));
 
 // A parameter is a number or a 3-vector (tip_load force, gravity direction); its interval [lo, hi] or one per
 // component.
@@ -130,7 +136,7 @@ for (const [v, q] of pairs.slice(0, 6)) {
   const x0 = Math.min(...xs), x1 = Math.max(...xs);
   const sigma = noiseOf(q);
   if (sigma && xs.length) {
-    const level = (q === 'twist' ? 1 : Math.sqrt(3)) * sigma * uq.scale;
+    const level = noiseNormFactor(q) * sigma * uq.scale;
     ds.push(line('noise level', [{ x: x0, y: level }, { x: x1, y: level }], 'rgba(44,160,44,0.9)',
       { fill: { target: 'origin' }, backgroundColor: COLORS.noise, borderDash: [2, 2], borderWidth: 1 }));
   }

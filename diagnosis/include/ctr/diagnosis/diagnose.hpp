@@ -12,10 +12,38 @@
 #include "ctr/diagnosis/effect.hpp"
 #include "ctr/diagnosis/fit.hpp"
 #include "ctr/diagnosis/mismatch.hpp"
+#include "ctr/diagnosis/noise.hpp"
 #include "ctr/diagnosis/residuals.hpp"
 #include "ctr/io/recording.hpp"
 
 namespace ctr::diagnosis {
+
+/// @brief Progress of a running diagnosis (as Ceres' IterationSummary): what stage it is in and what it has done.
+struct DiagnoseProgress {
+  /// @brief Stages in the order they run.
+  enum class Stage {
+    Baseline,     ///< Replaying the nominal model, estimating the noise, locating the mismatch.
+    Screening,    ///< A round's candidates are fitted one by one on top of the current model.
+    Finalists,    ///< The best of the round are linearised and cross-validated.
+    LookAlikes,   ///< Encompassing fits of the winner against its look-alikes.
+    Accepted,     ///< The round ended (an effect accepted, or none).
+    Elimination,  ///< Backward elimination.
+    Remainder,    ///< What the final model leaves; proxies (constancy, confounding); generic descriptions.
+    Done,
+  };
+  Stage stage = Stage::Baseline;
+  int round = 0;         ///< Current selection round (1-based; 0 before the first).
+  int rounds = 0;        ///< Rounds completed.
+  int max_rounds = 0;    ///< At most this many rounds (DiagnoseOptions::max_effects).
+  int candidates = 0;    ///< Candidates of the current round.
+  int screened = 0;      ///< Of them, screened so far.
+  int accepted = 0;      ///< Effects in the current model.
+  double seconds = 0.0;  ///< Since the start.
+  std::string message;   ///< One line for people (what happened).
+};
+
+/// @brief Name of a stage ("baseline", "screening", ...).
+const char* toString(DiagnoseProgress::Stage stage);
 
 /// @brief Options of diagnose().
 struct DiagnoseOptions {
@@ -38,19 +66,23 @@ struct DiagnoseOptions {
   double unreliable_fraction = 0.05;   ///< More failed rows than this fraction make the verdict unreliable.
   int max_rows = 300;                  ///< Longer recordings are decimated uniformly (every k-th row, history kept
                                        ///< by the quasi-static sub-stepping) to bound the run time; 0 = never.
+  /// Noise given by the user (a tracker's specification); the quantities not given are estimated (noise.hpp).
+  GivenNoise noise;
+  /// Generic models of physics outside the library tried on the remainder (describeRemainder); false: none.
+  bool generic_models = true;
   MismatchOptions mismatch;
-  PredictOptions predict;
-  std::function<void(const std::string&)> progress;  ///< Progress messages (e.g. to stderr); may be empty.
+  PredictOptions predict;                                 ///< Replay options, the branch rule among them (replay.hpp).
+  std::function<void(const DiagnoseProgress&)> progress;  ///< Called at every step (any thread); may be empty.
 };
 
 /// @brief Scores of one model.
 struct ModelScore {
-  std::string model;                          ///< "nominal" or "nominal+effect+...".
+  std::string model;  ///< "nominal" or "nominal+effect+...".
   std::vector<Effect> effects;
-  std::map<std::string, double> heldout_rmse; ///< Per quantity (SI).
-  std::map<std::string, double> fit_rmse;     ///< In-sample RMSE per quantity (all rows).
+  std::map<std::string, double> heldout_rmse;     ///< Per quantity (SI).
+  std::map<std::string, double> fit_rmse;         ///< In-sample RMSE per quantity (all rows).
   std::map<std::string, double> last_block_rmse;  ///< Held-out RMSE on the last (latest in time) block only.
-  double heldout_score = 0.0;                 ///< Mean noise-normalised squared error per held-out row.
+  double heldout_score = 0.0;                     ///< Mean noise-normalised squared error per held-out row.
   double bic = 0.0;
 };
 
@@ -66,21 +98,21 @@ struct Rival {
 
 /// @brief One candidate tried (accepted or not), with the evidence.
 struct Finding {
-  Effect effect;                               ///< Fitted value (alone on top of the model of its round).
-  std::vector<Effect> model;                   ///< The full model it was fitted in.
+  Effect effect;              ///< Fitted value (alone on top of the model of its round).
+  std::vector<Effect> model;  ///< The full model it was fitted in.
   bool accepted = false;
-  int round = 0;                               ///< Selection round (1-based).
+  int round = 0;  ///< Selection round (1-based).
   /// The reported parameters with their 95 % intervals (namedParameters): e.g. `mu` (+ `tube`); `force` (3-vector)
   /// for tip_load; `scale` and `direction` for gravity.
   std::vector<NamedParameter> parameters;
   std::map<std::string, double> heldout_rmse;
   double heldout_score = 0.0;
-  double heldout_p = 1.0;                      ///< One-sided p of the held-out improvement.
-  double delta_bic = 0.0;                      ///< BIC(model with it) - BIC(model of its round).
-  std::vector<Rival> ambiguous_with;           ///< Look-alikes this recording cannot tell from it (accepted only).
-  bool partial = false;                        ///< Accepted, but a structured remainder is left (see `unexplained`).
-  bool named = true;                           ///< Accepted and named in the verdict (false: partial explanation
-                                               ///< confounded with the unexplained remainder; kept in the final fit).
+  double heldout_p = 1.0;             ///< One-sided p of the held-out improvement.
+  double delta_bic = 0.0;             ///< BIC(model with it) - BIC(model of its round).
+  std::vector<Rival> ambiguous_with;  ///< Look-alikes this recording cannot tell from it (accepted only).
+  bool partial = false;               ///< Accepted, but a structured remainder is left (see `unexplained`).
+  bool named = true;                  ///< Accepted and named in the verdict (false: partial explanation
+                                      ///< confounded with the unexplained remainder; kept in the final fit).
   std::string explanation;
 };
 
@@ -89,6 +121,26 @@ struct FailedRow {
   int row = 0;         ///< 1-based data row of the recording as given (before any decimation).
   std::string reason;  ///< e.g. "did not converge", "inadmissible command: ...", "snapped ...".
   std::string model;   ///< "nominal" or the final model that failed on it.
+};
+
+/// @brief A row where the model has other stable equilibria the robot may have reached by an unknown path (formats.md
+/// `branch_ambiguous_rows`).
+struct BranchAmbiguousRow {
+  int row = 0;                          ///< 1-based row of the recording as given.
+  std::vector<double> alternatives_mm;  ///< Tip distance of each alternative from the replayed equilibrium (mm).
+  bool excluded = false;                ///< The measurement lies nearer an alternative: left out of every fit.
+};
+
+/// @brief A generic model of physics outside the library (not a library effect) that describes the remainder.
+struct GenericDescription {
+  Effect model;                                ///< Fitted generic correction (EffectKind generic kinds).
+  std::string description;                     ///< Its structure in words ("periodic in alpha_2, ...").
+  double delta_bic = 0.0;                      ///< On top of the library model.
+  std::map<std::string, double> heldout_rmse;  ///< Held-out RMSE with it.
+  double heldout_ratio = 1.0;                  ///< Held-out mean square over the noise variance with it.
+  double heldout_gain = 0.0;                   ///< Fraction of the held-out error it removes.
+  double heldout_p = 1.0;                      ///< One-sided p of that improvement.
+  std::vector<std::string> replaces;           ///< Library effects it makes partial explanations.
 };
 
 /// @brief What the final model leaves unexplained (formats.md `unexplained`).
@@ -100,6 +152,7 @@ struct Unexplained {
   double heldout_p = 1.0;                      ///< Chi-square p of the held-out residuals against the noise.
   std::vector<MismatchFinding> mismatch;       ///< Locate tests on the final model's residuals (significant ones).
   std::string where;                           ///< Plain words: where the remainder is and how it behaves.
+  std::vector<GenericDescription> described;   ///< Generic models that describe the remainder (not library physics).
 };
 
 /// @brief Per-row curves for plots (measured vs nominal vs fitted).
@@ -112,31 +165,40 @@ struct PlotSeries {
 
 /// @brief The diagnosis.
 struct DiagnosisReport {
-  std::vector<std::string> verdict;   ///< Effects judged present (JSON names; "X or Y" when the recording cannot
-                                      ///< tell look-alikes apart); empty with `unexplained.present` = a mismatch
-                                      ///< no candidate explains; empty without it = nominal explains the data.
-  Unexplained unexplained;            ///< Remainder after the final model.
-  std::vector<FailedRow> failed_rows; ///< Rows excluded because a model could not evaluate them.
+  std::vector<std::string> verdict;    ///< Effects judged present (JSON names; "X or Y" when the recording cannot
+                                       ///< tell look-alikes apart); empty with `unexplained.present` = a mismatch
+                                       ///< no candidate explains; empty without it = nominal explains the data.
+  Unexplained unexplained;             ///< Remainder after the final model.
+  std::vector<FailedRow> failed_rows;  ///< Rows excluded because a model could not evaluate them.
+  std::vector<BranchAmbiguousRow> branch_ambiguous_rows;  ///< Rows with other stable equilibria (replay.hpp).
   bool reliable = true;               ///< False when more than unreliable_fraction of the rows failed.
   std::vector<Effect> final_effects;  ///< With fitted values.
   std::map<std::string, EffectUncertainty> final_uncertainty;  ///< Intervals and covariance, by Effect::label().
   ModelScore baseline, final;
-  MismatchReport mismatch;            ///< Of the baseline.
-  std::vector<Finding> findings;      ///< Every candidate tried.
-  NoiseLevels noise;                  ///< Estimated measurement noise.
-  Registration registration;          ///< Final model's registration (FrameMode::Unknown).
+  MismatchReport mismatch;        ///< Of the baseline.
+  std::vector<Finding> findings;  ///< Every candidate tried.
+  NoiseReport noise;              ///< The noise used per quantity, its source and uncertainty.
+  Registration registration;      ///< Final model's registration (FrameMode::Unknown).
   FrameMode frame = FrameMode::Base;
-  int rows = 0, folds = 0;
-  int stride = 1;                     ///< Rows used: every stride-th row of the recording (see max_rows).
+  int rows = 0, folds = 0;  ///< Rows diagnosed (visits, decimated), held-out blocks.
+  int recording_rows = 0;   ///< Rows of the recording as given.
+  int visits = 0;           ///< Rows after collapsing repeated frames (consecutive rows, same command).
+  int stride = 1;           ///< Visits used: every stride-th (see max_rows).
+  int rounds = 0;           ///< Selection rounds run.
+  std::string branch;       ///< Branch rule of the replay ("auto", "path", "rest").
   double seconds = 0.0;
-  int evaluations = 0;                ///< Sequence replays.
+  int evaluations = 0;  ///< Sequence replays.
   std::vector<std::string> warnings;
-  std::string summary;                ///< Plain-language paragraph.
+  std::string summary;  ///< Plain-language paragraph.
   PlotSeries plot;
 };
 
 /// @brief Every k-th row of a recording (k >= 1).
 io::Recording decimateRecording(const io::Recording& rec, int k);
+
+/// @brief The rows a diagnosis works on: repeated frames averaged into visits (collapseFrames), then every
+/// `stride`-th visit (DiagnosisReport::stride).
+io::Recording diagnosedRows(const io::Recording& rec, int stride);
 
 /// @brief The candidate slots (kind, tube) tried for a robot and recording.
 std::vector<Effect> candidateSlots(const Robot& nominal, const io::Recording& rec, const DiagnoseOptions& options);

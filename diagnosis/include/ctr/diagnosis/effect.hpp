@@ -33,6 +33,19 @@ enum class EffectKind {
   /// `tip_load`: a constant external force at the tip, `force` (N, base frame; Effect::vec). Replaces the
   /// description's tip force (its tip moment is kept).
   TipLoad,
+  // Generic models of physics outside the library (isGeneric): never named in a verdict; they describe a remainder.
+  /// `drive_ratio`: a ratio error of one rotation drive, delta alpha = c0 (alpha - ref) (Effect::coef; ref = the
+  /// recording's mean command of the drive).
+  DriveRatio,
+  /// `drive_periodic`: a periodic transmission error of one rotation drive, one and two cycles per turn of the
+  /// drive's own angle: delta alpha = c0 cos alpha + c1 sin alpha + c2 cos 2 alpha + c3 sin 2 alpha (Effect::coef).
+  DrivePeriodic,
+  /// `stage_error`: a smooth error of one translation stage, delta beta = c0 u + c1 u^2 + c2 u^3 with u the stage's
+  /// command scaled to [-1, 1] over the recording (Effect::coef, Effect::ref = centre and half-range).
+  StageError,
+  /// `tracker_drift`: the measured tip positions drift with time, delta p = d1 t + d2 t^2 (3-vectors, base frame;
+  /// t scaled to [-1, 1] over the recording; Effect::coef = d1, d2).
+  TrackerDrift,
 };
 
 /// @brief Standard gravity (m/s^2): the `gravity` effect's scale 1.
@@ -41,8 +54,12 @@ constexpr double kStandardGravity = 9.81;
 /// linear density (superelastic NiTi, 6,450 kg/m^3).
 constexpr double kNitinolDensity = 6450.0;
 
-/// @brief All kinds, in the order of formats.md.
+/// @brief All kinds of the library (formats.md), in its order; the generic kinds are not among them.
 const std::vector<EffectKind>& allEffectKinds();
+/// @brief The generic kinds (drive_ratio, drive_periodic, stage_error, tracker_drift).
+const std::vector<EffectKind>& genericEffectKinds();
+/// @brief True for the generic models of physics outside the library.
+bool isGeneric(EffectKind k);
 /// @brief JSON name of a kind (e.g. "boundary_friction").
 const char* effectName(EffectKind k);
 /// @brief Name of the kind's (first) continuous parameter (e.g. "mu", "poisson_ratio", "width"; "scale" for
@@ -50,8 +67,9 @@ const char* effectName(EffectKind k);
 const char* parameterName(EffectKind k);
 /// @brief Unit of the parameter, for reports ("", "1/m", "N m^2", "rad", "s", "N").
 const char* parameterUnit(EffectKind k);
-/// @brief Number of fitted coordinates of a kind: 1 (Effect::value), or 3 for the vector kinds gravity and tip_load
-/// (Effect::vec). A model's parameter count (BIC) is the sum over its effects.
+/// @brief Number of fitted coordinates of a kind: 1 (Effect::value), 3 for the vector kinds gravity and tip_load
+/// (Effect::vec), 1, 4, 3 and 6 for the generic kinds (Effect::coef). A model's parameter count (BIC) is the sum over
+/// its effects.
 int parameterCount(EffectKind k);
 /// @brief True for kinds that act on one tube (parameter `tube`).
 bool isPerTube(EffectKind k);
@@ -69,6 +87,8 @@ int lookAlikeGroup(EffectKind k);
 bool areLookAlikes(EffectKind a, EffectKind b);
 /// @brief True when the kind has a look-alike (areLookAlikes with some kind).
 bool isLookAlike(EffectKind k);
+/// @brief The physics a kind stands for, in a sentence for reports (what it is and how it shows in a recording).
+std::string describePhysics(EffectKind k);
 /// @brief Parses a JSON name; throws std::invalid_argument listing the valid names.
 EffectKind parseEffectKind(const std::string& name);
 
@@ -81,6 +101,11 @@ struct Effect {
   /// Vector kinds (parameterCount(kind) == 3), base frame: tip_load's force (N); gravity's scale * direction
   /// (the gravity vector over kStandardGravity). Zero for the other kinds.
   Eigen::Vector3d vec = Eigen::Vector3d::Zero();
+  /// Generic kinds: their coefficients (parameterCount of them used); zero otherwise.
+  Eigen::Matrix<double, 6, 1> coef = Eigen::Matrix<double, 6, 1>::Zero();
+  /// Generic kinds: the reference of their variable (drive_ratio: the mean command; stage_error and tracker_drift:
+  /// centre and half-range of the command or of time).
+  Eigen::Vector2d ref = Eigen::Vector2d(0.0, 1.0);
 
   /// @brief "precurvature[tube 2]" or "boundary_friction".
   std::string label() const;
@@ -97,6 +122,9 @@ struct Effect {
   /// @brief The parameters in words, e.g. "mu = 0.118", "force = (0.05, 0, -0.1) N",
   /// "scale = 1.02, direction = (0, -1, 0)".
   std::string valueText() const;
+  /// @brief Generic kinds: the correction at a value of their variable (drive_*: delta alpha (rad) at alpha;
+  /// stage_error: delta beta (m) at beta; tracker_drift: the x, y or z (`axis`) drift at time x).
+  double genericAt(double x, int axis = 0) const;
 };
 
 /// @brief Parses "name:key=value,key=value" (e.g. "actuator_backlash:tube=2,width=0.2" or

@@ -44,7 +44,7 @@ struct FitOptions {
   /// drop below this (N ln(RSS/RSS_predicted); the candidate could not pass the selection threshold).
   double gate_bic = 0.0;
   double function_tolerance = 1e-5;  ///< Ceres relative cost-change tolerance.
-  int first_free = 0;             ///< Effects before this index keep their start values (not fitted).
+  int first_free = 0;                ///< Effects before this index keep their start values (not fitted).
   /// Threads replaying the difference points of a Jacobian and the grid points concurrently (the result does not
   /// depend on it). Leave 1 when fits already run in parallel.
   int threads = 1;
@@ -56,17 +56,17 @@ struct FitOptions {
 
 /// @brief A fitted model evaluated on every row.
 struct FitResult {
-  std::vector<Effect> effects;                        ///< Fitted values.
+  std::vector<Effect> effects;  ///< Fitted values.
   /// Per effect (empty when not computed; an effect held in the fit has an empty entry): 95 % intervals of its
   /// coordinates and their covariance, Gauss-Newton with the pre-whitened HAC covariance over rows (serial
   /// correlation).
   std::vector<EffectUncertainty> uncertainty;
-  double interval_serial_correlation = 0.0;           ///< AR(1) coefficient of the row scores behind the intervals.
-  Registration registration;                          ///< Sensor registration (FrameMode::Unknown).
-  Prediction prediction;                              ///< All rows, in the sensor frame.
-  Residuals residuals;                                ///< All rows.
-  double cost = 0.0;                                  ///< 0.5 * weighted sum of squares on the fit rows.
-  int evaluations = 0;                                ///< Replays of the whole sequence.
+  double interval_serial_correlation = 0.0;  ///< AR(1) coefficient of the row scores behind the intervals.
+  Registration registration;                 ///< Sensor registration (FrameMode::Unknown).
+  Prediction prediction;                     ///< All rows, in the sensor frame.
+  Residuals residuals;                       ///< All rows.
+  double cost = 0.0;                         ///< 0.5 * weighted sum of squares on the fit rows.
+  int evaluations = 0;                       ///< Replays of the whole sequence.
   bool converged = true;
   std::string message;
   /// Linearisation at the optimum (filled when intervals are computed): Jacobian of the noise-normalised residuals
@@ -97,10 +97,10 @@ FitResult linearizeModel(const Robot& nominal, const io::Recording& rec, const s
 /// @brief Held-out evaluation: for each of `folds` contiguous blocks of rows, the effects are refitted (from
 /// `start`, no grid) on the other blocks and the residuals of the block are kept.
 struct CrossValidation {
-  Residuals heldout;                          ///< Each row's residual from the fold that held it out.
-  std::map<std::string, double> rmse;         ///< Held-out RMSE per quantity.
-  Eigen::VectorXd row_score;                  ///< Noise-normalised squared error per row (held out).
-  double score = 0.0;                         ///< Mean of row_score.
+  Residuals heldout;                              ///< Each row's residual from the fold that held it out.
+  std::map<std::string, double> rmse;             ///< Held-out RMSE per quantity.
+  Eigen::VectorXd row_score;                      ///< Noise-normalised squared error per row (held out).
+  double score = 0.0;                             ///< Mean of row_score.
   std::vector<std::vector<Effect>> fold_effects;  ///< Fitted values per fold.
   int evaluations = 0;
 };

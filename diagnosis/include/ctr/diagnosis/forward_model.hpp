@@ -11,6 +11,7 @@
 #include "ctr/model/configuration.hpp"
 #include "ctr/model/friction.hpp"
 #include "ctr/model/kinematics.hpp"
+#include "ctr/model/replay.hpp"
 #include "ctr/model/robot.hpp"
 
 namespace ctr::diagnosis {
@@ -28,40 +29,46 @@ struct PredictOptions {
   /// Full-rate commands of a decimated recording (nullptr: the recording's own rows are the whole log). Owned by
   /// the caller and alive during the prediction.
   const CommandHistory* history = nullptr;
-  /// Fine sub-steps of the stateful replay (used for a row whenever the coarse step fails or flags a snap).
+  /// Fine sub-steps of every move (replay.hpp; used whenever the coarse step fails or flags a snap).
   FrictionOptions friction;
-  KinematicsOptions kinematics;  ///< Used by the frictionless chain of warm-started solves.
-  /// Coarse rotation sub-step (rad) tried first for rotation-only rows with at most one friction site; 0 disables
-  /// it. There the sub-steps only carry the equilibrium branch (the end state is slip at the target, or stick from
-  /// the start), so a row whose coarse pass converges without a snap equals the fine replay (tests/diagnosis checks
-  /// this to 1e-8); other rows, where the return mapping is path dependent, always use the fine sub-steps.
+  /// How each row's equilibrium is reached (replay.hpp): continuation along small moves, from rest after large ones.
+  BranchRule branch = BranchRule::Auto;
+  double path_rotation_step = ReplayOptions{}.path_rotation_step;        ///< rad (BranchRule::Auto).
+  double path_translation_step = ReplayOptions{}.path_translation_step;  ///< m (BranchRule::Auto).
+  /// Coarse rotation sub-step (rad) tried first where the end state does not depend on the sub-steps (replay.hpp);
+  /// tests/diagnosis checks the replay equals the fine one to 1e-8. 0 disables it.
   double coarse_rotation_step = 0.175;  // 10 deg
+  /// List the other stable equilibria at rows reached from rest (Prediction::alternatives).
+  bool find_alternatives = false;
   /// Keep each row's equilibrium (Prediction::solutions), e.g. to linearise the model around it (load screen).
   bool keep_solutions = false;
   PredictOptions() {
     friction.max_rotation_step = 0.035;  // 2 deg
     friction.kinematics.record_backbone = false;
-    kinematics.record_backbone = false;
   }
 };
 
 /// @brief Model output per row of a recording.
 ///
-/// A row the model cannot evaluate (command inadmissible beyond the tolerance, not converged, snapped, no consistent
-/// stick/slip set) has ok = 0, its reason, and NaN outputs: no row ever carries another row's output. The stateful
-/// replay continues past it from the last evaluated state (one quasi-static move to the next row, so the friction
-/// and backlash memory is kept); only if that move fails too does it restart at rest (frictionless memory) and
-/// `restarts` counts it.
+/// A row the model cannot evaluate (command inadmissible beyond the tolerance, not converged, snapped, unstable, no
+/// consistent stick/slip set) has ok = 0, its reason, and NaN outputs: no row ever carries another row's output. The
+/// replay (replay.hpp) continues past it from the last evaluated state (one quasi-static move to the next row, so the
+/// friction and backlash memory is kept); only if that move fails too is the row reached from rest and `restarts`
+/// counts it.
 struct Prediction {
-  Eigen::MatrixXd twist;         ///< rows x (n-1) (rad); NaN on failed rows.
-  Eigen::MatrixXd tip_position;  ///< rows x 3 (m); NaN on failed rows.
-  Eigen::MatrixXd tip_tangent;   ///< rows x 3 (unit); NaN on failed rows.
-  Eigen::VectorXd moment;        ///< Largest concentrated-moment magnitude per row (N m); NaN on failed rows.
+  Eigen::MatrixXd twist;                 ///< rows x (n-1) (rad); NaN on failed rows.
+  Eigen::MatrixXd tip_position;          ///< rows x 3 (m); NaN on failed rows.
+  Eigen::MatrixXd tip_tangent;           ///< rows x 3 (unit); NaN on failed rows.
+  Eigen::VectorXd moment;                ///< Largest concentrated-moment magnitude per row (N m); NaN on failed rows.
   std::vector<Configuration> actuation;  ///< The true actuation after latency/backlash/offset.
-  std::vector<char> ok;          ///< Row evaluated (admissible, converged, no snap).
-  std::vector<std::string> reason;  ///< Why a row failed ("" when ok).
-  int failures = 0;              ///< Rows with ok = 0.
-  int restarts = 0;              ///< Stateful replay restarted at rest after a failure (memory lost).
+  std::vector<char> ok;                  ///< Row evaluated (admissible, converged, no snap).
+  std::vector<std::string> reason;       ///< Why a row failed ("" when ok).
+  int failures = 0;                      ///< Rows with ok = 0.
+  int restarts = 0;                      ///< Rows reached from rest after a failure (memory lost).
+  std::vector<Reached> reached;          ///< How each row was reached (path, rest, restart).
+  /// With PredictOptions::find_alternatives: per row, the other stable equilibria the robot may be in after an
+  /// unknown path (replay.hpp; base frame); empty for the other rows.
+  std::vector<std::vector<Alternative>> alternatives;
   /// Each row's equilibrium (with its contact laws) when PredictOptions::keep_solutions; an unconverged Solution on
   /// failed rows. Empty otherwise.
   std::vector<Solution> solutions;
@@ -79,10 +86,10 @@ Eigen::VectorXd playOperator(const Eigen::VectorXd& x, double width);
 std::vector<Configuration> transformActuation(const std::vector<Configuration>& commands, const Eigen::VectorXd& time,
                                               const std::vector<Effect>& effects, const Robot* robot = nullptr);
 
-/// @brief Replays the recording's commands under the effects (stateful friction when mu > 0, otherwise a chain of
-/// warm-started frictionless solves in row order) and returns the model's measurements per row. Commands that
-/// violate the nesting constraints by no more than kAdmissibilityTolerance are projected first; rows beyond it fail
-/// ("inadmissible: ...") and are skipped.
+/// @brief Replays the recording's commands under the effects (ctr::replay: the branch rule, the stateful friction
+/// model, the failure rule) and returns the model's measurements per row. Commands that violate the nesting
+/// constraints by no more than kAdmissibilityTolerance are projected first; rows beyond it fail ("inadmissible
+/// command: ...") and are skipped.
 Prediction predict(const Robot& nominal, const std::vector<Configuration>& commands, const Eigen::VectorXd& time,
                    const std::vector<Effect>& effects, Workspace& ws, const PredictOptions& options = {});
 

@@ -13,19 +13,19 @@ namespace ctr::diagnosis {
 
 /// @brief Where one formats.md column comes from in the source table.
 struct ColumnSource {
-  int column = 0;       ///< 1-based column of the source table.
-  double scale = 1.0;   ///< Value = scale * source + offset (e.g. 1e-3 for mm, -1 to flip an axis).
+  int column = 0;      ///< 1-based column of the source table.
+  double scale = 1.0;  ///< Value = scale * source + offset (e.g. 1e-3 for mm, -1 to flip an axis).
   double offset = 0.0;
 };
 
 /// @brief Options of importTable().
 struct ImportOptions {
-  int tubes = 0;                                  ///< n; 0 infers it from the alpha_* mappings.
-  std::map<std::string, ColumnSource> columns;    ///< formats.md column name -> source (alpha_1, tip_x, time ...).
-  std::vector<std::string> unwrap;                ///< Columns whose angles are wrapped (unwrapped on import).
-  std::string delimiter;                          ///< "" = whitespace or comma, auto-detected.
-  int skip_rows = 0;                              ///< Header lines to skip.
-  bool normalize_tangent = true;                  ///< Renormalise tip tangents to unit length.
+  int tubes = 0;                                ///< n; 0 infers it from the alpha_* mappings.
+  std::map<std::string, ColumnSource> columns;  ///< formats.md column name -> source (alpha_1, tip_x, time ...).
+  std::vector<std::string> unwrap;              ///< Columns whose angles are wrapped (unwrapped on import).
+  std::string delimiter;                        ///< "" = whitespace or comma, auto-detected.
+  int skip_rows = 0;                            ///< Header lines to skip.
+  bool normalize_tangent = true;                ///< Renormalise tip tangents to unit length.
 };
 
 /// @brief The Dupont-lab (hjhdog1/ConcentricTubes jointTipTrajectory) layout: time, alpha1..3 (wrapped rad),

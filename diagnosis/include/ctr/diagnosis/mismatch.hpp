@@ -15,18 +15,23 @@ namespace ctr::diagnosis {
 
 /// @brief Options of locateMismatch().
 struct MismatchOptions {
-  int bins = 12;            ///< Bins per configuration variable.
-  double alpha = 0.01;      ///< Significance level (Bonferroni-corrected over the tests of a kind).
+  int bins = 12;  ///< Bins per configuration variable.
+  /// Family-wise false-alarm rate of all the tests of a report: shared equally by the global test, the bins, the
+  /// direction tests and the scaling tests, and within each family by Bonferroni over its tests. Tests against an
+  /// estimated noise are F tests with the estimate's degrees of freedom.
+  double alpha = 0.01;
   int max_bin_reports = 3;  ///< Most significant bins reported per variable.
 };
 
 /// @brief One configuration variable of the recording (relative rotation or translation) per row.
 struct ConfigVariable {
-  std::string name;             ///< "alpha_2" (rotation of tube 2 relative to tube 1) or "beta_3".
-  bool angle = false;           ///< Relative rotation, wrapped to [0, 2 pi).
-  Eigen::VectorXd value;        ///< Per row.
-  Eigen::VectorXd direction;    ///< Direction of approach per row (+1, -1; 0 before the first move).
-  Eigen::VectorXd speed;        ///< |d value / dt| per row (NaN without time).
+  /// "alpha_2-alpha_1" (rotation of tube 2 relative to tube 1; "alpha_2" when alpha_1 is 0 throughout, as in the
+  /// paper's sweeps) or "beta_3" (translation of tube 3).
+  std::string name;
+  bool angle = false;         ///< Relative rotation, wrapped to [-pi, pi).
+  Eigen::VectorXd value;      ///< Per row.
+  Eigen::VectorXd direction;  ///< Direction of approach per row (+1, -1; 0 before the first move).
+  Eigen::VectorXd speed;      ///< |d value / dt| per row (NaN without time).
 };
 
 /// @brief The configuration variables that vary in a recording.
@@ -34,30 +39,31 @@ std::vector<ConfigVariable> configVariables(const io::Recording& rec);
 
 /// @brief One located mismatch (formats.md `mismatch` entries, plus detail).
 struct MismatchFinding {
-  std::string signature;  ///< exceeds_noise | direction_dependent | scales_with_moment | scales_with_speed | drift | constant
-  std::string variable;   ///< Configuration variable (or "moment", "speed", "time").
-  std::string quantity;   ///< Measured quantity the test used.
+  std::string
+      signature;  ///< exceeds_noise | direction_dependent | scales_with_moment | scales_with_speed | drift | constant
+  std::string variable;  ///< Configuration variable (or "moment", "speed", "time").
+  std::string quantity;  ///< Measured quantity the test used.
   double p_value = 1.0;
-  double statistic = 0.0; ///< Test statistic (chi-square, correlation ...).
-  std::string where;      ///< Human-readable location.
+  double statistic = 0.0;  ///< Test statistic (chi-square, correlation ...).
+  std::string where;       ///< Human-readable location.
 };
 
 /// @brief Mean residual of one bin and direction (for plots: residual vs configuration split by direction).
 struct BinSummary {
   std::string variable, quantity;
-  double lo = 0, hi = 0;   ///< Bin edges (rad or m).
-  int direction = 0;       ///< +1, -1 (0 = both).
+  double lo = 0, hi = 0;  ///< Bin edges (rad or m).
+  int direction = 0;      ///< +1, -1 (0 = both).
   int count = 0;
-  double mean = 0;         ///< Mean signed residual of the first component (twist) or mean norm (vectors).
-  double rms = 0;          ///< RMS residual (per-component for twist, per-row norm for vectors).
+  double mean = 0;  ///< Mean signed residual of the first component (twist) or mean norm (vectors).
+  double rms = 0;   ///< RMS residual (per-component for twist, per-row norm for vectors).
 };
 
 /// @brief Result of locateMismatch().
 struct MismatchReport {
-  std::vector<MismatchFinding> findings;     ///< Significant findings, most significant first.
-  std::vector<MismatchFinding> tests;        ///< Every test run (significant or not).
-  std::vector<BinSummary> bins;              ///< Binned residual tables.
-  double global_p_value = 1.0;               ///< Residuals consistent with the noise (chi-square)?
+  std::vector<MismatchFinding> findings;  ///< Significant findings, most significant first.
+  std::vector<MismatchFinding> tests;     ///< Every test run (significant or not).
+  std::vector<BinSummary> bins;           ///< Binned residual tables.
+  double global_p_value = 1.0;            ///< Residuals consistent with the noise (chi-square)?
   bool exceeds_noise = false;
 };
 

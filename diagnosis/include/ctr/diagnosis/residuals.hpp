@@ -5,6 +5,7 @@
 
 #include <Eigen/Core>
 #include <array>
+#include <limits>
 #include <map>
 #include <string>
 #include <vector>
@@ -29,13 +30,24 @@ enum class FrameMode {
   Unknown,  ///< Unknown sensor frame: a rigid registration (+ tip offset) is estimated in every model.
 };
 
-/// @brief Noise standard deviation per scalar component of each quantity (rad, m, unit).
+/// @brief Noise standard deviation of each quantity: per scalar component for twist (rad) and tip position (m), per
+/// direction normal to the measured tangent for the tip tangent (its residual has 2 degrees of freedom per row).
+/// With the degrees of freedom of each level's estimate (infinity when the level is given), which the tests against
+/// the noise account for (noise.hpp).
 struct NoiseLevels {
   double twist = 0.0;
   double tip_position = 0.0;
   double tip_tangent = 0.0;
+  double twist_dof = std::numeric_limits<double>::infinity();
+  double tip_position_dof = std::numeric_limits<double>::infinity();
+  double tip_tangent_dof = std::numeric_limits<double>::infinity();
   double of(Quantity q) const;
+  double dof(Quantity q) const;
 };
+
+/// @brief Independent scalar noise components per row of a quantity with `columns` columns: the twist's columns,
+/// 3 for a position, 2 for a unit tangent.
+int rowDof(Quantity q, Eigen::Index columns);
 
 /// @brief Measured minus predicted, rows x components (NaN where not measured). Twist differences are wrapped
 /// to (-pi, pi].
@@ -52,10 +64,6 @@ Residuals computeResiduals(const io::Recording& rec, const Prediction& p);
 /// flagged in `use` (weighted by the noise levels) and applied to all rows. Returns the registration.
 Registration mapToSensor(const io::Recording& rec, Prediction& p, FrameMode frame, const std::vector<char>& use,
                          const NoiseLevels& noise);
-
-/// @brief Noise levels estimated from residuals whose model error is smooth: the robust spread of differences
-/// between consecutive rows and between nearest neighbours in configuration space (the smaller of the two).
-NoiseLevels estimateNoise(const io::Recording& rec, const Residuals& r);
 
 /// @brief Sum of squares and count of scalar residuals of one quantity over the flagged rows.
 struct SumSquares {
@@ -80,7 +88,8 @@ std::array<double, 2> commonMeans(const Eigen::VectorXd& a, const Eigen::VectorX
 /// @brief Rows flagged in `use` where both residual sets have a finite value (both models evaluated the row).
 std::vector<char> commonRows(const Residuals& a, const Residuals& b, const std::vector<char>& use);
 
-/// @brief Gaussian BIC with an unknown variance per quantity: sum_q N_q ln(RSS_q / N_q) + k ln(N).
+/// @brief Gaussian BIC with an unknown variance per quantity: sum_q N_q ln(RSS_q / N_q) + k ln(N), N_q counting the
+/// independent components (rowDof) of the rows used.
 double bic(const io::Recording& rec, const Residuals& r, const std::vector<char>& use, int parameters);
 
 }  // namespace ctr::diagnosis

@@ -24,12 +24,16 @@ enum class ActuationPattern {
 /// @brief Options of makeActuation().
 struct ActuationOptions {
   ActuationPattern pattern = ActuationPattern::Sweep;
-  int rows = 73;                     ///< Rows (Sweep: derived from step_deg when rows <= 0).
-  double step_deg = 10.0;            ///< Sweep step (deg).
-  double sweep_range_deg = 360.0;    ///< Sweep range (deg).
-  bool translate = false;            ///< Also vary the innermost tube's translation within its admissible range.
-  double dt = 0.1;                   ///< Time step (s) of the generated `time` column; <= 0: no time column.
-  double max_speed = 1.0;            ///< RandomWalk: largest rotation speed (rad/s).
+  int rows = 73;                   ///< Rows (Sweep: derived from step_deg when rows <= 0).
+  double step_deg = 10.0;          ///< Sweep step (deg).
+  double sweep_range_deg = 360.0;  ///< Sweep range (deg).
+  bool translate = false;          ///< Also vary the innermost tube's translation within its admissible range.
+  double dt = 0.1;                 ///< Time step (s) of the generated `time` column; <= 0: no time column.
+  double max_speed = 1.0;          ///< RandomWalk: largest rotation speed (rad/s).
+  /// Random: the fraction of poses that return to an earlier pose of the set (a pose set measured with returns).
+  double returns = 0.0;
+  /// Every pose logged this many times in a row (repeated frames of a tracker while the robot rests).
+  int frames = 1;
   std::uint64_t seed = 1;
 };
 
@@ -39,12 +43,16 @@ void makeActuation(const Robot& robot, const ActuationOptions& options, std::vec
 
 /// @brief Measurement noise and content of a simulated recording.
 struct SimulationOptions {
-  double twist_sd = 0.5 * 3.14159265358979 / 180;   ///< rad
-  double position_sd = 1e-4;                        ///< m, per component
+  double twist_sd = 0.5 * 3.14159265358979 / 180;    ///< rad
+  double position_sd = 1e-4;                         ///< m, per component
   double tangent_sd = 0.2 * 3.14159265358979 / 180;  ///< per component, then renormalised
-  bool twist = true;          ///< Record twist.
-  bool tip_position = true;   ///< Record tip position.
-  bool tip_tangent = true;    ///< Record tip tangent.
+  /// Repeatability: an error drawn once per visit of a pose (consecutive rows with the same command) and added to
+  /// every frame of the visit, on top of the per-row noise above (which is then the tracker's jitter).
+  double repeatability_position_sd = 0.0;    ///< m, per component
+  double repeatability_tangent_sd = 0.0;     ///< per component, then renormalised
+  bool twist = true;                         ///< Record twist.
+  bool tip_position = true;                  ///< Record tip position.
+  bool tip_tangent = true;                   ///< Record tip tangent.
   std::optional<Registration> sensor_frame;  ///< Express tips in a sensor frame (for --frame unknown cases).
   std::uint64_t seed = 1;
   PredictOptions predict;

@@ -10,6 +10,13 @@ namespace ctr::diagnosis::stats {
 double normalSf(double z);
 /// @brief P(X > x) for chi-square with k degrees of freedom.
 double chiSquareSf(double x, double k);
+/// @brief x with P(X <= x) = p for chi-square with k degrees of freedom (0 < p < 1).
+double chiSquareQuantile(double p, double k);
+/// @brief Density of chi-square with k degrees of freedom at x.
+double chiSquarePdf(double x, double k);
+/// @brief P(F > x) for Fisher's F with (d1, d2) degrees of freedom; d2 = infinity gives the chi-square limit
+/// P(chi2_d1 / d1 > x). The test of a mean square against a noise variance estimated with d2 degrees of freedom.
+double fSf(double x, double d1, double d2);
 /// @brief P(T > t) for Student t with nu degrees of freedom.
 double studentSf(double t, double nu);
 /// @brief Regularised lower incomplete gamma P(a, x).
@@ -46,14 +53,14 @@ double chunkedBootstrapTest(const Eigen::VectorXd& before, const Eigen::VectorXd
 struct HacCovariance {
   Eigen::MatrixXd covariance;  ///< Of the parameters (k x k).
   int lags = 0;                ///< Bartlett bandwidth used (rows).
-  double rho = 0.0;            ///< Serial correlation of the row scores found (AR(1) coefficient, lag-1 autocorrelation).
+  double rho = 0.0;  ///< Serial correlation of the row scores found (AR(1) coefficient, lag-1 autocorrelation).
 };
 
-/// @brief Heteroskedasticity- and autocorrelation-consistent (Newey-West, Bartlett kernel) covariance of a least-squares
-/// estimate: H^+ Omega H^+ T/(T-k) with H = J^T J and Omega = sum over |l| <= L of (1 - |l|/(L+1)) sum_t g_t g_{t-l}^T,
-/// where g_t = J_t^T r_t is the score of row t (rows in time order, `per_row` consecutive residuals each). With
-/// `lags` < 0: Andrews-Monahan VAR(1) pre-whitening of the scores and Andrews' automatic AR(1) bandwidth
-/// L = 1.1447 (4 rho^2 / (1 - rho)^4 T)^(1/3) on the whitened scores, clamped to [1, T/2]. Valid for independent
+/// @brief Heteroskedasticity- and autocorrelation-consistent (Newey-West, Bartlett kernel) covariance of a
+/// least-squares estimate: H^+ Omega H^+ T/(T-k) with H = J^T J and Omega = sum over |l| <= L of (1 - |l|/(L+1)) sum_t
+/// g_t g_{t-l}^T, where g_t = J_t^T r_t is the score of row t (rows in time order, `per_row` consecutive residuals
+/// each). With `lags` < 0: Andrews-Monahan VAR(1) pre-whitening of the scores and Andrews' automatic AR(1) bandwidth L
+/// = 1.1447 (4 rho^2 / (1 - rho)^4 T)^(1/3) on the whitened scores, clamped to [1, T/2]. Valid for independent
 /// residuals as well (then close to s^2 H^-1).
 HacCovariance hacCovariance(const Eigen::MatrixXd& J, const Eigen::VectorXd& r, int per_row, int lags = -1);
 

@@ -87,10 +87,6 @@ StepResult initialState(const Robot& robot, const Configuration& q, Workspace& w
 StepResult step(const Robot& robot, const HysteresisState& from, const Configuration& q, Workspace& ws,
                 const FrictionOptions& options = {});
 
-/// @brief Replays a sequence of commands from a frictionless start at the first one; returns one solution per row.
-std::vector<StepResult> replay(const Robot& robot, const std::vector<Configuration>& commands, Workspace& ws,
-                               const FrictionOptions& options = {});
-
 /// @brief Options of the friction band query.
 struct FrictionBandOptions {
   int interior_samples = 1;  ///< Extra samples per contact between the extremes (0 = vertices only).

@@ -1,0 +1,148 @@
+// What the stages of a diagnosis share (internal): the working rows, fit options, the current model of the
+// selection, the findings so far, and the progress sink. Each stage is a free function in a file of its name.
+#pragma once
+
+#include <chrono>
+#include <cstdio>
+#include <functional>
+#include <map>
+#include <mutex>
+#include <set>
+#include <string>
+#include <vector>
+
+#include "ctr/diagnosis/diagnose.hpp"
+
+namespace ctr::diagnosis::detail {
+
+/// printf-style formatting of up to four numbers.
+std::string fmt(const char* f, double a, double b = 0, double c = 0, double d = 0);
+
+/// "nominal+effect+..." of a list of effects.
+std::string modelName(const std::vector<Effect>& e);
+
+/// A model of the selection: effects, full-data fit, cross-validation, BIC.
+struct Candidate {
+  Effect slot;
+  FitResult fit;
+  CrossValidation cv;
+  bool cv_done = false;
+  double bic = 0.0;
+  double delta_bic = 0.0;
+  double heldout_p = 1.0;
+  double gain = 0.0;
+  bool pass = false;
+  bool failed = false;
+  bool probed_only = false;  ///< Not fitted: distributed friction probed at a large coefficient, or a load whose
+                             ///< first-order screen predicts no BIC gain (screenFirstOrder).
+  std::string reason;
+};
+
+/// The shared state of one diagnosis.
+struct State {
+  State(const Robot& nominal, const io::Recording& rec, const DiagnoseOptions& o, DiagnosisReport& rep);
+
+  const Robot& nominal;
+  const io::Recording& rec;  ///< The rows diagnosed (visits, decimated when long).
+  const DiagnoseOptions& o;
+  DiagnosisReport& rep;
+  std::vector<int> origin;       ///< 1-based row of the recording as given where each diagnosed row starts.
+  CommandHistory history;        ///< The full-rate commands behind decimated rows.
+  FitOptions fo;                 ///< Fits that run beside others (one thread each).
+  FitOptions fo_alone;           ///< Fits that run alone (every thread).
+  std::vector<char> all;         ///< Every row.
+  std::vector<char> evaluable;   ///< Rows used by every residual, fit and score.
+  std::vector<char> last_block;  ///< The latest held-out block.
+  Workspace ws;
+  FitResult base;  ///< The nominal model.
+  CrossValidation baseline_cv;
+  Candidate cur;              ///< The current model of the selection.
+  int chunks = 3;             ///< Contiguous chunks of the block bootstrap.
+  std::vector<Effect> slots;  ///< Candidates of the library.
+
+  std::map<std::string, Finding> last;                  ///< Latest finding per slot label.
+  std::vector<std::string> order;                       ///< Slot labels in the order first tried.
+  std::map<std::string, std::vector<Rival>> rivals_of;  ///< Accepted label -> look-alikes it cannot be told from.
+  std::map<std::string, std::string> removed;           ///< Accepted, then dropped: why.
+  std::map<std::string, std::string> removed_partial;   ///< Accepted, kept in the fit, not named: why.
+  std::set<std::string> confounded;                     ///< Labels of removed_partial.
+  std::map<std::string, std::vector<std::string>> replaced_by;  ///< Generic label -> library candidates it beat.
+  std::vector<FitResult> without;  ///< Refits of `cur` without each of its effects (elimination, confounding).
+  MismatchReport final_mismatch;   ///< Locate tests on the final model's residuals.
+  double base_ratio = 1.0;         ///< Baseline held-out mean square over the noise variance.
+
+  /// BIC of model b minus model a, on the rows both evaluated.
+  double deltaBic(const Residuals& a, int ka, const Residuals& b, int kb) const;
+  /// Held-out mean square over the noise variance (per independent component) and its p-value against the noise.
+  double heldoutRatio(const CrossValidation& cv, double& p) const;
+  /// Reports progress (thread-safe).
+  void say(DiagnoseProgress::Stage stage, const std::string& message);
+  /// One more candidate of the round screened (thread-safe).
+  void progressScreened();
+  /// Adds replays to the report's count (thread-safe).
+  void count(int replays);
+  /// The progress counters (round, candidates) are updated by the stages.
+  DiagnoseProgress progress;
+
+ private:
+  std::chrono::steady_clock::time_point t0_;
+  std::mutex mutex_;
+};
+
+/// Held-out test of a candidate's model against the current one, on the rows both evaluated: cross-validation
+/// (one-step from its linearisation when asked and available), bootstrap p and gain. Returns the replays used.
+int heldOut(State& s, Candidate& c, Workspace& ws, int threads, bool one_step);
+/// Runs fn(c, ws); a model that cannot be evaluated marks the candidate failed with the reason.
+void guarded(State& s, Candidate& c, Workspace& ws, const std::function<void(Candidate&, Workspace&)>& fn);
+/// A finalist: the linearisation of its screened model (intervals; the one-step held-out test from it) and the
+/// held-out test (pass / reason).
+void refineCandidate(State& s, Candidate& c, Workspace& ws);
+
+/// The outcome of the look-alike tests of a round's winner.
+struct LookAlikes {
+  int best = -1;                          ///< The winner (a rival that explains more replaces it).
+  std::vector<int> partners;              ///< Look-alikes accepted together with it (each adds on top of the other).
+  Candidate pair;                         ///< The joint model of the winner and its partners.
+  std::vector<Rival> ties;                ///< Look-alikes this recording cannot tell from the winner.
+  std::map<int, std::string> rival_note;  ///< Candidate index -> why it lost to (or ties with) the winner.
+};
+
+/// Encompassing tests of cands[best] against the best screened candidates of its look-alike group (`ranked`: the
+/// round's candidates by screening BIC).
+LookAlikes resolveLookAlikes(State& s, std::vector<Candidate>& cands, int best, const std::vector<int>& ranked);
+
+/// Runs selection round `round` on top of s.cur (screening, finalists, held-out preference, look-alikes, joint
+/// refinement); records the findings. Returns false when no candidate was accepted.
+bool selectionRound(State& s, int round);
+
+/// The current model's effects without those at the indices `drop`.
+std::vector<Effect> withoutEffects(const State& s, const std::vector<std::size_t>& drop);
+/// Fills s.without: the current model refitted without each of its effects (warm, in parallel).
+void refitEachWithout(State& s);
+/// Removes accepted effects that later ones made redundant (BIC), refitting the model.
+void backwardElimination(State& s);
+
+/// Locate tests on the final model's residuals and its held-out error against the noise (formats.md
+/// `unexplained`), into s.rep.unexplained.
+void assessRemainder(State& s);
+
+/// Proxies: accepted effects whose fitted value is not constant over the recording are dropped (constancy), and
+/// those a generic correction of the remainder can replace are kept in the fit but not named (confounding).
+void checkProxies(State& s);
+
+/// The generic slots of a recording (generic.cpp): a drive error per rotating tube, a stage error per translating
+/// tube, a tracker drift with time and tip positions.
+std::vector<Effect> genericSlots(const io::Recording& rec);
+
+/// When the selection accepted generic models of physics outside the library (drive transmission errors, stage
+/// errors, tracker drift): the remainder of the library model (s.rep.unexplained, present) and each generic model's
+/// description with its held-out gain (s.rep.unexplained.described).
+void describeRemainder(State& s);
+
+/// The verdict, the findings with their final values, failed-row reliability and the summary paragraph.
+void writeVerdict(State& s);
+
+/// Plain words for the significant locate tests of a residual (for `unexplained.where`).
+std::string remainderWords(const MismatchReport& m, double ratio, const NoiseReport& noise);
+
+}  // namespace ctr::diagnosis::detail

@@ -1,0 +1,215 @@
+// The verdict, the findings with their final values, reliability and the summary paragraph: one consistent account
+// of what the recording shows, never claiming more than the tests and the noise support.
+#include <algorithm>
+#include <cmath>
+#include <set>
+
+#include "diagnosis_state.hpp"
+
+namespace ctr::diagnosis::detail {
+
+namespace {
+
+std::string joinWords(const std::vector<std::string>& v) {
+  std::string t;
+  for (std::size_t k = 0; k < v.size(); ++k) t += (k ? (k + 1 == v.size() ? " and " : ", ") : "") + v[k];
+  return t;
+}
+
+/// "tip_position 0.98 mm (neighbours)" for the summary's noise sentence.
+std::string noiseWords(const NoiseReport& n) {
+  std::vector<std::string> parts;
+  for (const auto& [q, e] : n.by_quantity) {
+    const bool pos = q == Quantity::TipPosition;
+    parts.push_back(std::string(quantityName(q)) +
+                    fmt(pos ? " %.3g mm" : " %.3g deg", pos ? e.sigma * 1e3 : e.sigma * 180 / M_PI) + " (" + e.source +
+                    ")");
+  }
+  return joinWords(parts);
+}
+
+}  // namespace
+
+void writeVerdict(State& s) {
+  DiagnosisReport& rep = s.rep;
+  const Candidate& cur = s.cur;
+  const io::Recording& rec = s.rec;
+  const int rows = rec.rows();
+  // The final model: fitted values with intervals (from its full-data fit).
+  rep.final_effects = cur.fit.effects;
+  for (std::size_t j = 0; j < cur.fit.effects.size() && j < cur.fit.uncertainty.size(); ++j)
+    rep.final_uncertainty[cur.fit.effects[j].label()] = cur.fit.uncertainty[j];
+  for (const Effect& e : cur.fit.effects)
+    if (e.kind == EffectKind::Gravity && nominalEffect(s.nominal, EffectKind::Gravity, 0).vec.isZero() &&
+        !s.nominal.hasWeight())
+      rep.warnings.push_back(
+          "gravity: the description gives no tube a density, so its weight assumes nitinol (" +
+          fmt("%.0f kg/m^3) with the tubes' diameters; the fitted scale %.3g is relative to that weight",
+              kNitinolDensity, e.gravityScale()));
+  rep.registration = cur.fit.registration;
+  rep.final.model = modelName(cur.fit.effects);
+  rep.final.effects = cur.fit.effects;
+  rep.final.heldout_rmse = cur.cv.rmse;
+  rep.final.last_block_rmse = rmse(rec, cur.cv.heldout, s.last_block);
+  rep.final.fit_rmse = rmse(rec, cur.fit.residuals, s.evaluable);
+  rep.final.heldout_score = cur.cv.score;
+  rep.final.bic = cur.bic;
+  // Rows the final model could not evaluate (the nominal model could): excluded from its scores, and listed.
+  for (int k = 0; k < rows; ++k)
+    if (s.evaluable[static_cast<std::size_t>(k)] && k < cur.fit.prediction.rows() &&
+        !cur.fit.prediction.ok[static_cast<std::size_t>(k)])
+      rep.failed_rows.push_back({s.origin[static_cast<std::size_t>(k)],
+                                 cur.fit.prediction.reason[static_cast<std::size_t>(k)], rep.final.model});
+  // Rows reached through a snap are excluded (the landing state of a dynamic jump is uncertain) but are a physical
+  // prediction of the model, not a failure of it: they count separately from the rows the model could not solve.
+  int snapped = 0;
+  for (const FailedRow& fr : rep.failed_rows) snapped += fr.reason.rfind("snapped", 0) == 0;
+  const double failed_fraction = static_cast<double>(rep.failed_rows.size() - static_cast<std::size_t>(snapped)) / rows;
+  rep.reliable = failed_fraction <= s.o.unreliable_fraction;
+  if (!rep.reliable)
+    rep.warnings.push_back(fmt("%.1f %% of the rows could not be evaluated (limit %.0f %%): the verdict is unreliable",
+                               100 * failed_fraction, 100 * s.o.unreliable_fraction));
+  if (snapped > 0)
+    rep.warnings.push_back(
+        fmt("%.0f row(s) are reached through a snap of the model (a jump to another equilibrium "
+            "branch) and are excluded; the verdict rests on the other rows",
+            snapped));
+  // The verdict: named library effects ("X or Y" with look-alikes the recording cannot tell apart).
+  std::set<std::string> seen;
+  for (const Effect& e : cur.fit.effects) {
+    if (s.confounded.count(e.label()) || isGeneric(e.kind)) continue;  // partial explanations, descriptions
+    std::string name = effectName(e.kind);
+    std::set<std::string> alt;
+    for (const Rival& r : s.rivals_of[e.label()])
+      if (std::string(effectName(r.effect.kind)) != name) alt.insert(effectName(r.effect.kind));
+    for (const std::string& a : alt) name += " or " + a;
+    if (seen.insert(name).second) rep.verdict.push_back(name);
+  }
+  // Findings: accepted ones report the final joint values.
+  for (const std::string& key : s.order) {
+    Finding f = s.last[key];
+    if (s.removed.count(key)) {
+      f.accepted = false;
+      f.ambiguous_with.clear();
+      f.explanation = "rejected: " + describePhysics(f.effect.kind) + "; " + s.removed[key] + ".";
+    }
+    for (const Effect& e : cur.fit.effects)
+      if (e.label() == key) {
+        f.accepted = true;
+        f.effect = e;
+        f.parameters = namedParameters(e, rep.final_uncertainty.count(key) ? &rep.final_uncertainty[key] : nullptr);
+        f.partial = rep.unexplained.present;
+        if (isGeneric(e.kind)) {
+          f.named = false;
+          f.partial = true;
+          f.explanation = "describes the remainder, not named: " + describePhysics(e.kind) + "; " + f.explanation;
+        } else if (s.removed_partial.count(key)) {
+          f.named = false;
+          f.explanation =
+              "partial explanation, not named: " + describePhysics(e.kind) + "; " + s.removed_partial[key] + ".";
+        }
+      }
+    rep.findings.push_back(f);
+  }
+  std::stable_sort(rep.findings.begin(), rep.findings.end(),
+                   [](const Finding& a, const Finding& b) { return a.accepted > b.accepted; });
+  rep.plot.nominal = s.base.prediction;
+  rep.plot.fitted = cur.fit.prediction;
+  rep.plot.nominal_residuals = s.base.residuals;
+  rep.plot.fitted_residuals = cur.fit.residuals;
+  rep.plot.variables = configVariables(rec);
+  rep.plot.final_mismatch = s.final_mismatch;
+
+  // The summary: one account. "At the noise" only against a noise the recording supports (given, repeated poses,
+  // or neighbour differences that do not grow with distance); "consistent with the noise" never next to a remainder.
+  const Unexplained& u = rep.unexplained;
+  const bool supported = rep.noise.supported();
+  double base_p = 1.0;
+  const double base_ratio = s.heldoutRatio(s.baseline_cv, base_p);
+  const bool nominal_misses = !rep.mismatch.findings.empty() ||
+                              (base_p < 0.5 * s.o.mismatch.alpha && base_ratio > 1.3) || !rep.verdict.empty() ||
+                              u.present;
+  std::string t;
+  if (!rep.reliable)
+    t += fmt("Unreliable: %.1f %% of the rows could not be evaluated by the model (see failed_rows). ",
+             100 * failed_fraction);
+  else if (!rep.failed_rows.empty())
+    t += std::to_string(rep.failed_rows.size()) + " row(s) could not be evaluated and were excluded (failed_rows). ";
+  int excluded = 0;
+  for (const BranchAmbiguousRow& b : rep.branch_ambiguous_rows) excluded += b.excluded;
+  if (excluded > 0)
+    t += std::to_string(excluded) +
+         " row(s) lie nearer another stable equilibrium of the model than the one replayed (the robot may have "
+         "reached another branch by a path the recording does not show) and were excluded (branch_ambiguous_rows). ";
+  if (!nominal_misses) {
+    t += supported ? "The nominal model's residuals are consistent with the measurement noise"
+                   : "The nominal model's residuals are no larger than the differences between neighbouring rows";
+  } else if (!rep.mismatch.findings.empty()) {
+    t += "The nominal model misses the recording: ";
+    int k = 0;
+    for (const auto& f : rep.mismatch.findings) {
+      if (k++ >= 3) break;
+      t += (k > 1 ? "; " : "") + f.where + fmt(" (p = %.2g)", f.p_value);
+    }
+  } else {
+    t += fmt("The nominal model misses the recording: its held-out residuals are %.2f x the noise variance (p = %.2g)",
+             base_ratio, base_p);
+  }
+  t += ". ";
+  auto listEffects = [&](bool named) {
+    std::string x;
+    for (const Effect& e : cur.fit.effects) {
+      if (isGeneric(e.kind) || (s.confounded.count(e.label()) == 0) != named) continue;
+      x += (x.empty() ? "" : ", ") + e.label() + " (" + e.valueText() + ")";
+      const auto& rv = s.rivals_of[e.label()];
+      if (!rv.empty()) {
+        x += " or";
+        for (std::size_t r = 0; r < rv.size(); ++r) x += (r ? ", " : " ") + rv[r].effect.label();
+        x += " (this recording cannot tell them apart)";
+      }
+    }
+    return x;
+  };
+  std::string rmse_change = "Held-out RMSE before -> after:";
+  for (const auto& kv : rep.baseline.heldout_rmse) {
+    const double after = rep.final.heldout_rmse.count(kv.first) ? rep.final.heldout_rmse.at(kv.first) : kv.second;
+    rmse_change += " " + kv.first + fmt(" %.4g -> %.4g;", kv.second, after);
+  }
+  std::string described;
+  for (const GenericDescription& g : u.described)
+    described += (described.empty() ? "" : " ") + std::string("The remainder is described by ") + g.description +
+                 fmt(" (held-out error %.0f %% lower with it, p = %.2g).", 100 * g.heldout_gain, g.heldout_p);
+  const std::string partial = listEffects(false);
+  const std::string unknown_noise =
+      " This recording cannot separate its noise from model error (the noise from neighbouring rows is an upper "
+      "bound): give --noise to test against the tracker's noise.";
+  if (rep.verdict.empty() && !u.present) {
+    t += supported ? "No candidate effect improved both the held-out error and BIC, and the residuals are at the "
+                     "noise: nothing was left out (within the noise)."
+                   : "No candidate effect improved both the held-out error and BIC; nothing is named." + unknown_noise;
+  } else if (rep.verdict.empty()) {
+    t += "Not explained by any candidate: " + u.where +
+         ". The cause is not in the candidate library, or this recording cannot identify it.";
+    if (!described.empty()) t += " " + described;
+    if (!partial.empty())
+      t += " Candidates that absorb part of it without being the answer (partial explanations, not named): " + partial +
+           fmt(" (together %.0f %% of the mismatch). ", 100 * u.fraction_explained) + rmse_change;
+  } else {
+    t += (u.present ? "Left out (a partial explanation): " : "Left out: ") + listEffects(true) + ". ";
+    if (!partial.empty()) t += "Also in the fit, but not named (confounded with the remainder): " + partial + ". ";
+    t += rmse_change;
+    if (u.present) {
+      t += fmt(" The candidates explain %.0f %% of the mismatch; ", 100 * u.fraction_explained) + u.where +
+           ", which the candidate library does not explain.";
+      if (!described.empty()) t += " " + described;
+    } else {
+      t += supported ? " The remaining residuals are at the noise."
+                     : " The remaining residuals are no larger than the differences between neighbouring rows." +
+                           unknown_noise;
+    }
+  }
+  t += " Noise: " + noiseWords(rep.noise) + ".";
+  rep.summary = t;
+}
+
+}  // namespace ctr::diagnosis::detail

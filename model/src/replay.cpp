@@ -1,0 +1,350 @@
+// Replaying commands through the stateful model: the branch rule (path continuation or rest), the coarse sub-steps
+// where they are exact, the failure rule and the search for other stable equilibria.
+#include "ctr/model/replay.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <stdexcept>
+
+namespace ctr {
+
+const char* toString(BranchRule rule) {
+  switch (rule) {
+    case BranchRule::Auto:
+      return "auto";
+    case BranchRule::Path:
+      return "path";
+    case BranchRule::Rest:
+      return "rest";
+  }
+  return "?";
+}
+
+BranchRule parseBranchRule(const std::string& text) {
+  for (BranchRule r : {BranchRule::Auto, BranchRule::Path, BranchRule::Rest})
+    if (text == toString(r)) return r;
+  throw std::invalid_argument("unknown branch rule '" + text + "' (known: auto, path, rest)");
+}
+
+const char* toString(Reached r) {
+  switch (r) {
+    case Reached::Path:
+      return "path";
+    case Reached::Rest:
+      return "rest";
+    case Reached::Restart:
+      return "restart";
+  }
+  return "?";
+}
+
+namespace {
+
+bool hasFriction(const Robot& robot) {
+  return robot.friction().boundary > 0.0 || robot.friction().distributed > 0.0;
+}
+
+/// The robot without rotation limits (the rest path passes through rotations outside them).
+Robot withoutRotationLimits(const Robot& robot) {
+  Robot r = robot;
+  for (int i = 0; i < robot.size(); ++i)
+    if (robot.tube(i).rotation_limits) {
+      Tube t = robot.tube(i);
+      t.rotation_limits.reset();
+      r = r.withTube(i, t);
+    }
+  return r;
+}
+
+bool hasRotationLimits(const Robot& robot) {
+  for (const Tube& t : robot.tubes())
+    if (t.rotation_limits) return true;
+  return false;
+}
+
+/// Outcome of one move: the step's result and whether it is a usable, stable, snap-free equilibrium.
+struct Move {
+  StepResult r;
+  bool ok = false;
+  std::string reason;
+};
+
+std::string reasonOf(const Robot& robot, const StepResult& r) {
+  if (r.solution.summary.status == SolveStatus::Inadmissible) return "inadmissible command: " + r.summary.message;
+  if (!(r.summary.converged && r.state.valid)) {
+    if (r.solution.converged())
+      return "no consistent stick/slip contact set" + (r.summary.message.empty() ? "" : ": " + r.summary.message);
+    const std::string m = r.summary.message.empty() ? r.solution.summary.message : r.summary.message;
+    return "did not converge" + (m.empty() ? "" : ": " + m);
+  }
+  if (r.summary.snapped) return "snapped (the equilibrium branch ended; the quasi-static model cannot follow the jump)";
+  if (!hasFriction(robot) && !r.solution.summary.stable) return "unstable equilibrium";
+  return "";
+}
+
+/// A quasi-static move of `robot` from `from` to q: the coarse sub-steps where the end state does not depend on
+/// them (ReplayOptions::coarse_rotation_step), else the fine ones.
+Move move(const Robot& robot, const HysteresisState& from, const Configuration& q, Workspace& ws,
+          const ReplayOptions& o) {
+  Move m;
+  const FrictionOptions& fine = o.friction;
+  const bool friction = hasFriction(robot);
+  if (o.coarse_rotation_step > fine.max_rotation_step &&
+      (!friction || (q.beta == from.q.beta && contactSites(robot, q).size() <= 1))) {
+    FrictionOptions coarse = fine;
+    coarse.max_rotation_step = o.coarse_rotation_step;
+    if (!friction) coarse.max_translation_step = std::max(o.coarse_translation_step, fine.max_translation_step);
+    // A snap is a twist jump much larger than the commanded sub-step: the detector scales with the sub-step (at most
+    // 2 rad, below the ~pi jump of a real snap).
+    coarse.snap_threshold =
+        std::min(2.0, fine.snap_threshold * coarse.max_rotation_step / std::max(fine.max_rotation_step, 1e-9));
+    m.r = step(robot, from, q, ws, coarse);
+    if (m.r.summary.substeps > 0 && reasonOf(robot, m.r).empty()) {
+      m.ok = true;
+      return m;
+    }
+  }
+  m.r = step(robot, from, q, ws, fine);
+  m.reason = reasonOf(robot, m.r);
+  m.ok = m.reason.empty();
+  return m;
+}
+
+/// The aligned configuration with q's translations: every relative rotation a whole number of turns (0 after
+/// wrapping), reached from q by the short way in each.
+Configuration restOf(const Configuration& q) {
+  Configuration home = q;
+  for (int i = 1; i < q.size(); ++i) home.alpha[i] = q.alpha[i] - std::remainder(q.alpha[i] - q.alpha[0], 2 * M_PI);
+  return home;
+}
+
+Move fromRest(const Robot& robot, const Configuration& home, const Configuration& q, Workspace& ws,
+              const ReplayOptions& o) {
+  Move m;
+  const Admissibility adm = checkAdmissible(robot, q);
+  if (!adm) {
+    m.r.solution.q = q;
+    m.r.solution.summary.status = SolveStatus::Inadmissible;
+    m.r.summary.message = adm.message;
+    m.reason = reasonOf(robot, m.r);
+    return m;
+  }
+  const Robot free = hasRotationLimits(robot) ? withoutRotationLimits(robot) : robot;
+  StepResult start = initialState(free, home, ws, o.friction);
+  if (!(start.summary.converged && start.state.valid)) {
+    m.r = std::move(start);
+    m.reason = "did not converge at rest: " + m.r.summary.message;
+    return m;
+  }
+  if (home.alpha == q.alpha) {
+    m.r = std::move(start);
+    m.reason = reasonOf(robot, m.r);
+    m.ok = m.reason.empty();
+    return m;
+  }
+  m = move(free, start.state, q, ws, o);
+  m.reason = reasonOf(robot, m.r);
+  m.ok = m.reason.empty();
+  return m;
+}
+
+double tipDistance(const Solution& a, const Solution& b) {
+  return (a.tip_position - b.tip_position).norm();
+}
+
+/// Same equilibrium (to the solver tolerance): tips within 1 um and twists within 1e-5 rad.
+bool sameEquilibrium(const Solution& a, const Solution& b) {
+  if (tipDistance(a, b) > 1e-6) return false;
+  return a.twist.size() != b.twist.size() || a.twist.size() == 0 || (a.twist - b.twist).cwiseAbs().maxCoeff() <= 1e-5;
+}
+
+/// Frictionless branches tracked for the alternatives: the replayed row's own (primary) and the others.
+struct Branches {
+  bool active = false;
+  HysteresisState primary;
+  std::vector<HysteresisState> others;
+  std::vector<Solution> primary_solution;  // 0 or 1
+  std::vector<Solution> other_solutions;
+};
+
+/// The memory of a frictionless robot at a solved equilibrium (its branch), to follow it along a path.
+HysteresisState frictionlessState(const Solution& s, const Configuration& q) {
+  HysteresisState st;
+  st.q = q;
+  st.base_twist_rate = s.base_twist_rate;
+  st.base_moment = s.base_moment;
+  st.twist = s.twist;
+  st.direction = Eigen::VectorXd::Zero(q.size());
+  st.valid = s.converged();
+  return st;
+}
+
+/// Stable frictionless equilibria at q other than `primary`: the long way round in one relative rotation at a time,
+/// the continuation from the previous row, the old warm Newton jump from it, and the cold solve.
+void searchAlternatives(const Robot& free, const Configuration& q, const Solution& primary,
+                        const HysteresisState* previous, Workspace& ws, const ReplayOptions& o, Branches& b) {
+  std::vector<StepResult> found;
+  const Configuration home = restOf(q);
+  for (int i = 1; i < q.size(); ++i) {
+    const double wrapped = q.alpha[i] - home.alpha[i];
+    if (std::abs(wrapped) < 1e-9) continue;
+    Configuration other = home;
+    other.alpha[i] += wrapped > 0 ? 2 * M_PI : -2 * M_PI;  // rotate the long way
+    Move m = fromRest(free, other, q, ws, o);
+    if (m.ok) found.push_back(std::move(m.r));
+  }
+  if (previous && previous->valid) {
+    Move m = move(free, *previous, q, ws, o);
+    if (m.ok) found.push_back(std::move(m.r));
+    Solution warm;
+    warm.base_twist_rate = previous->base_twist_rate;
+    warm.summary.status = SolveStatus::Converged;
+    StepResult jump;
+    jump.solution = solve(free, q, ws, o.friction.kinematics, &warm);
+    jump.summary.converged = jump.solution.converged();
+    if (jump.solution.converged() && jump.solution.summary.stable) {
+      jump.state = frictionlessState(jump.solution, q);
+      found.push_back(std::move(jump));
+    }
+  }
+  StepResult cold;
+  cold.solution = solve(free, q, ws, o.friction.kinematics, nullptr);
+  if (cold.solution.converged() && cold.solution.summary.stable) {
+    cold.state = frictionlessState(cold.solution, q);
+    found.push_back(std::move(cold));
+  }
+  for (StepResult& r : found) {
+    if (!r.solution.converged() || !r.solution.summary.stable || sameEquilibrium(r.solution, primary)) continue;
+    bool dup = false;
+    for (const Solution& s : b.other_solutions) dup = dup || sameEquilibrium(r.solution, s);
+    if (dup) continue;
+    b.other_solutions.push_back(r.solution);
+    b.others.push_back(r.state);
+  }
+}
+
+/// Follows the tracked branches along a path move to q; drops those that end (snap, no convergence, instability) or
+/// merge with the primary branch or with each other.
+void followAlternatives(const Robot& free, const Configuration& q, Workspace& ws, const ReplayOptions& o, Branches& b) {
+  Move p = move(free, b.primary, q, ws, o);
+  if (!p.ok) {
+    b = Branches{};
+    return;
+  }
+  b.primary = p.r.state;
+  b.primary_solution = {p.r.solution};
+  std::vector<HysteresisState> others;
+  std::vector<Solution> sols;
+  for (const HysteresisState& s : b.others) {
+    Move m = move(free, s, q, ws, o);
+    if (!m.ok || sameEquilibrium(m.r.solution, p.r.solution)) continue;
+    bool dup = false;
+    for (const Solution& x : sols) dup = dup || sameEquilibrium(m.r.solution, x);
+    if (dup) continue;
+    others.push_back(m.r.state);
+    sols.push_back(m.r.solution);
+  }
+  b.others = std::move(others);
+  b.other_solutions = std::move(sols);
+  b.active = !b.others.empty();
+}
+
+}  // namespace
+
+StepResult reachFromRest(const Robot& robot, const Configuration& q, Workspace& ws, const FrictionOptions& options) {
+  ReplayOptions o;
+  o.friction = options;
+  Move m = fromRest(robot, restOf(q), q, ws, o);
+  if (!m.reason.empty() && m.r.summary.message.empty()) m.r.summary.message = m.reason;
+  return std::move(m.r);
+}
+
+bool isPathMove(const Configuration& from, const Configuration& to, const ReplayOptions& o) {
+  if (from.size() != to.size() || to.size() == 0) return false;
+  double rot = std::abs(to.alpha[0] - from.alpha[0]);
+  for (int i = 1; i < to.size(); ++i)
+    rot = std::max(rot, std::abs((to.alpha[i] - to.alpha[0]) - (from.alpha[i] - from.alpha[0])));
+  const double lin = (to.beta - from.beta).cwiseAbs().maxCoeff();
+  return rot <= o.path_rotation_step && lin <= o.path_translation_step;
+}
+
+std::vector<ReplayRow> replay(const Robot& robot, const std::vector<Configuration>& commands, Workspace& ws,
+                              const ReplayOptions& o, const ReplayPath& known) {
+  std::vector<ReplayRow> out(commands.size());
+  const bool friction = hasFriction(robot);
+  const Robot free = friction ? robot.withFriction(FrictionCoefficients{}) : robot;
+  HysteresisState good;        // the last evaluated state (invalid until the first one)
+  Configuration last_command;  // the command the robot was last moved to (evaluated or not)
+  bool previous_failed = false;
+  Branches branches;
+  for (std::size_t k = 0; k < commands.size(); ++k) {
+    const Configuration& q = commands[k];
+    ReplayRow& row = out[k];
+    const Admissibility adm = checkAdmissible(robot, q);
+    if (!adm) {
+      row.result.solution.q = q;
+      row.result.solution.summary.status = SolveStatus::Inadmissible;
+      row.result.summary.message = adm.message;
+      row.reason = reasonOf(robot, row.result);
+      previous_failed = true;
+      continue;
+    }
+    // The path to this row is known when the rule says so and the move from the last command is small.
+    const bool dense = k < known.dense.size() ? known.dense[k] != 0
+                                              : last_command.size() == q.size() && isPathMove(last_command, q, o);
+    const bool path = good.valid && (o.branch == BranchRule::Path || (o.branch == BranchRule::Auto && dense));
+    Move m;
+    if (path) {
+      if (k < known.via.size())
+        for (const Configuration& v : known.via[k]) {
+          Move mv = move(robot, good, v, ws, o);
+          if (mv.r.summary.converged && mv.r.state.valid && !mv.r.summary.snapped) good = std::move(mv.r.state);
+        }
+      m = move(robot, good, q, ws, o);
+      row.reached = Reached::Path;
+      if (!(m.r.summary.converged && m.r.state.valid) && previous_failed) {
+        // Two failures in a row: the memory cannot be carried on; reached from rest here.
+        Move rest = fromRest(robot, restOf(q), q, ws, o);
+        if (rest.r.summary.converged && rest.r.state.valid) {
+          m = std::move(rest);
+          row.reached = Reached::Restart;
+        }
+      }
+    } else {
+      m = fromRest(robot, restOf(q), q, ws, o);
+      row.reached = Reached::Rest;
+    }
+    row.ok = m.ok;
+    row.reason = m.reason;
+    last_command = q;
+    if (o.find_alternatives) {
+      if (row.reached == Reached::Path && branches.active) {
+        followAlternatives(free, q, ws, o, branches);
+      } else if (row.reached != Reached::Path && m.ok) {
+        const HysteresisState* previous = good.valid ? &good : nullptr;
+        branches = Branches{};
+        Move primary = friction ? fromRest(free, restOf(q), q, ws, o) : m;
+        if (primary.ok) {
+          branches.primary = primary.r.state;
+          searchAlternatives(free, q, primary.r.solution, previous, ws, o, branches);
+          branches.active = !branches.others.empty();
+        }
+      } else if (row.reached == Reached::Path && !m.ok) {
+        branches = Branches{};
+      }
+      if (m.ok && branches.active)
+        for (const Solution& s : branches.other_solutions)
+          row.alternatives.push_back({tipDistance(s, m.r.solution), s});
+      std::sort(row.alternatives.begin(), row.alternatives.end(),
+                [](const Alternative& a, const Alternative& b) { return a.tip_distance < b.tip_distance; });
+    }
+    // Memory is carried from converged states; never from an unstable frictionless one.
+    const bool evaluated = m.r.summary.converged && m.r.state.valid && (friction || m.r.solution.summary.stable);
+    if (evaluated) good = m.r.state;  // after a snap the replay goes on from the branch it landed on
+    previous_failed = !evaluated;
+    row.result = std::move(m.r);
+  }
+  return out;
+}
+
+}  // namespace ctr

@@ -3,7 +3,6 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
-#include <random>
 
 #include "ctr/model/replay.hpp"
 #include "tube_factory.hpp"
@@ -13,32 +12,129 @@ using ctr::test::makeTube;
 
 namespace {
 
-/// A tube pair that snaps: strongly curved, long overlap, long straight transmissions.
-Robot snappingPair() {
-  return Robot("snapping_pair",
+constexpr double kDeg = M_PI / 180;
+
+/// A strongly curved tube pair with long straight transmissions: two stable equilibria at every relative rotation
+/// (the curved parts bent to one side or, after a turn of wind-up, to the other).
+Robot bistablePair() {
+  return Robot("bistable_pair",
                {makeTube("outer", 0.10, 0.15, 14.0, 0.03, 0.3), makeTube("inner", 0.12, 0.15, 14.0, 0.03, 0.3)});
 }
 
-Configuration pose(double a2, double b = -0.05) {
-  return Configuration(Eigen::Vector2d(0, a2), Eigen::Vector2d(b, b - 0.02 + 0.02));
+Configuration pose(double relative) {
+  return Configuration(Eigen::Vector2d(0, relative), Eigen::Vector2d(-0.05, -0.05));
 }
 
 }  // namespace
 
-TEST(Replay, Explore) {
-  const Robot r = snappingPair();
+TEST(Replay, AutoFollowsSmallMovesAndReachesLargeOnesFromRest) {
+  const Robot r = bistablePair();
+  Workspace ws;
+  std::vector<Configuration> q;
+  for (int k = 0; k <= 6; ++k) q.push_back(pose(k * 10 * kDeg));  // a sweep: small moves
+  q.push_back(pose(150 * kDeg));                                   // a jump of 90 deg: unknown path
+  q.push_back(pose(155 * kDeg));
+  const std::vector<ReplayRow> rows = replay(r, q, ws);
+  ASSERT_EQ(rows.size(), q.size());
+  EXPECT_EQ(rows[0].reached, Reached::Rest);
+  for (int k = 1; k <= 6; ++k) EXPECT_EQ(rows[static_cast<std::size_t>(k)].reached, Reached::Path) << k;
+  EXPECT_EQ(rows[7].reached, Reached::Rest);
+  EXPECT_EQ(rows[8].reached, Reached::Path);
+  for (const ReplayRow& row : rows) EXPECT_TRUE(row.ok) << row.reason;
+  EXPECT_TRUE(isPathMove(q[0], q[1], ReplayOptions{}));
+  EXPECT_FALSE(isPathMove(q[6], q[7], ReplayOptions{}));
+}
+
+// The rest path (aligned tubes rotated the short way, stick-slip stepping code) lands on the equilibrium that an
+// independent frictionless continuation from the aligned tubes (continueTo, kinematics solver) reaches.
+TEST(Replay, RestIsTheContinuationFromTheAlignedTubes) {
+  const Robot r = bistablePair();
+  Workspace ws;
+  KinematicsOptions ko;
+  ko.record_backbone = false;
+  for (double rel : {-170.0, -60.0, 100.0, 179.0, 250.0}) {
+    const Configuration q = pose(rel * kDeg);
+    const StepResult rest = reachFromRest(r, q, ws);
+    ASSERT_TRUE(rest.summary.converged) << rel << ": " << rest.summary.message;
+    const double wrapped = std::remainder(rel * kDeg, 2 * M_PI);
+    const Solution aligned = solve(r, pose(rel * kDeg - wrapped), ws, ko);
+    const Solution cont = continueTo(r, aligned, q, ws, ko);
+    ASSERT_TRUE(cont.converged());
+    EXPECT_FALSE(cont.summary.snapped);
+    EXPECT_LT((rest.solution.tip_position - cont.tip_position).norm(), 1e-8) << rel;
+    EXPECT_TRUE(rest.solution.summary.stable) << rel;
+  }
+}
+
+// From rest, every row of this pair is on the short-way branch and stable; the other stable equilibrium (the long way
+// round: the curved parts bent to the other side, ~0.2 m away) is listed at every row but the aligned one.
+TEST(Replay, NeverAnUnstableEquilibriumAndTheOtherBranchIsListed) {
+  const Robot r = bistablePair();
   Workspace ws;
   ReplayOptions o;
-  o.find_alternatives = true;
-  std::vector<Configuration> q;
-  for (int k = 0; k <= 36; ++k) q.push_back(pose(k * 10.0 * M_PI / 180));
   o.branch = BranchRule::Rest;
-  const auto rows = replay(r, q, ws, o);
+  o.find_alternatives = true;
+  KinematicsOptions ko;
+  ko.record_backbone = false;
+  std::vector<Configuration> q;
+  for (int k = 0; k <= 12; ++k) q.push_back(pose(k * 30 * kDeg));
+  const std::vector<ReplayRow> rows = replay(r, q, ws, o);
   for (std::size_t k = 0; k < rows.size(); ++k) {
-    std::printf("%3zu %5.0f ok=%d %s stab=%.3g tw=%.3f alts:", k, k * 10.0, rows[k].ok, rows[k].reason.c_str(),
-                rows[k].result.solution.summary.stability,
-                rows[k].result.solution.twist.size() ? rows[k].result.solution.twist[0] : 0.0);
-    for (const Alternative& a : rows[k].alternatives) std::printf(" %.2f mm", a.tip_distance * 1e3);
-    std::printf("\n");
+    ASSERT_TRUE(rows[k].ok) << k << ": " << rows[k].reason;
+    EXPECT_TRUE(rows[k].result.solution.summary.stable) << k;
+    const double rel = std::remainder(q[k].alpha[1], 2 * M_PI);
+    if (std::abs(rel) < 1e-9) continue;
+    ASSERT_FALSE(rows[k].alternatives.empty()) << k;
+    const Alternative& alt = rows[k].alternatives.front();
+    EXPECT_GT(alt.tip_distance, 0.1) << k;
+    EXPECT_TRUE(alt.solution.summary.stable) << k;
+    // It is the equilibrium reached the long way round from the aligned tubes.
+    const double other = rel > 0 ? rel - 2 * M_PI : rel + 2 * M_PI;
+    const Solution aligned = solve(r, pose(q[k].alpha[1] - rel), ws, ko);
+    const Solution longway = continueTo(r, aligned, pose(q[k].alpha[1] - rel + other), ws, ko);
+    EXPECT_LT((alt.solution.tip_position - longway.tip_position).norm(), 1e-6) << k;
+  }
+}
+
+// Continuation along a path past the symmetric pose keeps the branch (or snaps); from rest the pose is reached the
+// short way: the two rules give different equilibria there, and both are stable.
+TEST(Replay, PathAndRestDifferWhereThePathWindsUp) {
+  const Robot r = bistablePair();
+  Workspace ws;
+  std::vector<Configuration> q;
+  for (int k = 0; k <= 20; ++k) q.push_back(pose(k * 10 * kDeg));  // 0 .. 200 deg in 10 deg steps
+  ReplayOptions path, rest;
+  path.branch = BranchRule::Path;
+  rest.branch = BranchRule::Rest;
+  const std::vector<ReplayRow> a = replay(r, q, ws, path), b = replay(r, q, ws, rest);
+  ASSERT_TRUE(b.back().ok) << b.back().reason;
+  if (a.back().ok) {
+    EXPECT_GT((a.back().result.solution.tip_position - b.back().result.solution.tip_position).norm(), 0.05);
+    EXPECT_TRUE(a.back().result.solution.summary.stable);
+  } else {
+    bool snapped = false;
+    for (const ReplayRow& row : a) snapped = snapped || row.reason.rfind("snapped", 0) == 0;
+    EXPECT_TRUE(snapped) << a.back().reason;
+  }
+}
+
+// A failed row gets its reason and no output; the next row is reached from the last evaluated state, exactly as if
+// the failed row were not there.
+TEST(Replay, FailedRowIsReportedAndTheNextComesFromTheLastState) {
+  const Robot r = bistablePair().withFriction({0.1, 0.0});
+  Workspace ws;
+  std::vector<Configuration> q, without;
+  for (int k = 0; k <= 8; ++k) q.push_back(pose(k * 10 * kDeg));
+  Configuration bad = pose(85 * kDeg);
+  bad.beta[0] = 0.01;  // beta_1 > 0: inadmissible
+  q.insert(q.begin() + 5, bad);
+  for (const Configuration& c : q)
+    if (c.beta[0] <= 0) without.push_back(c);
+  const std::vector<ReplayRow> a = replay(r, q, ws), b = replay(r, without, ws);
+  EXPECT_FALSE(a[5].ok);
+  EXPECT_EQ(a[5].reason.rfind("inadmissible command", 0), 0u) << a[5].reason;
+  for (std::size_t k = 6; k < a.size(); ++k) {
+    ASSERT_TRUE(a[k].ok) << a[k].reason;
+    EXPECT_LT((a[k].result.solution.tip_position - b[k - 1].result.solution.tip_position).norm(), 1e-12);
   }
 }

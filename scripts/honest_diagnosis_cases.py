@@ -1,13 +1,17 @@
 #!/usr/bin/env python3
-"""Cases of issue 14 (honest diagnosis), generated through the `ctr` command and plain CSV edits:
+"""Cases with a known answer for `ctr diagnose`, generated through the `ctr` command and plain CSV edits:
 
   real-log injections  known effects written into the real Dupont-lab log itself (the robot "did" something the
-                       log hides): backlash / offset on one joint column, offset on one translation column;
-  look-alikes          the real joint path simulated through the model with one effect at a time (friction,
-                       latency, backlash) to show which ones this trajectory can tell apart;
+                       log hides): backlash / offset on one joint column, offset on one translation column, two drive
+                       errors at once;
+  real joint path      the real joint path simulated through the model with one effect at a time (friction,
+                       latency, backlash) to show which ones this trajectory can tell apart, and null recordings
+                       (one measured like the real log: 1 mm, 1.5 deg, unknown frame);
+  pose sets            random poses without a time column: the lung robot moved straight between poses (rows on
+                       other branches than the one reached from rest), a tube pair with repeated frames and returns;
   coincident ends      a 3-tube null recording whose inner tubes often end exactly together, logged with rounding;
   outside the library  effects no candidate models (tracker drift, a gear-ratio error, a periodic drive error):
-                       right only when the verdict is empty and `unexplained` is flagged.
+                       right only when nothing is named, `unexplained` is flagged and a generic model describes it.
 
 Usage: scripts/honest_diagnosis_cases.py BUILD_DIR OUT_DIR [--only NAME,...] [--quick]
 Writes OUT_DIR/NAME.{csv,json} and prints a Markdown table (docs/diagnosis.md). Needs ../shared beside the checkout.
@@ -18,6 +22,8 @@ ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 SHARED = os.path.join(ROOT, '..', 'shared')
 DUPONT_TXT = os.path.join(SHARED, 'data', 'dupont-lab-ctr-trajectory-hjhdog1', 'jointTipTrajectory_measured_short.txt')
 DUPONT_ROBOT = os.path.join(ROOT, 'examples', 'robots', 'dupont_lab_3tube.yaml')
+LUNG_ROBOT = os.path.join(ROOT, 'examples', 'robots', 'medmpd_lung.yaml')
+PAIR_B_ROBOT = os.path.join(ROOT, 'examples', 'robots', 'tube_pair_B.yaml')
 DEG = math.pi / 180
 
 
@@ -92,6 +98,27 @@ class Cases:
             d = direction_series(x, 1e-4)
             return [v + 0.5 * width * s for v, s in zip(x, d)]
         return self.real_joint_edit('real_backlash_t%d' % tube, 'alpha_%d' % tube, edit)
+
+    def real_two_drives(self):
+        # Two drive errors the log hides: an 8 deg play on the tube-2 drive and a 6 deg offset of tube 1.
+        h, rows = read_csv(self.dupont)
+        c2, c1 = h.index('alpha_2'), h.index('alpha_1')
+        x = [r[c2] for r in rows]
+        d = direction_series(x, 1e-4)
+        for r, s in zip(rows, d):
+            r[c2] += 0.5 * 8 * DEG * s
+            r[c1] -= 6 * DEG
+        path = os.path.join(self.out, 'real_two_drives.csv')
+        write_csv(path, h, rows)
+        return path
+
+    def poses(self, name, robot, extra, pos_noise=3e-4, tan_noise='0.3deg'):
+        # A pose set: random poses (no time column), optionally with returns and repeated frames.
+        path = os.path.join(self.out, name + '.csv')
+        run([self.ctr, 'recording', 'inject', '--robot', robot, '--pattern', 'random', '--dt', '0',
+             '--noise-position', str(pos_noise), '--noise-tangent', tan_noise, '--measure', 'tip_position,tip_tangent',
+             '--seed', '12', '--out', path] + extra)
+        return path
 
     def real_offset(self, tube, offset, translation=False):
         col = ('beta_%d' if translation else 'alpha_%d') % tube
@@ -202,14 +229,18 @@ def main():
         ('path_latency', lambda: C.inject('path_latency', ['sensor_latency:delay=0.1']), 'sensor_latency', DUPONT_ROBOT, 'unknown'),
         ('path_backlash', lambda: C.inject('path_backlash', ['actuator_backlash:tube=2,width=12deg']), 'actuator_backlash', DUPONT_ROBOT, 'unknown'),
         ('path_latency_friction', lambda: C.inject('path_latency_friction', ['sensor_latency:delay=0.1', 'boundary_friction:mu=0.1']), 'boundary_friction+sensor_latency', DUPONT_ROBOT, 'unknown'),
+        ('real_two_drives', lambda: C.real_two_drives(), 'actuator_backlash[2] 0.14 + actuator_offset[1] 0.105 on top', DUPONT_ROBOT, 'unknown'),
         ('path_null', lambda: C.inject('path_null', []), 'none', DUPONT_ROBOT, 'unknown'),
+        ('path_null_real_noise', lambda: C.inject('path_null_real_noise', [], pos_noise=1e-3, tan_noise='1.5deg'), 'none, no unexplained', DUPONT_ROBOT, 'unknown'),
+        ('poses_lung_path_truth', lambda: (C.poses('poses_lung_path_truth', LUNG_ROBOT, ['--rows', '40', '--branch', 'path']), LUNG_ROBOT), 'none (off-branch rows excluded)', None, 'base'),
+        ('poses_frames_returns', lambda: (C.poses('poses_frames_returns', PAIR_B_ROBOT, ['--rows', '60', '--returns', '0.5', '--frames', '20', '--repeatability-position', '5e-4', '--repeatability-tangent', '0.3deg'], pos_noise=5e-5, tan_noise='0.02deg'), PAIR_B_ROBOT), 'none, noise from returns', None, 'base'),
         ('coincident_null', lambda: C.inject('coincident_null', [], actuation=C.coincident_actuation(), pos_noise=9e-4, tan_noise='0.5deg', sensor_frame=False), 'none, 0 failed rows', DUPONT_ROBOT, 'base'),
-        ('outside_gear_ratio', lambda: C.outside('outside_gear_ratio', 'gear_ratio'), 'unexplained, nothing named', None, 'base'),
-        ('outside_periodic', lambda: C.outside('outside_periodic', 'periodic'), 'unexplained, nothing named', None, 'base'),
-        ('outside_tracker_drift', lambda: C.outside('outside_tracker_drift', 'tracker_drift'), 'unexplained, nothing named', None, 'base'),
+        ('outside_gear_ratio', lambda: C.outside('outside_gear_ratio', 'gear_ratio'), 'nothing named; described: drive ratio of tube 2', None, 'base'),
+        ('outside_periodic', lambda: C.outside('outside_periodic', 'periodic'), 'nothing named; described: periodic drive error of tube 2', None, 'base'),
+        ('outside_tracker_drift', lambda: C.outside('outside_tracker_drift', 'tracker_drift'), 'nothing named; described: tracker drift', None, 'base'),
     ]
-    print('| case | expected | verdict | fitted | unexplained | failed rows | held-out tip error before -> after (mm) | wall s |')
-    print('|---|---|---|---|---|---|---|---|')
+    print('| case | expected | verdict | fitted | unexplained (described by) | noise source | failed / off-branch rows | held-out tip error before -> after (mm) | wall s |')
+    print('|---|---|---|---|---|---|---|---|---|')
     for name, build_case, expected, robot, frame in cases:
         if only and name not in only:
             continue
@@ -224,10 +255,15 @@ def main():
         for f in j['findings']:
             for r in f.get('ambiguous_with', []):
                 amb.append('%s~%s' % (f['effect'], r['effect']))
-        print('| %s | %s | %s%s | %s | %s | %d | %.2f -> %.2f | %.0f |' % (
+        described = ', '.join('%s%s' % (d['model'], '[%d]' % d['parameters']['tube'] if 'tube' in d['parameters'] else '')
+                              for d in (un or {}).get('described', []))
+        sources = ', '.join('%s %s%s' % (q, n['source'], '' if n['supported'] else ' (bound)')
+                            for q, n in j['noise'].items())
+        off = sum(1 for r in j.get('branch_ambiguous_rows', []) if r['excluded'])
+        print('| %s | %s | %s%s | %s | %s%s | %s | %d / %d | %.2f -> %.2f | %.0f |' % (
             name, expected, ', '.join(j['verdict']) or '[]', (' (ties: %s)' % ', '.join(amb)) if amb else '',
             fmt_params(j), ('%.0f %% explained' % (100 * un['fraction_explained'])) if un else '—',
-            len(j['failed_rows']), b, a, wall), flush=True)
+            (' (%s)' % described) if described else '', sources, len(j['failed_rows']), off, b, a, wall), flush=True)
 
 
 if __name__ == '__main__':

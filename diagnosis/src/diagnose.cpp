@@ -194,6 +194,7 @@ DiagnosisReport diagnose(const Robot& nominal, const io::Recording& given, const
   }
   auto estimate = [&]() {
     s.fo.rows = s.evaluable;  // (the registration already skipped failed rows: their predictions are NaN)
+    excludeRows(s.base.residuals, s.evaluable);
     rep.noise = estimateNoise(rec, s.base.residuals, s.base.prediction.reached, s.evaluable, o.noise, &visits);
     s.fo.noise = rep.noise.levels();
     if (o.frame == FrameMode::Unknown) {
@@ -263,6 +264,26 @@ DiagnosisReport diagnose(const Robot& nominal, const io::Recording& given, const
   for (int round = 1; static_cast<int>(s.cur.fit.effects.size()) < o.max_effects; ++round)
     if (!detail::selectionRound(s, round)) break;
   detail::backwardElimination(s);
+  // A noise estimated from neighbouring rows is estimated again on the final model's residuals, which hold less model
+  // error than the nominal model's: the remainder is tested against that, and it says whether the recording
+  // separates its noise from model error.
+  if (!s.cur.fit.effects.empty()) {
+    const NoiseReport fin =
+        estimateNoise(rec, s.cur.fit.residuals, s.cur.fit.prediction.reached, s.evaluable, o.noise, &visits);
+    bool changed = false;
+    for (auto& [q, e] : rep.noise.by_quantity) {
+      const auto f = fin.by_quantity.find(q);
+      if (e.source != "neighbours" || f == fin.by_quantity.end() || f->second.source != "neighbours") continue;
+      e = f->second;
+      e.note += " (on the final model's residuals)";
+      changed = true;
+    }
+    if (changed) {
+      s.fo.noise = rep.noise.levels();
+      double p = 1.0;
+      s.base_ratio = s.heldoutRatio(s.baseline_cv, p);
+    }
+  }
   detail::assessRemainder(s);
   detail::checkProxies(s);
   detail::describeRemainder(s);

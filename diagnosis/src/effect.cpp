@@ -42,7 +42,7 @@ constexpr KindFacts kFacts[] = {
     {EffectKind::DriveRatio, "drive_ratio", "coefficients", "", true, false, 0, 1, true},
     {EffectKind::DrivePeriodic, "drive_periodic", "coefficients", "rad", true, false, 0, 4, true},
     {EffectKind::StageError, "stage_error", "coefficients", "m", true, false, 0, 3, true},
-    {EffectKind::TrackerDrift, "tracker_drift", "coefficients", "m", false, false, 0, 6, true},
+    {EffectKind::TrackerDrift, "tracker_drift", "coefficients", "m", false, false, 0, 3, true},
 };
 static_assert(sizeof(kFacts) / sizeof(kFacts[0]) == static_cast<std::size_t>(EffectKind::TrackerDrift) + 1,
               "one row of facts per EffectKind");
@@ -202,7 +202,7 @@ double Effect::genericAt(double x, int axis) const {
     }
     case EffectKind::TrackerDrift: {
       const double t = (x - ref[0]) / ref[1];
-      return coef[axis] * t + coef[3 + axis] * t * t;
+      return coef[axis] * t;
     }
     default:
       return 0.0;
@@ -239,7 +239,7 @@ std::string Effect::valueText() const {
     case EffectKind::StageError:
       return "u, u^2, u^3 terms " + g4(coef[0] * 1e3) + ", " + g4(coef[1] * 1e3) + ", " + g4(coef[2] * 1e3) + " mm";
     case EffectKind::TrackerDrift:
-      return "linear " + vec3(coef.head<3>() * 1e3) + " mm, quadratic " + vec3(coef.segment<3>(3) * 1e3) + " mm";
+      return "drift " + vec3(coef.head<3>() * 1e3) + " mm over the recording";
     default:
       return std::string(parameterName(kind)) + " = " + g4(value);
   }

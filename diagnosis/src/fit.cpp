@@ -195,6 +195,7 @@ class Model {
     f.prediction = predict(nominal_, rec_.commands, rec_.time, e, w, o_.predict);
     f.registration = mapToSensor(rec_, f.prediction, o_.frame, use_, o_.noise);
     f.residuals = computeResiduals(rec_, f.prediction);
+    excludeRows(f.residuals, o_.rows);
     return f;
   }
   /// Evaluations of several parameter points, on FitOptions::threads threads (in order of `xs`).

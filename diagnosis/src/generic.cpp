@@ -79,24 +79,25 @@ std::vector<Effect> genericSlots(const io::Recording& rec) {
   for (int i = 0; i < n; ++i)
     for (EffectKind kind : {EffectKind::DriveRatio, EffectKind::DrivePeriodic, EffectKind::StageError}) {
       const bool rot = kind != EffectKind::StageError;
-      double lo = 1e300, hi = -1e300, sum = 0.0;
+      double lo = 1e300, hi = -1e300;
       for (const Configuration& q : rec.commands) {
         const double x = rot ? q.alpha[i] : q.beta[i];
         lo = std::min(lo, x);
         hi = std::max(hi, x);
-        sum += x;
       }
       if (!(hi - lo > (rot ? 1e-3 : 1e-5))) continue;
       Effect e;
       e.kind = kind;
       e.tube = i + 1;
-      e.ref = rot ? Eigen::Vector2d(sum / rows, 1.0) : Eigen::Vector2d(0.5 * (lo + hi), 0.5 * (hi - lo));
+      // A drive's ratio error scales its angle from the drive's zero; a stage's error is a polynomial over its
+      // travel in the recording.
+      e.ref = rot ? Eigen::Vector2d(0.0, 1.0) : Eigen::Vector2d(0.5 * (lo + hi), 0.5 * (hi - lo));
       out.push_back(e);
     }
   if (rec.hasTime() && rec.hasTipPosition() && rows > 2 && rec.time[rows - 1] > rec.time[0]) {
     Effect e;
     e.kind = EffectKind::TrackerDrift;
-    e.ref = Eigen::Vector2d(0.5 * (rec.time[0] + rec.time[rows - 1]), 0.5 * (rec.time[rows - 1] - rec.time[0]));
+    e.ref = Eigen::Vector2d(rec.time[0], rec.time[rows - 1] - rec.time[0]);
     out.push_back(e);
   }
   return out;

@@ -77,6 +77,16 @@ Residuals computeResiduals(const io::Recording& rec, const Prediction& p) {
   return r;
 }
 
+void excludeRows(Residuals& r, const std::vector<char>& rows) {
+  if (rows.empty()) return;
+  const double nan = std::numeric_limits<double>::quiet_NaN();
+  for (Quantity q : {Quantity::Twist, Quantity::TipPosition, Quantity::TipTangent}) {
+    Eigen::MatrixXd& R = r.of(q);
+    for (Eigen::Index k = 0; k < R.rows(); ++k)
+      if (k >= static_cast<Eigen::Index>(rows.size()) || !rows[static_cast<std::size_t>(k)]) R.row(k).setConstant(nan);
+  }
+}
+
 Registration mapToSensor(const io::Recording& rec, Prediction& p, FrameMode frame, const std::vector<char>& use,
                          const NoiseLevels& noise) {
   if (frame != FrameMode::Unknown) return Registration{};

@@ -34,8 +34,8 @@ enum class EffectKind {
   /// description's tip force (its tip moment is kept).
   TipLoad,
   // Generic models of physics outside the library (isGeneric): never named in a verdict; they describe a remainder.
-  /// `drive_ratio`: a ratio error of one rotation drive, delta alpha = c0 (alpha - ref) (Effect::coef; ref = the
-  /// recording's mean command of the drive).
+  /// `drive_ratio`: a ratio error of one rotation drive, delta alpha = c0 alpha (Effect::coef): the tube turns
+  /// 1 + c0 times the commanded angle from the drive's zero.
   DriveRatio,
   /// `drive_periodic`: a periodic transmission error of one rotation drive, one and two cycles per turn of the
   /// drive's own angle: delta alpha = c0 cos alpha + c1 sin alpha + c2 cos 2 alpha + c3 sin 2 alpha (Effect::coef).
@@ -43,8 +43,9 @@ enum class EffectKind {
   /// `stage_error`: a smooth error of one translation stage, delta beta = c0 u + c1 u^2 + c2 u^3 with u the stage's
   /// command scaled to [-1, 1] over the recording (Effect::coef, Effect::ref = centre and half-range).
   StageError,
-  /// `tracker_drift`: the measured tip positions drift with time, delta p = d1 t + d2 t^2 (3-vectors, base frame;
-  /// t scaled to [-1, 1] over the recording; Effect::coef = d1, d2).
+  /// `tracker_drift`: the measured tip positions drift linearly with time from the start of the recording,
+  /// delta p = d (t - t0) / T (a 3-vector, base frame; t0 and T = the first time and the duration, Effect::ref;
+  /// Effect::coef = d, the drift over the whole recording).
   TrackerDrift,
 };
 
@@ -68,7 +69,7 @@ const char* parameterName(EffectKind k);
 /// @brief Unit of the parameter, for reports ("", "1/m", "N m^2", "rad", "s", "N").
 const char* parameterUnit(EffectKind k);
 /// @brief Number of fitted coordinates of a kind: 1 (Effect::value), 3 for the vector kinds gravity and tip_load
-/// (Effect::vec), 1, 4, 3 and 6 for the generic kinds (Effect::coef). A model's parameter count (BIC) is the sum over
+/// (Effect::vec), 1, 4, 3 and 3 for the generic kinds (Effect::coef). A model's parameter count (BIC) is the sum over
 /// its effects.
 int parameterCount(EffectKind k);
 /// @brief True for kinds that act on one tube (parameter `tube`).
@@ -103,8 +104,8 @@ struct Effect {
   Eigen::Vector3d vec = Eigen::Vector3d::Zero();
   /// Generic kinds: their coefficients (parameterCount of them used); zero otherwise.
   Eigen::Matrix<double, 6, 1> coef = Eigen::Matrix<double, 6, 1>::Zero();
-  /// Generic kinds: the reference of their variable (drive_ratio: the mean command; stage_error and tracker_drift:
-  /// centre and half-range of the command or of time).
+  /// Generic kinds: the reference of their variable (drive_ratio: the drive's zero, 0; stage_error: centre and
+  /// half-range of the command; tracker_drift: the first time and the duration).
   Eigen::Vector2d ref = Eigen::Vector2d(0.0, 1.0);
 
   /// @brief "precurvature[tube 2]" or "boundary_friction".

@@ -60,6 +60,10 @@ struct Residuals {
 /// @brief Residuals of a prediction (already mapped to the sensor frame when needed).
 Residuals computeResiduals(const io::Recording& rec, const Prediction& p);
 
+/// @brief Sets the residuals of the rows not flagged in `rows` to NaN (rows excluded from every residual, test and
+/// score); an empty `rows` keeps all.
+void excludeRows(Residuals& r, const std::vector<char>& rows);
+
 /// @brief Maps the prediction to the sensor frame: for FrameMode::Unknown a registration is fitted on the rows
 /// flagged in `use` (weighted by the noise levels) and applied to all rows. Returns the registration.
 Registration mapToSensor(const io::Recording& rec, Prediction& p, FrameMode frame, const std::vector<char>& use,

@@ -1,5 +1,8 @@
 """diagnose(...) returns the same dict as `ctr diagnose --json` writes."""
+import math
 import threading
+
+import pytest
 
 import numpy as np
 
@@ -51,3 +54,19 @@ def test_diagnose_releases_the_gil():
         done.wait(0.001)
     t.join()
     assert len(ticks) > 5
+
+
+def test_diagnose_takes_the_noise_and_the_branch_rule():
+    """--noise and --branch from Python: the noise is reported as given, the rule as asked; bad values raise."""
+    robot = ctr.load_robot(str(EXAMPLES / "recordings" / "friction_masked_B.robot.yaml"))
+    rec = ctr.load_recording(str(EXAMPLES / "recordings" / "friction_masked_B.csv"))
+    got = ctr.diagnose(robot, rec, candidates=["boundary_friction"], max_effects=1, threads=1,
+                       noise="twist=0.5deg", branch="path")
+    assert got["noise"]["twist"]["source"] == "given"
+    assert abs(got["noise"]["twist"]["sigma"] - math.radians(0.5)) < 1e-12
+    assert got["branch_rule"] == "path"
+    assert "branch_ambiguous_rows" in got
+    with pytest.raises(ValueError, match="noise"):
+        ctr.diagnose(robot, rec, noise="twist=-1deg")
+    with pytest.raises(ValueError, match="branch"):
+        ctr.diagnose(robot, rec, branch="sideways")

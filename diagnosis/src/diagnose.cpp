@@ -76,6 +76,30 @@ void State::count(int replays) {
   rep.evaluations += replays;
 }
 
+void updateNoise(State& s, const Visits& visits) {
+  if (s.cur.fit.effects.empty()) return;
+  const NoiseReport fin =
+      estimateNoise(s.rec, s.cur.fit.residuals, s.cur.fit.prediction.reached, s.evaluable, s.o.noise, &visits);
+  bool changed = false;
+  for (auto& [q, e] : s.rep.noise.by_quantity) {
+    const auto f = fin.by_quantity.find(q);
+    if (e.source != "neighbours" || f == fin.by_quantity.end() || f->second.source != "neighbours") continue;
+    e = f->second;
+    e.note += " (on the residuals of " + modelName(s.cur.fit.effects) + ")";
+    changed = true;
+  }
+  if (!changed) return;
+  s.fo.noise = s.rep.noise.levels();
+  s.fo_alone.noise = s.fo.noise;
+  // The held-out scores of the current model and of the baseline against the new noise.
+  for (CrossValidation* cv : {&s.cur.cv, &s.baseline_cv}) {
+    cv->row_score = rowScores(s.rec, cv->heldout, s.fo.noise);
+    cv->score = finiteMean(cv->row_score);
+  }
+  double p = 1.0;
+  s.base_ratio = s.heldoutRatio(s.baseline_cv, p);
+}
+
 namespace {
 
 /// The noise-normalised squared error of a row whose model outputs are those of `sol` (base frame), measured as the
@@ -261,29 +285,12 @@ DiagnosisReport diagnose(const Robot& nominal, const io::Recording& given, const
   s.chunks = std::max(3, std::min(24, rows / 3));
 
   // 3. Forward selection, backward elimination, the remainder, proxies, generic descriptions, the verdict.
-  for (int round = 1; static_cast<int>(s.cur.fit.effects.size()) < o.max_effects; ++round)
+  for (int round = 1; static_cast<int>(s.cur.fit.effects.size()) < o.max_effects; ++round) {
     if (!detail::selectionRound(s, round)) break;
-  detail::backwardElimination(s);
-  // A noise estimated from neighbouring rows is estimated again on the final model's residuals, which hold less model
-  // error than the nominal model's: the remainder is tested against that, and it says whether the recording
-  // separates its noise from model error.
-  if (!s.cur.fit.effects.empty()) {
-    const NoiseReport fin =
-        estimateNoise(rec, s.cur.fit.residuals, s.cur.fit.prediction.reached, s.evaluable, o.noise, &visits);
-    bool changed = false;
-    for (auto& [q, e] : rep.noise.by_quantity) {
-      const auto f = fin.by_quantity.find(q);
-      if (e.source != "neighbours" || f == fin.by_quantity.end() || f->second.source != "neighbours") continue;
-      e = f->second;
-      e.note += " (on the final model's residuals)";
-      changed = true;
-    }
-    if (changed) {
-      s.fo.noise = rep.noise.levels();
-      double p = 1.0;
-      s.base_ratio = s.heldoutRatio(s.baseline_cv, p);
-    }
+    detail::updateNoise(s, visits);
   }
+  detail::backwardElimination(s);
+  detail::updateNoise(s, visits);
   detail::assessRemainder(s);
   detail::checkProxies(s);
   detail::describeRemainder(s);

@@ -119,6 +119,10 @@ bool selectionRound(State& s, int round);
 std::vector<Effect> withoutEffects(const State& s, const std::vector<std::size_t>& drop);
 /// Fills s.without: the current model refitted without each of its effects (warm, in parallel).
 void refitEachWithout(State& s);
+/// A noise estimated from neighbouring rows, estimated again on the current model's residuals (less model error than
+/// the nominal model's): the later rounds, the remainder and the report use it; the current and baseline held-out
+/// scores are recomputed against it.
+void updateNoise(State& s, const Visits& visits);
 /// Removes accepted effects that later ones made redundant (BIC), refitting the model.
 void backwardElimination(State& s);
 

@@ -1,7 +1,5 @@
 // `ctr ik`: inverse kinematics of one tip target or a path of targets; friction-aware with boundary friction (the
 // command that puts the tip on the target through the stateful stick-slip model), with the friction-blind comparison.
-#include <nlohmann/json.hpp>
-
 #include <cmath>
 #include <iomanip>
 #include <iostream>
@@ -9,6 +7,7 @@
 #include <sstream>
 
 #include "commands.hpp"
+#include "ctr/io/ik_json.hpp"
 #include "ctr/io/recording.hpp"
 #include "ctr/io/robot_yaml.hpp"
 #include "ctr/io/tip_path.hpp"
@@ -19,48 +18,6 @@
 namespace ctr::cli {
 
 namespace {
-
-nlohmann::json vec(const Eigen::VectorXd& v) {
-  nlohmann::json a = nlohmann::json::array();
-  for (Eigen::Index i = 0; i < v.size(); ++i) a.push_back(std::isfinite(v[i]) ? nlohmann::json(v[i]) : nullptr);
-  return a;
-}
-
-nlohmann::json number(double v) {
-  return std::isfinite(v) ? nlohmann::json(v) : nlohmann::json(nullptr);
-}
-
-// One target's answer: the keys of docs/ik.md.
-nlohmann::json answerJson(const Configuration& q, const IkSummary& s, bool with_direction) {
-  nlohmann::json j;
-  j["reached"] = s.reached();
-  j["status"] = toString(s.status);
-  j["alpha"] = vec(q.alpha);
-  j["beta"] = vec(q.beta);
-  j["tip_error"] = number(s.tip_error);
-  j["closest"] = s.status == IkStatus::Failed ? nlohmann::json(nullptr) : vec(s.closest);
-  if (with_direction) j["direction_error"] = number(s.direction_error);
-  j["stable"] = s.stable;
-  j["stability"] = number(s.stability);
-  j["branch_dependent"] = s.branch_dependent;
-  j["iterations"] = s.iterations;
-  j["evaluations"] = s.evaluations;
-  j["starts"] = s.starts;
-  j["message"] = s.message;
-  return j;
-}
-
-nlohmann::json costJson(const FrictionCost& c) {
-  nlohmann::json j;
-  j["blind_alpha"] = vec(c.blind_q.alpha);
-  j["blind_beta"] = vec(c.blind_q.beta);
-  j["blind_reached"] = c.blind_reached;
-  j["blind_tip"] = vec(c.blind_tip);
-  j["blind_tip_error"] = number(c.blind_tip_error);
-  j["alpha_difference"] = number(c.alpha_difference);
-  j["beta_difference"] = number(c.beta_difference);
-  return j;
-}
 
 Approach parseHistory(const std::string& h) {
   if (h == "positive") return Approach::Positive;
@@ -157,8 +114,6 @@ void registerIk(CLI::App& app, Action& action) {
           targets.push_back(t);
         }
       }
-      bool with_direction = false;
-      for (const IkTarget& t : targets) with_direction = with_direction || t.direction.has_value();
 
       IkOptions ik;
       ik.tolerance = o->tolerance;
@@ -168,85 +123,40 @@ void registerIk(CLI::App& app, Action& action) {
       Workspace ws;
 
       // Solve: friction-aware from the start's hysteresis state, or frictionless (cold without --from, then warm).
+      io::IkReport report;
+      report.robot = robot.name();
+      report.path = !o->targets.empty();
+      for (const IkTarget& t : targets) report.with_direction = report.with_direction || t.direction.has_value();
       std::vector<Configuration> commands, prefix;
-      std::vector<nlohmann::json> rows;
-      std::vector<double> errors, blind_errors;
-      int reached = 0;
       if (friction) {
         FrictionIkOptions fo;
         fo.ik = ik;
         const Approach approach = parseHistory(o->history);
         const StepResult st = approachState(robot, start, approach, o->approach, ws, fo.friction);
+        if (!st.summary.converged || !st.state.valid)
+          throw std::runtime_error("the model did not converge at the start configuration (--history " + o->history +
+                                   "): " + st.summary.message);
         // The commands file begins with the rows that bring the robot into this state (the replay of `ctr simulate`
         // then starts from the same state): the approach's start, then the start configuration.
         if (approach != Approach::Rest) prefix.push_back(approachStart(robot, start, approach, o->approach));
         prefix.push_back(start);
-        if (!st.summary.converged || !st.state.valid)
-          throw std::runtime_error("the model did not converge at the start configuration (--history " + o->history +
-                                   "): " + st.summary.message);
-        const std::vector<FrictionIkResult> res = frictionInverseKinematicsPath(robot, st.state, targets, ws, fo);
-        for (const FrictionIkResult& r : res) {
-          nlohmann::json j = answerJson(r.q, r.summary, with_direction);
-          j["friction"] = costJson(r.cost);
-          rows.push_back(j);
-          commands.push_back(r.q);
-          errors.push_back(r.summary.tip_error);
-          blind_errors.push_back(r.cost.blind_tip_error);
-          reached += r.summary.reached();
-        }
+        report.friction = io::IkReport::Friction{mu, o->history, o->approach, start, static_cast<int>(prefix.size())};
+        for (const FrictionIkResult& r : frictionInverseKinematicsPath(robot, st.state, targets, ws, fo))
+          report.rows.emplace_back(r);
       } else {
-        std::optional<IkResult> prev;
-        for (const IkTarget& t : targets) {
-          IkResult r = prev && prev->summary.status != IkStatus::Failed ? inverseKinematics(robot, t, *prev, ws, ik)
-                       : o->from.given()                                ? inverseKinematics(robot, t, start, ws, ik)
-                                                                        : inverseKinematics(robot, t, ws, ik);
-          rows.push_back(answerJson(r.q, r.summary, with_direction));
-          commands.push_back(r.q);
-          errors.push_back(r.summary.tip_error);
-          reached += r.summary.reached();
-          prev = std::move(r);
-        }
+        for (const IkResult& r : inverseKinematicsPath(robot, targets, o->from.given() ? &start : nullptr, ws, ik))
+          report.rows.emplace_back(r);
       }
-
-      auto rms = [](const std::vector<double>& v) {
-        double s = 0.0;
-        for (double x : v) s += x * x;
-        return v.empty() ? 0.0 : std::sqrt(s / static_cast<double>(v.size()));
-      };
-      auto maxOf = [](const std::vector<double>& v) {
-        double m = 0.0;
-        for (double x : v) m = std::isfinite(x) ? std::max(m, x) : std::numeric_limits<double>::infinity();
-        return m;
-      };
+      int reached = 0;
+      std::vector<double> errors, blind_errors;
+      for (const io::IkReport::Row& r : report.rows) {
+        commands.push_back(r.q);
+        reached += r.summary.reached();
+        errors.push_back(r.summary.tip_error);
+        if (r.cost) blind_errors.push_back(r.cost->blind_tip_error);
+      }
       const bool all = reached == static_cast<int>(targets.size());
-      nlohmann::json out;
-      nlohmann::json fr;
-      if (friction) {
-        fr["boundary"] = mu;
-        fr["history"] = o->history;
-        fr["approach"] = o->approach;
-        fr["start_alpha"] = vec(start.alpha);
-        fr["start_beta"] = vec(start.beta);
-        fr["start_rows"] = prefix.size();  // rows of --out before the first target's command
-      }
-      if (o->targets.empty()) {
-        out = rows.front();
-        if (friction) out["friction"].update(fr);
-      } else {
-        out["reached"] = all;
-        out["targets"] = targets.size();
-        out["reached_count"] = reached;
-        out["tip_error_max"] = number(maxOf(errors));
-        out["tip_error_rms"] = number(rms(errors));
-        if (friction) {
-          fr["blind_tip_error_max"] = number(maxOf(blind_errors));
-          fr["blind_tip_error_rms"] = number(rms(blind_errors));
-          out["friction"] = fr;
-        }
-        out["rows"] = rows;
-      }
-      out["robot"] = robot.name();
-      const std::string text = out.dump() + "\n";
+      const std::string text = io::ikReportJson(report) + "\n";
 
       if (!o->out.empty()) {
         io::Recording rec;
@@ -263,29 +173,32 @@ void registerIk(CLI::App& app, Action& action) {
         std::cout << text;
       } else {
         if (!o->json.empty()) io::writeFileAtomic(o->json, text);
+        auto rms = [](const std::vector<double>& v) {
+          double s = 0.0;
+          for (double x : v) s += x * x;
+          return std::sqrt(s / static_cast<double>(std::max<std::size_t>(1, v.size())));
+        };
         std::ostringstream os;
         os << std::setprecision(6);
-        if (o->targets.empty()) {
-          const nlohmann::json& r = rows.front();
-          os << "reached:   " << (r["reached"].get<bool>() ? "yes" : "no") << "\n";
-          os << "alpha:     " << r["alpha"].dump() << " rad\nbeta:      " << r["beta"].dump() << " m\n";
-          os << "tip error: " << errors.front() << " m\n";
-          if (friction)
-            os << "friction-blind command (frictionless IK) leaves the tip " << blind_errors.front() << " m off\n";
+        if (!report.path) {
+          const io::IkReport::Row& r = report.rows.front();
+          os << "reached:   " << (r.summary.reached() ? "yes" : "no") << "\n";
+          os << "alpha:     " << r.q.alpha.transpose() << " rad\nbeta:      " << r.q.beta.transpose() << " m\n";
+          os << "tip error: " << r.summary.tip_error << " m\n";
+          if (r.cost)
+            os << "friction-blind command (frictionless IK) leaves the tip " << r.cost->blind_tip_error << " m off\n";
         } else {
           os << "reached:   " << reached << " of " << targets.size() << " targets\n";
-          os << "tip error: RMS " << rms(errors) << " m, max " << maxOf(errors) << " m\n";
-          if (friction)
-            os << "friction-blind commands: tip error RMS " << rms(blind_errors) << " m, max " << maxOf(blind_errors)
-               << " m\n";
+          os << "tip error: RMS " << rms(errors) << " m\n";
+          if (friction) os << "friction-blind commands: tip error RMS " << rms(blind_errors) << " m\n";
         }
         std::cout << os.str();
       }
       if (!all) {
-        for (std::size_t k = 0; k < rows.size(); ++k)
-          if (!rows[k]["reached"].get<bool>()) {
-            std::cerr << "error: " << (targets.size() > 1 ? "target " + std::to_string(k + 1) + ": " : std::string())
-                      << rows[k]["message"].get<std::string>() << "\n";
+        for (std::size_t k = 0; k < report.rows.size(); ++k)
+          if (!report.rows[k].summary.reached()) {
+            std::cerr << "error: " << (report.path ? "target " + std::to_string(k + 1) + ": " : std::string())
+                      << report.rows[k].summary.message << "\n";
             break;
           }
         return static_cast<int>(kRuntimeFailure);

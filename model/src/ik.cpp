@@ -248,4 +248,17 @@ IkResult inverseKinematics(const Robot& robot, const IkTarget& target, const IkR
   return run.result(previous.q, kNoStart);
 }
 
+std::vector<IkResult> inverseKinematicsPath(const Robot& robot, const std::vector<IkTarget>& targets,
+                                            const Configuration* start, Workspace& ws, const IkOptions& o) {
+  std::vector<IkResult> out;
+  out.reserve(targets.size());
+  for (const IkTarget& t : targets) {
+    if (!out.empty() && out.back().summary.status != IkStatus::Failed)
+      out.push_back(inverseKinematics(robot, t, out.back(), ws, o));
+    else
+      out.push_back(start ? inverseKinematics(robot, t, *start, ws, o) : inverseKinematics(robot, t, ws, o));
+  }
+  return out;
+}
+
 }  // namespace ctr

@@ -13,6 +13,7 @@
 #include <limits>
 #include <optional>
 #include <string>
+#include <vector>
 
 #include "ctr/model/kinematics.hpp"
 
@@ -125,5 +126,11 @@ IkResult inverseKinematics(const Robot& robot, const IkTarget& target, const Con
 /// from `previous.q` (without restarts) when `previous` has no converged equilibrium.
 IkResult inverseKinematics(const Robot& robot, const IkTarget& target, const IkResult& previous, Workspace& ws,
                            const IkOptions& options = {});
+
+/// @brief A path of targets (a servo loop): the first by the warm inverse kinematics from `*start`, or the cold one
+/// when `start` is null; each next by a warm update from the previous result (no restarts: the commands do not jump).
+/// One result per target.
+std::vector<IkResult> inverseKinematicsPath(const Robot& robot, const std::vector<IkTarget>& targets,
+                                            const Configuration* start, Workspace& ws, const IkOptions& options = {});
 
 }  // namespace ctr

@@ -36,7 +36,12 @@ nlohmann::json answer(const IkReport::Row& r, bool with_direction) {
   j["evaluations"] = s.evaluations;
   j["starts"] = s.starts;
   j["message"] = s.message;
-  if (r.cost) {
+  if (r.cost && r.cost->blind_q.size() == 0) {
+    // Not computed (a path without the friction-blind comparison after its first target).
+    j["friction"] = {{"blind_alpha", nullptr},    {"blind_beta", nullptr},      {"blind_reached", nullptr},
+                     {"blind_tip", nullptr},      {"blind_tip_error", nullptr}, {"alpha_difference", nullptr},
+                     {"beta_difference", nullptr}};
+  } else if (r.cost) {
     const FrictionCost& c = *r.cost;
     nlohmann::json f;
     f["blind_alpha"] = vec(c.blind_q.alpha);

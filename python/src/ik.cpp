@@ -1,6 +1,9 @@
 // Bindings of the inverse kinematics (ctr/model/ik.hpp, friction_ik.hpp): ctr.ik and ctr.ik_path with the keys of
 // `ctr ik --json` (io::ikReportJson), numpy arrays in and out.
+#include <algorithm>
 #include <cmath>
+#include <cstdint>
+#include <limits>
 
 #include "common.hpp"
 #include "ctr/io/ik_json.hpp"
@@ -52,27 +55,64 @@ pyb::object withArrays(const pyb::object& value) {
   return std::move(out);
 }
 
-// A list of answer dicts (the "rows" of a path report) as one dict of arrays with the same keys: numbers and vectors
-// stacked along the first axis (null -> NaN), booleans as bool arrays, strings as lists; nested dicts likewise.
+// A list of answer dicts (the "rows" of a path report) as one dict of arrays with the same keys: numbers stacked
+// (null -> NaN), vectors as (K, m) arrays (NaN rows where null: not computed), booleans as bool arrays (float with NaN
+// when some are null), strings as lists; nested dicts likewise.
 pyb::dict columns(const pyb::list& rows) {
-  const pyb::module_ np = pyb::module_::import("numpy");
+  const double nan = std::numeric_limits<double>::quiet_NaN();
   pyb::dict d;
   if (rows.empty()) return d;
-  const pyb::dict first = pyb::reinterpret_borrow<pyb::dict>(rows[0]);
-  for (const auto& item : first) {
+  const auto K = static_cast<pyb::ssize_t>(rows.size());
+  for (const auto& item : pyb::reinterpret_borrow<pyb::dict>(rows[0])) {
     const std::string key = pyb::str(item.first).cast<std::string>();
-    pyb::list values;
-    for (const pyb::handle row : rows) values.append(pyb::reinterpret_borrow<pyb::dict>(row)[item.first]);
-    if (pyb::isinstance<pyb::dict>(item.second))
-      d[item.first] = columns(values);
-    else if (pyb::isinstance<pyb::bool_>(item.second))
-      d[item.first] = np.attr("array")(values, pyb::arg("dtype") = "bool");
-    else if (pyb::isinstance<pyb::str>(item.second))
-      d[item.first] = values;
-    else if (key == "iterations" || key == "evaluations" || key == "starts")
-      d[item.first] = np.attr("array")(values, pyb::arg("dtype") = "int64");
-    else
-      d[item.first] = np.attr("array")(values, pyb::arg("dtype") = "float64");
+    std::vector<pyb::object> values;
+    pyb::object sample = pyb::none();
+    bool any_null = false;
+    std::size_t width = 0;
+    for (const pyb::handle row : rows) {
+      const pyb::dict r = pyb::reinterpret_borrow<pyb::dict>(row);
+      pyb::object v = r.contains(item.first) ? pyb::reinterpret_borrow<pyb::object>(r[item.first]) : pyb::none();
+      if (pyb::isinstance<pyb::list>(v)) width = std::max(width, pyb::len(v));
+      any_null = any_null || v.is_none();
+      if (sample.is_none() && !v.is_none()) sample = v;
+      values.push_back(std::move(v));
+    }
+    if (pyb::isinstance<pyb::dict>(sample)) {
+      pyb::list sub;
+      for (const pyb::object& v : values) sub.append(v.is_none() ? pyb::dict() : v);
+      d[item.first] = columns(sub);
+    } else if (pyb::isinstance<pyb::str>(sample)) {
+      pyb::list l;
+      for (const pyb::object& v : values) l.append(v);
+      d[item.first] = l;
+    } else if (pyb::isinstance<pyb::bool_>(sample) && !any_null) {
+      pyb::array_t<bool> a(K);
+      for (pyb::ssize_t k = 0; k < K; ++k) a.mutable_at(k) = values[static_cast<std::size_t>(k)].cast<bool>();
+      d[item.first] = a;
+    } else if (pyb::isinstance<pyb::list>(sample)) {
+      pyb::array_t<double> a({K, static_cast<pyb::ssize_t>(width)});
+      for (pyb::ssize_t k = 0; k < K; ++k) {
+        const pyb::object& v = values[static_cast<std::size_t>(k)];
+        const std::size_t n = pyb::isinstance<pyb::list>(v) ? pyb::len(v) : 0;
+        for (std::size_t c = 0; c < width; ++c) {
+          pyb::object x = pyb::none();
+          if (c < n) x = pyb::reinterpret_borrow<pyb::list>(v)[c];
+          a.mutable_at(k, static_cast<pyb::ssize_t>(c)) = x.is_none() ? nan : x.cast<double>();
+        }
+      }
+      d[item.first] = a;
+    } else if ((key == "iterations" || key == "evaluations" || key == "starts") && !any_null) {
+      pyb::array_t<std::int64_t> a(K);
+      for (pyb::ssize_t k = 0; k < K; ++k) a.mutable_at(k) = values[static_cast<std::size_t>(k)].cast<std::int64_t>();
+      d[item.first] = a;
+    } else {
+      pyb::array_t<double> a(K);
+      for (pyb::ssize_t k = 0; k < K; ++k) {
+        const pyb::object& v = values[static_cast<std::size_t>(k)];
+        a.mutable_at(k) = v.is_none() ? nan : v.cast<double>();
+      }
+      d[item.first] = a;
+    }
   }
   return d;
 }

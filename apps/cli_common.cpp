@@ -47,9 +47,10 @@ std::vector<double> parseList(const std::string& text, const std::string& what, 
 
 void ConfigOptions::add(CLI::App* app, const std::string& option_prefix) {
   prefix = option_prefix;
-  app->add_option("--" + prefix + "alpha", alpha, "Tube rotations a1,a2,.. (rad, or e.g. 90deg); default 0");
+  const std::string what = prefix == "from-" ? "Start: tube " : "Tube ";
+  app->add_option("--" + prefix + "alpha", alpha, what + "rotations a1,a2,.. (rad, or e.g. 90deg); default 0");
   app->add_option("--" + prefix + "beta", beta,
-                  "Tube translations b1,b2,.. (m, <= 0); default: straight parts retracted");
+                  what + "translations b1,b2,.. (m, <= 0); default: straight parts retracted");
 }
 
 Configuration ConfigOptions::resolve(const Robot& robot, int swept_tube, double swept_angle) const {

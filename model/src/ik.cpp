@@ -36,6 +36,15 @@ struct EquilibriumMap {
   const Robot& robot;
   Workspace& ws;
   const IkOptions& o;
+  // Trial solves start from the accepted point's equilibrium: one that does not converge from there within a few
+  // Newton iterations is refused (the line search then tries a shorter step), so neither a long Newton run nor the
+  // solver's fallback continuation from scratch (milliseconds, and another branch if it succeeds) is spent on it.
+  KinematicsOptions trial = [this] {
+    KinematicsOptions k = o.kinematics;
+    k.homotopy = false;
+    k.max_iterations = std::min(k.max_iterations, 12);
+    return k;
+  }();
 
   // A trial is refused when it does not converge, is unstable (if required) or left the branch of `from`: the solver
   // fell back to a continuation from scratch, or the twist jumped by more than the snap threshold beyond the change
@@ -51,7 +60,7 @@ struct EquilibriumMap {
     return true;
   }
   bool operator()(const Configuration& q, const Solution& from, Solution& out) const {
-    out = solve(robot, q, ws, o.kinematics, &from);
+    out = solve(robot, q, ws, trial, &from);
     return acceptable(out, &from);
   }
   bool differentiate(const Solution& s, Eigen::MatrixXd& A) const {

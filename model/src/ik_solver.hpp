@@ -4,6 +4,8 @@
 #pragma once
 
 #include <Eigen/Core>
+#include <algorithm>
+#include <cmath>
 #include <memory>
 #include <random>
 #include <vector>
@@ -85,6 +87,9 @@ inline const Solution& solutionOf(const StepResult& r) {
   return r.solution;
 }
 
+/// |stability| below which an equilibrium is taken as near a fold (the measure is 1 without tube interaction).
+inline constexpr double kFoldStability = 0.05;
+
 /// One descent from a start point.
 template <class Point>
 struct Descent {
@@ -128,6 +133,9 @@ Descent<Point> descend(const ActuatorSet& set, const IkGoal& goal, const IkOptio
   }
   double mu = o.damping;
   int slow = 0;
+  // Longest fraction of the step tried first: halved steps that succeed make the next iteration start at twice the
+  // fraction that worked (near a fold, where full steps leave the branch, this saves their refused solves).
+  double reach = 1.0;
   Point trial;
   while (d.iterations < o.max_iterations) {
     if (A.size() == 0) {
@@ -144,14 +152,18 @@ Descent<Point> descend(const ActuatorSet& set, const IkGoal& goal, const IkOptio
     const Eigen::MatrixXd G = goal.task(solutionOf(d.point), A, set.scale());
     const double mean_diag = std::max(G.squaredNorm() / G.rows(), 1e-300);
     bool accepted = false;
+    int refused = 0;  // trials of this iteration whose evaluation was refused (not converged, unstable, snapped)
     while (!accepted) {
       const Eigen::VectorXd dx = set.step(d.q, G, d.m.r, mu * mean_diag, o.max_step);
       if (!(dx.squaredNorm() > 0.0)) break;
-      // Backtracking: the full step, then half and a quarter of it; the first decrease of the cost is taken.
-      for (double t = 1.0; t > 0.2 && !accepted; t *= 0.5) {
+      // Backtracking: the step (times `reach`), then half and a quarter of it; the first decrease of the cost is taken.
+      for (double t = reach; t > 0.2 * reach && !accepted; t *= 0.5) {
         const Configuration qt = set.move(d.q, dx, t);
         ++d.evaluations;
-        if (!eval(qt, d.point, trial)) continue;
+        if (!eval(qt, d.point, trial)) {
+          ++refused;
+          continue;
+        }
         const IkMeasure mt = goal.measure(solutionOf(trial));
         if (mt.cost < d.m.cost || (move_first && d.iterations == 1 && t == 1.0)) {
           slow = mt.cost > (1.0 - 1e-3) * d.m.cost ? slow + 1 : 0;
@@ -159,10 +171,13 @@ Descent<Point> descend(const ActuatorSet& set, const IkGoal& goal, const IkOptio
           d.q = qt;
           d.m = mt;
           accepted = true;
+          reach = std::min(1.0, 2.0 * t);
         }
       }
       if (accepted || !exact) break;  // a stale Jacobian is replaced by the exact one before damping more
-      mu *= 10.0;
+      // At the end of the branch (a fold) shorter steps only creep toward it: give up this start.
+      if (refused >= 3 && std::abs(solutionOf(d.point).summary.stability) < kFoldStability) break;
+      mu = std::max(10.0 * mu, o.damping);
       if (mu > 1e6) break;
     }
     d.jacobian = A;
@@ -171,7 +186,9 @@ Descent<Point> descend(const ActuatorSet& set, const IkGoal& goal, const IkOptio
       continue;
     }
     if (!accepted) {
-      d.message = "no descent from the closest point found (the edge of the workspace or a local minimum)";
+      d.message = refused >= 3 && std::abs(solutionOf(d.point).summary.stability) < kFoldStability
+                      ? "the equilibrium branch ends (a fold) between this start and the target"
+                      : "no descent from the closest point found (the edge of the workspace or a local minimum)";
       break;
     }
     if (goal.reached(d.m)) {
@@ -181,6 +198,11 @@ Descent<Point> descend(const ActuatorSet& set, const IkGoal& goal, const IkOptio
     mu = std::max(mu * 0.1, 1e-12);
     A.resize(0, 0);
     exact = false;
+    if (refused >= 3 && std::abs(solutionOf(d.point).summary.stability) < kFoldStability) {
+      // Creeping along the end of the branch: steps toward the target leave it. Another start is cheaper.
+      d.message = "the equilibrium branch ends (a fold) between this start and the target";
+      break;
+    }
     if (slow >= 4) {
       d.message = "the tip error stopped decreasing (the edge of the workspace or a local minimum)";
       break;

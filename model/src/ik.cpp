@@ -225,7 +225,7 @@ const char* kNoStart = "the model did not converge at any start configuration";
 
 IkResult inverseKinematics(const Robot& robot, const IkTarget& target, Workspace& ws, const IkOptions& o) {
   Run run(robot, target, ws, o);
-  run.checkBranch(true);
+  run.checkBranch(o.check_branch);
   run.restarts(1 + std::max(0, o.restarts));
   return run.result(defaultConfiguration(robot), kNoStart);
 }
@@ -234,7 +234,7 @@ IkResult inverseKinematics(const Robot& robot, const IkTarget& target, const Con
                            const IkOptions& o) {
   checkStart(robot, start);
   Run run(robot, target, ws, o);
-  run.checkBranch(true);
+  run.checkBranch(o.check_branch);
   Configuration q0 = start;
   run.set().clamp(q0);
   Solution s0;

@@ -153,11 +153,12 @@ Descent<Point> descend(const ActuatorSet& set, const IkGoal& goal, const IkOptio
     const double mean_diag = std::max(G.squaredNorm() / G.rows(), 1e-300);
     bool accepted = false;
     int refused = 0;  // trials of this iteration whose evaluation was refused (not converged, unstable, snapped)
-    while (!accepted) {
+    for (bool first = true; !accepted; first = false) {
       const Eigen::VectorXd dx = set.step(d.q, G, d.m.r, mu * mean_diag, o.max_step);
       if (!(dx.squaredNorm() > 0.0)) break;
       // Backtracking: the step (times `reach`), then half and a quarter of it; the first decrease of the cost is taken.
-      for (double t = reach; t > 0.2 * reach && !accepted; t *= 0.5) {
+      // With more damping (later rounds) the step itself is shorter: one trial each.
+      for (double t = reach; t > (first ? 0.2 : 0.99) * reach && !accepted; t *= 0.5) {
         const Configuration qt = set.move(d.q, dx, t);
         ++d.evaluations;
         if (!eval(qt, d.point, trial)) {

@@ -26,6 +26,7 @@ double inverseKinematics(const Context& ctx, const Eigen::Vector3d& target, Conf
   o.max_iterations = iterations;
   o.restarts = 0;
   o.min_protrusion = ctx.options().min_protrusion;
+  o.check_branch = false;  // the pool solves every candidate cold itself (and rejects one off the goal)
   const IkResult r =
       ctr::inverseKinematics(ctx.frictionlessRobot(), IkTarget(ctx.basePose().inverse() * target), q, scratch().ws, o);
   if (r.summary.status == IkStatus::Failed) return std::numeric_limits<double>::infinity();

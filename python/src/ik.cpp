@@ -244,10 +244,11 @@ void registerIk(pyb::module_& m) {
       .def_readwrite("max_step", &IkOptions::max_step)
       .def_readwrite("min_protrusion", &IkOptions::min_protrusion)
       .def_readwrite("require_stable", &IkOptions::require_stable)
+      .def_readwrite("check_branch", &IkOptions::check_branch)
       .def_readwrite("kinematics", &IkOptions::kinematics);
   addOptionsProtocol<IkOptions>(
       iko, {"tolerance", "direction_tolerance", "max_iterations", "restarts", "cold_candidates", "seed", "damping",
-            "translation_scale", "max_step", "min_protrusion", "require_stable", "kinematics"});
+            "translation_scale", "max_step", "min_protrusion", "require_stable", "check_branch", "kinematics"});
 
   m.def(
       "ik",

@@ -54,6 +54,10 @@ struct IkOptions {
   /// Accept only stable equilibria (SolveSummary::stable) along the way and as the answer: a step that lands on an
   /// unstable equilibrium or jumps branch (does not converge from the previous shape) is refused.
   bool require_stable = true;
+  /// Cold and warm (from a configuration) IK: check a reached answer by a cold solve of its configuration
+  /// (IkSummary::branch_dependent; cold IK then prefers another start). False skips that solve (a caller that solves
+  /// the answer cold anyway, as the planner's goal pool).
+  bool check_branch = true;
   /// Discretisation of every solve (and of the differentiated map). The backbone is not recorded by default.
   KinematicsOptions kinematics = [] {
     KinematicsOptions k;

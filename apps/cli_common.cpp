@@ -45,26 +45,30 @@ std::vector<double> parseList(const std::string& text, const std::string& what, 
   return out;
 }
 
-void ConfigOptions::add(CLI::App* app) {
-  app->add_option("--alpha", alpha, "Tube rotations a1,a2,.. (rad, or e.g. 90deg); default 0");
-  app->add_option("--beta", beta, "Tube translations b1,b2,.. (m, <= 0); default: straight parts retracted");
+void ConfigOptions::add(CLI::App* app, const std::string& option_prefix) {
+  prefix = option_prefix;
+  const std::string what = prefix == "from-" ? "Start: tube " : "Tube ";
+  app->add_option("--" + prefix + "alpha", alpha, what + "rotations a1,a2,.. (rad, or e.g. 90deg); default 0");
+  app->add_option("--" + prefix + "beta", beta,
+                  what + "translations b1,b2,.. (m, <= 0); default: straight parts retracted");
 }
 
 Configuration ConfigOptions::resolve(const Robot& robot, int swept_tube, double swept_angle) const {
   const int n = robot.size();
   Configuration q = defaultConfiguration(robot);
+  const std::string alpha_option = "--" + prefix + "alpha", beta_option = "--" + prefix + "beta";
   if (!alpha.empty()) {
-    auto a = parseList(alpha, "--alpha", true);
+    auto a = parseList(alpha, alpha_option, true);
     if (static_cast<int>(a.size()) != n)
-      throw UsageError("--alpha: " + std::to_string(a.size()) + " values given, robot '" + robot.name() + "' has " +
-                       std::to_string(n) + " tubes");
+      throw UsageError(alpha_option + ": " + std::to_string(a.size()) + " values given, robot '" + robot.name() +
+                       "' has " + std::to_string(n) + " tubes");
     for (int i = 0; i < n; ++i) q.alpha[i] = a[static_cast<std::size_t>(i)];
   }
   if (!beta.empty()) {
-    auto b = parseList(beta, "--beta", false);
+    auto b = parseList(beta, beta_option, false);
     if (static_cast<int>(b.size()) != n)
-      throw UsageError("--beta: " + std::to_string(b.size()) + " values given, robot '" + robot.name() + "' has " +
-                       std::to_string(n) + " tubes");
+      throw UsageError(beta_option + ": " + std::to_string(b.size()) + " values given, robot '" + robot.name() +
+                       "' has " + std::to_string(n) + " tubes");
     for (int i = 0; i < n; ++i) q.beta[i] = b[static_cast<std::size_t>(i)];
   }
   if (swept_tube >= 0 && swept_tube < n) q.alpha[swept_tube] = swept_angle;
@@ -73,7 +77,7 @@ Configuration ConfigOptions::resolve(const Robot& robot, int swept_tube, double 
   const Admissibility adm = projectAdmissible(robot, q);
   if (!adm) {
     const bool rotation = adm.message.rfind("alpha_", 0) == 0;
-    std::string option = rotation ? "--alpha" : "--beta";
+    std::string option = rotation ? alpha_option : beta_option;
     if (rotation && swept_tube >= 0 && adm.message.rfind("alpha_" + std::to_string(swept_tube + 1) + " ", 0) == 0)
       option = "--from";
     else if ((rotation ? alpha : beta).empty())

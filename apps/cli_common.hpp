@@ -28,10 +28,13 @@ double parseNumber(const std::string& text, const std::string& what, bool angle)
 /// Parses "a,b,c" (angles with optional `deg` suffix per item).
 std::vector<double> parseList(const std::string& text, const std::string& what, bool angle);
 
-/// Options --alpha/--beta shared by fk, sweep, env check.
+/// Options --alpha/--beta shared by fk, sweep, env check (--from-alpha/--from-beta with the prefix "from-": ik).
 struct ConfigOptions {
   std::string alpha, beta;
-  void add(CLI::App* app);
+  std::string prefix;  ///< Of the option names (set by add).
+  void add(CLI::App* app, const std::string& option_prefix = "");
+  /// Whether --alpha or --beta was given.
+  bool given() const { return !alpha.empty() || !beta.empty(); }
   /// Configuration for the robot: missing alpha -> zeros; missing beta -> -straight_length of each tube, clamped
   /// to the nesting rules. The rotation of `swept_tube` (0-based, if >= 0; `ctr sweep`) is `swept_angle` (--from).
   /// Projected onto the admissible set when it violates it by at most kAdmissibilityTolerance (rounded values,

@@ -7,6 +7,7 @@ namespace ctr::cli {
 
 void registerDemo(CLI::App& app, Action& action);
 void registerFk(CLI::App& app, Action& action);
+void registerIk(CLI::App& app, Action& action);
 void registerSweep(CLI::App& app, Action& action);
 void registerSimulate(CLI::App& app, Action& action);
 #ifdef CTR_WITH_ENVIRONMENTS

@@ -1,4 +1,4 @@
-// The `ctr` command: forward kinematics, sweeps, simulation, environments, diagnosis, planning.
+// The `ctr` command: forward and inverse kinematics, sweeps, simulation, environments, diagnosis, planning.
 #include <cstdlib>
 #include <iostream>
 
@@ -12,6 +12,7 @@ int main(int argc, char** argv) {
   Action action;
   registerDemo(app, action);
   registerFk(app, action);
+  registerIk(app, action);
   registerSweep(app, action);
   registerSimulate(app, action);
 #ifdef CTR_WITH_ENVIRONMENTS

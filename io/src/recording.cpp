@@ -23,8 +23,10 @@ namespace ctr::io {
 namespace {
 
 namespace fs = std::filesystem;
+using detail::contentLines;
 using detail::formatNumber;
 using detail::NumberStatus;
+using detail::splitCells;
 using detail::trim;
 
 constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
@@ -62,42 +64,6 @@ Column classify(const std::string& name) {
   }
   if (name == "time") return {name, Kind::kTime, 0};
   return c;
-}
-
-// Cells of one CSV line (no quoted commas in this numeric format; surrounding quotes are dropped).
-std::vector<std::string> splitCells(std::string_view line) {
-  std::vector<std::string> cells;
-  std::size_t start = 0;
-  while (true) {
-    const std::size_t comma = line.find(',', start);
-    std::string_view cell = trim(line.substr(start, comma == std::string_view::npos ? std::string_view::npos
-                                                                                     : comma - start));
-    if (cell.size() >= 2 && cell.front() == '"' && cell.back() == '"') cell = trim(cell.substr(1, cell.size() - 2));
-    cells.emplace_back(cell);
-    if (comma == std::string_view::npos) break;
-    start = comma + 1;
-  }
-  return cells;
-}
-
-// Physical lines (LF, CRLF or CR endings) with their 1-based numbers; blank and '#' comment lines dropped.
-std::vector<std::pair<int, std::string_view>> contentLines(std::string_view text) {
-  if (text.size() >= 3 && text.compare(0, 3, "\xEF\xBB\xBF") == 0) text.remove_prefix(3);  // UTF-8 BOM
-  std::vector<std::pair<int, std::string_view>> out;
-  int number = 0;
-  std::size_t pos = 0;
-  while (pos < text.size()) {
-    std::size_t end = text.find_first_of("\r\n", pos);
-    if (end == std::string_view::npos) end = text.size();
-    ++number;
-    const std::string_view line = text.substr(pos, end - pos);
-    const std::string_view t = trim(line);
-    if (!t.empty() && t.front() != '#') out.emplace_back(number, line);
-    pos = end;
-    if (pos < text.size() && text[pos] == '\r') ++pos;
-    if (pos < text.size() && text[pos] == '\n') ++pos;
-  }
-  return out;
 }
 
 std::string actuationHelp(int n) {

@@ -6,30 +6,41 @@
 
 namespace ctr {
 
+TranslationBounds translationBounds(const Robot& robot, double min_protrusion) {
+  const int n = robot.size();
+  TranslationBounds b;
+  b.lower.resize(n);
+  b.upper.resize(n);
+  Eigen::VectorXd len(n);
+  for (int i = 0; i < n; ++i) {
+    const Tube& t = robot.tube(i);
+    len[i] = t.length();
+    b.lower[i] = t.translation_limits ? (*t.translation_limits)[0] : -t.length();
+    b.upper[i] = t.translation_limits ? std::min(0.0, (*t.translation_limits)[1]) : 0.0;
+  }
+  if (n == 0) return b;
+  // Chain bounds: beta_{i+1} in [beta_i + L_i - L_{i+1}, beta_i]; the innermost protrudes.
+  b.lower[n - 1] = std::max(b.lower[n - 1], min_protrusion - len[n - 1]);
+  // Tighten the box by propagating the chain both ways (a few sweeps suffice for a chain).
+  for (int sweep = 0; sweep < 2 * n; ++sweep) {
+    for (int i = 0; i + 1 < n; ++i) {
+      b.upper[i + 1] = std::min(b.upper[i + 1], b.upper[i]);
+      b.lower[i + 1] = std::max(b.lower[i + 1], b.lower[i] + len[i] - len[i + 1]);
+      b.lower[i] = std::max(b.lower[i], b.lower[i + 1]);
+      b.upper[i] = std::min(b.upper[i], b.upper[i + 1] + len[i + 1] - len[i]);
+    }
+  }
+  return b;
+}
+
 TranslationSampler::TranslationSampler(const Robot& robot, double min_protrusion, int grid) : n_(robot.size()) {
   if (grid < 16) throw std::invalid_argument("TranslationSampler: grid must be >= 16");
   len_.resize(n_);
-  lo_.resize(n_);
-  hi_.resize(n_);
-  for (int i = 0; i < n_; ++i) {
-    const Tube& t = robot.tube(i);
-    len_[i] = t.length();
-    lo_[i] = t.translation_limits ? (*t.translation_limits)[0] : -t.length();
-    hi_[i] = t.translation_limits ? std::min(0.0, (*t.translation_limits)[1]) : 0.0;
-  }
-  // Chain bounds: beta_{i+1} in [beta_i + L_i - L_{i+1}, beta_i]; the innermost protrudes.
-  lo_[n_ - 1] = std::max(lo_[n_ - 1], min_protrusion - len_[n_ - 1]);
-  // Tighten the box by propagating the chain both ways (a few sweeps suffice for a chain).
-  for (int sweep = 0; sweep < 2 * n_; ++sweep) {
-    for (int i = 0; i + 1 < n_; ++i) {
-      hi_[i + 1] = std::min(hi_[i + 1], hi_[i]);
-      lo_[i + 1] = std::max(lo_[i + 1], lo_[i] + len_[i] - len_[i + 1]);
-      lo_[i] = std::max(lo_[i], lo_[i + 1]);
-      hi_[i] = std::min(hi_[i], hi_[i + 1] + len_[i + 1] - len_[i]);
-    }
-  }
-  feasible_ = true;
-  for (int i = 0; i < n_; ++i) feasible_ = feasible_ && lo_[i] <= hi_[i];
+  for (int i = 0; i < n_; ++i) len_[i] = robot.tube(i).length();
+  const TranslationBounds b = translationBounds(robot, min_protrusion);
+  lo_ = b.lower;
+  hi_ = b.upper;
+  feasible_ = b.feasible();
   if (!feasible_) return;
   vol_.assign(static_cast<std::size_t>(n_), std::vector<double>(static_cast<std::size_t>(grid), 1.0));
   // V_{n-1} = 1; V_i(b) = integral over beta_{i+1} in [max(lo, b + L_i - L_{i+1}), min(hi, b)] of V_{i+1}.
@@ -73,7 +84,11 @@ double TranslationSampler::drawFromConditional(int i, double a, double b, std::m
   for (int k = 1; k <= m; ++k)
     cdf[static_cast<std::size_t>(k)] =
         cdf[static_cast<std::size_t>(k - 1)] + 0.5 * h * (volumeAt(i, a + (k - 1) * h) + volumeAt(i, a + k * h));
-  const double target = U(rng) * cdf.back();
+  const double u = U(rng);
+  // Tubes of equal length nest with equal translations: the admissible set is thinner than the grid (zero volume
+  // everywhere). Then uniform in the interval (the set's own, lower-dimensional measure) rather than its lower end.
+  if (!(cdf.back() > 0.0)) return a + (b - a) * u;
+  const double target = u * cdf.back();
   const auto it = std::lower_bound(cdf.begin(), cdf.end(), target);
   const int k = std::clamp(static_cast<int>(it - cdf.begin()), 1, m);
   // Linear density within the cell: solve the quadratic for the position (here: linear interpolation of the CDF).

@@ -2,11 +2,10 @@
 
 #include <ompl/base/SpaceInformation.h>
 
-#include "ctr/model/jacobian.hpp"
+#include "ctr/model/ik.hpp"
 #include "ctr/planner/stopwatch.hpp"
 #include "ctr/planner/validity.hpp"
 
-#include <Eigen/Cholesky>
 #include <algorithm>
 #include <chrono>
 #include <cmath>
@@ -17,79 +16,22 @@
 namespace ob = ompl::base;
 
 namespace ctr::plan {
-namespace {
-
-// Projects translations onto the admissible chain (and the sampler's box).
-void projectTranslations(const Context& ctx, Configuration& q) {
-  const TranslationSampler& s = ctx.translationSampler();
-  const Robot& r = ctx.robot();
-  for (int i = 0; i < q.size(); ++i) {
-    double lo = s.lower()[i], hi = s.upper()[i];
-    if (i > 0) {
-      lo = std::max(lo, q.beta[i - 1] + r.tube(i - 1).length() - r.tube(i).length());
-      hi = std::min(hi, q.beta[i - 1]);
-    }
-    q.beta[i] = std::clamp(q.beta[i], lo, std::max(lo, hi));
-    const Tube& t = r.tube(i);
-    if (t.rotation_limits) q.alpha[i] = std::clamp(q.alpha[i], (*t.rotation_limits)[0], (*t.rotation_limits)[1]);
-  }
-}
-
-}  // namespace
 
 double inverseKinematics(const Context& ctx, const Eigen::Vector3d& target, Configuration& q, int iterations) {
-  Workspace& ws = scratch().ws;
-  KinematicsOptions o = ctx.options().friction.kinematics;
-  o.record_backbone = false;
-  const Robot& r = ctx.frictionlessRobot();
-  const Eigen::Vector3d tb = ctx.basePose().inverse() * target;
-  const int n = q.size();
-  projectTranslations(ctx, q);
-  Solution cur = solve(r, q, ws, o);
-  if (!cur.converged()) return std::numeric_limits<double>::infinity();
-  double err = (tb - cur.tip_position).norm();
-  double lambda = 1e-3;
-  const double scale_b = 0.02;  // 1 unit of the scaled translation = 2 cm
-  Eigen::MatrixXd J(3, 2 * n);
-  bool moved = true;
-  for (int it = 0; it < iterations && err > 1e-5; ++it) {
-    if (moved) {
-      // Tip Jacobian from the variational equations (not polished: relative accuracy ~1e-5, plenty for a damped
-      // step). Finite differences were cheaper per iteration but wrong where a translation changes the number of
-      // integration steps of a segment (a jump of the discrete map): IK then stalled, reaching 36 % of reachable
-      // targets in the lung instead of 67 % (bench planner/lung1/goal_inverse_kinematics). Kept while a rejected
-      // step only raises the damping.
-      const TipJacobian tj = tipJacobian(r, cur, ws, o, false, false);
-      if (!tj.ok) return err;
-      J.leftCols(n) = tj.actuation.topLeftCorner(3, n);
-      J.rightCols(n) = tj.actuation.topRightCorner(3, n) * scale_b;
-      moved = false;
-    }
-    const Eigen::Vector3d e = tb - cur.tip_position;
-    const Eigen::Matrix3d A = J * J.transpose() + lambda * Eigen::Matrix3d::Identity();
-    Eigen::VectorXd dx = J.transpose() * A.ldlt().solve(e);
-    const double big = dx.cwiseAbs().maxCoeff();
-    if (big > 0.3) dx *= 0.3 / big;
-    Configuration qn = q;
-    for (int j = 0; j < n; ++j) {
-      qn.alpha[j] += dx[j];
-      qn.beta[j] += dx[n + j] * scale_b;
-    }
-    projectTranslations(ctx, qn);
-    const Solution sn = solve(r, qn, ws, o, &cur);
-    const double en = sn.converged() ? (tb - sn.tip_position).norm() : std::numeric_limits<double>::infinity();
-    if (en < err) {
-      q = qn;
-      cur = sn;
-      err = en;
-      moved = true;
-      lambda = std::max(1e-6, lambda * 0.3);
-    } else {
-      lambda *= 10.0;
-      if (lambda > 1e3) break;
-    }
-  }
-  return err;
+  // The library's inverse kinematics (ctr/model/ik.hpp) with the planner's discretisation and protrusion, warm from q,
+  // without restarts: the goal pool draws its own random starts.
+  IkOptions o;
+  o.kinematics = ctx.options().friction.kinematics;
+  o.kinematics.record_backbone = false;
+  o.max_iterations = iterations;
+  o.restarts = 0;
+  o.min_protrusion = ctx.options().min_protrusion;
+  o.check_branch = false;  // the pool solves every candidate cold itself (and rejects one off the goal)
+  const IkResult r =
+      ctr::inverseKinematics(ctx.frictionlessRobot(), IkTarget(ctx.basePose().inverse() * target), q, scratch().ws, o);
+  if (r.summary.status == IkStatus::Failed) return std::numeric_limits<double>::infinity();
+  q = r.q;
+  return r.summary.tip_error;
 }
 
 TipGoal::TipGoal(const ob::SpaceInformationPtr& si, std::shared_ptr<const Context> ctx, TipGoalSpec spec)

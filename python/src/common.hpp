@@ -88,6 +88,7 @@ pyb::object jsonLoads(const std::string& text);
 void registerErrors(pyb::module_& m);
 void registerModel(pyb::module_& m);
 void registerFriction(pyb::module_& m);
+void registerIk(pyb::module_& m);
 #ifdef CTR_PY_WITH_ENVIRONMENTS
 void registerEnvironments(pyb::module_& m);
 #endif

@@ -12,6 +12,7 @@ PYBIND11_MODULE(ctr, m) {
   ctr::py::registerErrors(m);
   ctr::py::registerModel(m);
   ctr::py::registerFriction(m);
+  ctr::py::registerIk(m);
 #ifdef CTR_PY_WITH_ENVIRONMENTS
   ctr::py::registerEnvironments(m);
 #endif

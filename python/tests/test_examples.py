@@ -42,3 +42,12 @@ def test_plan_and_plot_example(tmp_path):
                        "--time", "20", "--out", out, cwd=tmp_path)
     assert '"solved": true' in text
     check_png(out, 60)
+
+
+def test_teleoperation_example(tmp_path):
+    out = tmp_path / "teleoperation.png"
+    text = run_example("teleoperation.py", "--out", out, "--points", "400", cwd=tmp_path)
+    check_png(out, 60)
+    line = next(l for l in text.splitlines() if l.startswith("friction-aware commands"))
+    assert float(line.split("ratio ")[1].rstrip("x")) >= 5  # friction compensation: >= 5x smaller RMS tip error
+    assert "400 of 401 reached" in line or "401 of 401 reached" in line

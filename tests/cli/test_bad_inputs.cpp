@@ -177,6 +177,32 @@ const std::vector<Case> kCases = {
   {"SweepInadmissibleStart", "sweep", "--beta outside the nesting rules", "", none,
    "sweep --robot {ex}/robots/tube_pair_B.yaml --tube 2 --from 0 --to 0.2 --step 0.1 --beta 0.01,0.01 --csv {d}/o.csv", 2, {"not admissible"}},
   // ---- simulate (actuation CSV) ----
+  // ---- ik ----
+  {"IkNoTarget", "ik", "neither --target nor --targets", "", none,
+   "ik --robot {ex}/robots/tube_pair_B.yaml --json out.json", 2, {"--target", "--targets"}},
+  {"IkTargetTwoNumbers", "ik", "--target with two numbers", "", none,
+   "ik --robot {ex}/robots/tube_pair_B.yaml --target 0.01,0.1 --json out.json", 2, {"--target", "three numbers"}},
+  {"IkTargetNotANumber", "ik", "--target item that is not a number", "", none,
+   "ik --robot {ex}/robots/tube_pair_B.yaml --target 0.01,abc,0.1 --json out.json", 2, {"--target item 2", "abc"}},
+  {"IkDirectionZero", "ik", "--direction of length zero", "", none,
+   "ik --robot {ex}/robots/tube_pair_B.yaml --target 0.01,0,0.1 --direction 0,0,0 --json out.json", 2,
+   {"--direction", "zero"}},
+  {"IkFromAlphaCount", "ik", "--from-alpha with the wrong number of values", "", none,
+   "ik --robot {ex}/robots/tube_pair_B.yaml --target 0.01,0,0.1 --from-alpha 0 --json out.json", 2,
+   {"--from-alpha", "1 values given", "2 tubes"}},
+  {"IkHistoryUnknown", "ik", "--history that is not rest/positive/negative", "", none,
+   "ik --robot {ex}/robots/tube_pair_B.yaml --target 0.01,0,0.1 --history sideways --json out.json", 2,
+   {"--history", "sideways"}},
+  {"IkTargetsMissingColumn", "ik", "targets CSV without tip_z", "", [](Dir& d) {
+     d.write("t.csv", "tip_x,tip_y\n0.01,0.0\n"); },
+   "ik --robot {ex}/robots/tube_pair_B.yaml --targets t.csv --out cmd.csv", 2, {"t.csv:1", "tip_z", "missing column"}},
+  {"IkTargetsBadCell", "ik", "targets CSV with a cell that is not a number", "", [](Dir& d) {
+     d.write("t.csv", "tip_x,tip_y,tip_z\n0.01,0.0,0.1\n# comment\n0.01,x,0.1\n"); },
+   "ik --robot {ex}/robots/tube_pair_B.yaml --targets t.csv --out cmd.csv", 2, {"t.csv:4", "tip_y", "not a number"}},
+  {"IkOutIsTheTargets", "ik", "--out naming the targets file", "", [](Dir& d) {
+     d.write("t.csv", "tip_x,tip_y,tip_z\n0.01,0.0,0.1\n"); },
+   "ik --robot {ex}/robots/tube_pair_B.yaml --targets t.csv --out t.csv", 2, {"--out", "input file of --targets"},
+   "t.csv"},
   {"SimulateActuationMissing", "simulate", "actuation file does not exist", "", none,
    "simulate --robot {ex}/robots/tube_pair_B.yaml --actuation {d}/act.csv --out {d}/rec.csv", 2, {"{d}/act.csv", "not found"}},
   {"SimulateActuationEmpty", "simulate", "empty actuation file (0 bytes)", "", [](Dir& d) { d.write("act.csv", ""); },
@@ -499,7 +525,7 @@ TEST(BadInputCatalogue, HasAtLeast45CasesOverEveryCommand) {
   EXPECT_GE(kCases.size(), 45u);
   std::map<std::string, int> per;
   for (const Case& c : kCases) per[c.command.substr(0, c.command.find(' '))]++;
-  for (const char* cmd : {"fk", "sweep", "simulate", "env", "plan", "bench", "diagnose", "recording", "demo"})
+  for (const char* cmd : {"fk", "ik", "sweep", "simulate", "env", "plan", "bench", "diagnose", "recording", "demo"})
     EXPECT_GE(per[cmd], 1) << cmd;
   std::map<std::string, int> ids;
   for (const Case& c : kCases) EXPECT_EQ(++ids[c.id], 1) << "duplicate id " << c.id;

@@ -2,6 +2,7 @@
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
 
+#include <algorithm>
 #include <array>
 #include <cmath>
 #include <cstdio>
@@ -102,7 +103,7 @@ TEST(Cli, BadInputsExitTwoWithClearMessages) {
 }
 
 TEST(Cli, HelpOnEverySubcommand) {
-  for (const char* sub : {"", "fk", "sweep", "simulate", "demo"}) {
+  for (const char* sub : {"", "fk", "ik", "sweep", "simulate", "demo"}) {
     const Proc r = run(std::string(sub) + " --help");
     EXPECT_EQ(r.code, 0) << sub;
     EXPECT_NE(r.out.find("--help"), std::string::npos) << sub;
@@ -335,6 +336,134 @@ TEST(Cli, SimulateWritesARecordingAndNothingOnBadInput) {
   EXPECT_EQ(bad.code, 2);
   EXPECT_NE(bad.err.find(act.string()), std::string::npos) << bad.err;
   EXPECT_FALSE(fs::exists(out));
+}
+
+namespace {
+
+// Rows of a CSV with a header: the named columns as numbers (empty cells NaN).
+std::vector<std::vector<double>> csvColumns(const fs::path& file, const std::vector<std::string>& names) {
+  std::ifstream in(file);
+  std::string line, cell;
+  std::getline(in, line);
+  std::vector<std::string> header;
+  std::stringstream hs(line);
+  while (std::getline(hs, cell, ',')) header.push_back(cell);
+  std::vector<int> index;
+  for (const std::string& n : names) {
+    const auto it = std::find(header.begin(), header.end(), n);
+    index.push_back(it == header.end() ? -1 : static_cast<int>(it - header.begin()));
+  }
+  std::vector<std::vector<double>> rows;
+  while (std::getline(in, line)) {
+    std::vector<std::string> cells;
+    std::stringstream ss(line);
+    while (std::getline(ss, cell, ',')) cells.push_back(cell);
+    std::vector<double> row;
+    for (int i : index)
+      row.push_back(i >= 0 && i < static_cast<int>(cells.size()) && !cells[static_cast<std::size_t>(i)].empty()
+                        ? std::stod(cells[static_cast<std::size_t>(i)])
+                        : std::nan(""));
+    rows.push_back(row);
+  }
+  return rows;
+}
+
+std::string list(const nlohmann::json& a) {
+  std::string s;
+  for (const auto& v : a) s += (s.empty() ? "" : ",") + nlohmann::json(v.get<double>()).dump();
+  return s;
+}
+
+}  // namespace
+
+TEST(Cli, IkJsonHasTheDocumentedKeysAndTheAnswerChecksOutWithFk) {
+  const std::string R = robot("dupont_lab_3tube.yaml");
+  const auto fk =
+      nlohmann::json::parse(run("fk --robot " + R + " --alpha 0.3,0.9,-1.2 --beta -0.01,-0.02,-0.1 --json").out);
+  const std::string target = list(fk["tip_position"]);
+  const Proc r = run("ik --robot " + R + " --target " + target + " --json -");
+  ASSERT_EQ(r.code, 0) << r.err;
+  const auto j = nlohmann::json::parse(r.out);
+  for (const char* key : {"reached", "status", "alpha", "beta", "tip_error", "closest", "stable", "stability",
+                          "branch_dependent", "iterations", "evaluations", "starts", "message", "robot"})
+    EXPECT_TRUE(j.contains(key)) << key;
+  EXPECT_TRUE(j["reached"].get<bool>());
+  EXPECT_LE(j["tip_error"].get<double>(), 1e-5);
+  // The answer, given to `ctr fk`, puts the tip on the target.
+  const auto back = nlohmann::json::parse(
+      run("fk --robot " + R + " --alpha " + list(j["alpha"]) + " --beta " + list(j["beta"]) + " --json").out);
+  double d2 = 0.0;
+  for (int i = 0; i < 3; ++i) {
+    const double d = back["tip_position"][i].get<double>() - fk["tip_position"][i].get<double>();
+    d2 += d * d;
+  }
+  EXPECT_LE(std::sqrt(d2), 1e-5 + 1e-9);
+  // Text output without --json.
+  const Proc t = run("ik --robot " + R + " --target " + target);
+  EXPECT_EQ(t.code, 0) << t.err;
+  EXPECT_NE(t.out.find("reached:   yes"), std::string::npos) << t.out;
+}
+
+TEST(Cli, IkUnreachableTargetExitsOneWithTheClosestPoint) {
+  const fs::path out = tmp("ik_far.json");
+  fs::remove(out);
+  const Proc r =
+      run("ik --robot " + robot("dupont_lab_3tube.yaml") + " --target 0,0,1 --restarts 2 --json " + out.string());
+  EXPECT_EQ(r.code, 1) << r.err;
+  EXPECT_NE(r.err.find("not reached"), std::string::npos) << r.err;
+  std::ifstream in(out);
+  const auto j = nlohmann::json::parse(in);
+  EXPECT_FALSE(j["reached"].get<bool>());
+  ASSERT_EQ(j["closest"].size(), 3u);
+  EXPECT_GT(j["tip_error"].get<double>(), 0.5);
+  EXPECT_GT(j["closest"][2].get<double>(), 0.2);  // the closest point is up the axis
+}
+
+TEST(Cli, IkFrictionPathCommandsReplayThroughSimulate) {
+  // A 20-point arc of the 10 mm circle around the tip of the Dupont-lab robot, mu' = 0.1, reached from a positive
+  // approach: the commands written by --out, replayed by `ctr simulate`, put the tip on the targets; the friction-blind
+  // commands would not.
+  const std::string R = robot("dupont_lab_3tube.yaml");
+  const std::string from = " --from-alpha 0,0.5,-1 --from-beta 0,-0.017,-0.09";
+  const auto fk = nlohmann::json::parse(run("fk --robot " + R + " --alpha 0,0.5,-1 --beta 0,-0.017,-0.09 --json").out);
+  const fs::path targets = tmp("ik_arc.csv"), cmd = tmp("ik_cmd.csv"), js = tmp("ik_arc.json"), rec = tmp("ik_rec.csv");
+  std::vector<std::array<double, 3>> pts;
+  {
+    std::ofstream t(targets);
+    t << "tip_x,tip_y,tip_z,time\n";
+    for (int k = 0; k < 20; ++k) {
+      const double a = 2.0 * M_PI * k / 40.0;
+      const std::array<double, 3> p = {fk["tip_position"][0].get<double>() - 0.005 + 0.005 * std::cos(a),
+                                       fk["tip_position"][1].get<double>() + 0.005 * std::sin(a),
+                                       fk["tip_position"][2].get<double>()};
+      pts.push_back(p);
+      t << nlohmann::json(p[0]).dump() << "," << nlohmann::json(p[1]).dump() << "," << nlohmann::json(p[2]).dump()
+        << "," << 0.01 * k << "\n";
+    }
+  }
+  for (const fs::path& f : {cmd, js, rec}) fs::remove(f);
+  const Proc r = run("ik --robot " + R + from + " --boundary-friction 0.1 --history positive --targets " +
+                     targets.string() + " --out " + cmd.string() + " --json " + js.string());
+  ASSERT_EQ(r.code, 0) << r.err;
+  std::ifstream in(js);
+  const auto j = nlohmann::json::parse(in);
+  EXPECT_TRUE(j["reached"].get<bool>());
+  ASSERT_EQ(j["rows"].size(), 20u);
+  EXPECT_EQ(j["friction"]["start_rows"].get<int>(), 2);  // the approach's start, the --from configuration
+  EXPECT_GT(j["friction"]["blind_tip_error_rms"].get<double>(), 5.0 * j["tip_error_rms"].get<double>());
+  EXPECT_TRUE(j["rows"][0]["friction"].contains("blind_tip_error"));
+  // Replay the commands through the stateful model with `ctr simulate`.
+  const Proc s =
+      run("simulate --robot " + R + " --boundary-friction 0.1 --actuation " + cmd.string() + " --out " + rec.string());
+  ASSERT_EQ(s.code, 0) << s.err;
+  const auto tips = csvColumns(rec, {"tip_x", "tip_y", "tip_z", "time"});
+  ASSERT_EQ(tips.size(), 22u);
+  EXPECT_TRUE(std::isnan(tips[0][3]) && std::isnan(tips[1][3]));  // the start rows have no time
+  for (std::size_t k = 0; k < pts.size(); ++k) {
+    const auto& t = tips[k + 2];
+    EXPECT_NEAR(t[3], 0.01 * k, 1e-12);
+    EXPECT_LE(std::hypot(t[0] - pts[k][0], t[1] - pts[k][1], t[2] - pts[k][2]), 1e-5 + 1e-9) << k;
+  }
 }
 
 // Admissibility tolerance (docs/formats-io.md): a configuration whose inner tube ends where the outer tube ends, with

@@ -10,6 +10,20 @@
 
 namespace ctr {
 
+/// @brief The smallest box around the admissible translations: for each tube the lowest and highest beta_i of a
+/// configuration with beta_n <= ... <= beta_1 <= 0, beta_i + L_i <= beta_{i+1} + L_{i+1}, per-tube translation limits
+/// (default [-L_i, 0]) and beta_n + L_n >= min_protrusion. The bounds are consistent along the chain: for any beta_i
+/// within its bounds there are admissible neighbours within theirs, so clamping tube by tube from the outermost (each
+/// beta_i to its bounds and to the interval its outer neighbour allows) always ends in an admissible configuration.
+struct TranslationBounds {
+  Eigen::VectorXd lower, upper;  ///< Per tube (m).
+  /// @brief Whether some admissible translation exists.
+  bool feasible() const { return (lower.array() <= upper.array()).all(); }
+};
+
+/// @brief Computes the TranslationBounds of `robot` (O(n^2), no allocation beyond the two vectors).
+TranslationBounds translationBounds(const Robot& robot, double min_protrusion = 1e-3);
+
 /// @brief Samples translations uniformly over the admissible polytope beta_n <= ... <= beta_1 <= 0,
 /// beta_i + L_i <= beta_{i+1} + L_{i+1}, per-tube translation limits (default [-L_i, 0]) and beta_n + L_n >= min_protrusion.
 ///

@@ -1,8 +1,8 @@
 /// @file goal.hpp
 /// @brief Goal region on the tip position (world frame) with a tolerance and an optional tip-direction cone.
-/// Sampleable (for RRTConnect, PRM, BIT*...) through a pool of goal configurations found by damped least-squares
-/// inverse kinematics on the frictionless model, each accepted only if valid in the planning mode (robust mode: and
-/// only if every shape of its friction band reaches the target).
+/// Sampleable (for RRTConnect, PRM, BIT*...) through a pool of goal configurations found by the library's inverse
+/// kinematics (ctr/model/ik.hpp) on the frictionless model, each accepted only if valid in the planning mode (robust
+/// mode: and only if every shape of its friction band reaches the target).
 #pragma once
 
 #include <ompl/base/goals/GoalSampleableRegion.h>
@@ -26,8 +26,9 @@ struct TipGoalSpec {
   double cone_angle = M_PI;                            ///< Accepted angle from `direction` (rad).
 };
 
-/// @brief Inverse kinematics (frictionless model): a configuration near q0 with the tip at `target` (world).
-/// Returns the tip error reached (m), or infinity if the model did not converge.
+/// @brief Inverse kinematics (frictionless model; ctr::inverseKinematics of ctr/model/ik.hpp with the planner's
+/// discretisation and min_protrusion, no restarts): a configuration near q0 with the tip at `target` (world), within
+/// 10 um when reached. Returns the tip error reached (m), or infinity if the model did not converge at q0.
 double inverseKinematics(const Context& ctx, const Eigen::Vector3d& target, Configuration& q, int iterations = 40);
 
 /// @brief Tip goal region.

@@ -1,0 +1,216 @@
+// Internal: the damped least-squares descent shared by the inverse kinematics of the equilibrium model (ik.cpp) and
+// of the stateful stick-slip step (friction_ik.cpp). The two differ only in how a command is evaluated (a solve, or a
+// step from a hysteresis state) and differentiated; the loop, the admissible set, the cost and the restarts are here.
+#pragma once
+
+#include <Eigen/Core>
+#include <algorithm>
+#include <cmath>
+#include <memory>
+#include <random>
+#include <vector>
+
+#include "ctr/model/friction.hpp"
+#include "ctr/model/ik.hpp"
+#include "ctr/model/sampling.hpp"
+
+namespace ctr::detail {
+
+/// The admissible actuator set as linear constraints on the step variables x = (alpha, beta / translation_scale):
+/// rotation limits, the TranslationBounds box, nesting beta_{i+1} <= beta_i and ordered distal ends
+/// beta_i + L_i <= beta_{i+1} + L_{i+1}.
+class ActuatorSet {
+ public:
+  ActuatorSet(const Robot& robot, const IkOptions& options);
+  int tubes() const { return n_; }
+  bool feasible() const { return bounds_.feasible(); }
+  double scale() const { return scale_; }
+  /// An admissible configuration near q: rotations clamped to their limits, translations clamped tube by tube from
+  /// the outermost to their bounds and to the interval the outer neighbour allows.
+  void clamp(Configuration& q) const;
+  /// Rotations outside their limits moved by whole turns into them where that is possible (the same shape: the model
+  /// is 2 pi periodic in each rotation).
+  void wrap(Configuration& q) const;
+  /// The step of the damped least squares G dx = r (G: task rows x 2n, columns in step units) restricted to the
+  /// constraints active at q that it would violate (a working set, its null space), then scaled so that no actuator
+  /// moves more than max_step.
+  Eigen::VectorXd step(const Configuration& q, const Eigen::MatrixXd& G, const Eigen::VectorXd& r, double lambda,
+                       double max_step) const;
+  /// q + t dx (dx in step units), clamped.
+  Configuration move(const Configuration& q, const Eigen::VectorXd& dx, double t) const;
+  /// A random admissible configuration (rotations uniform within the limits or [-pi, pi], translations uniform over
+  /// the admissible set).
+  Configuration sample(std::mt19937_64& rng) const;
+
+ private:
+  struct Row {  // c_i x_i + c_j x_j <= b (j < 0: one variable)
+    int i = 0, j = -1;
+    double ci = 1.0, cj = 0.0, b = 0.0;
+  };
+  const Robot* robot_;
+  int n_ = 0;
+  double scale_ = 0.02, min_protrusion_ = 1e-3;
+  TranslationBounds bounds_;
+  Eigen::VectorXd length_, rot_lo_, rot_hi_;
+  std::vector<Row> rows_;
+  mutable std::unique_ptr<TranslationSampler> sampler_;  // built on first use (restarts only)
+};
+
+/// Residual and errors of a tip against an IkTarget: r = (p* - p, w (d - t)) (3 or 6 rows), cost |r|^2.
+struct IkMeasure {
+  Eigen::VectorXd r;
+  double cost = 0.0;
+  double position_error = 0.0;
+  double direction_error = 0.0;
+};
+
+class IkGoal {
+ public:
+  IkGoal(const IkTarget& target, const IkOptions& options);
+  int rows() const { return direction_ ? 6 : 3; }
+  IkMeasure measure(const Solution& s) const;
+  bool reached(const IkMeasure& m) const;
+  /// Task Jacobian G (rows x 2n, step units) from the actuation Jacobian (6 x 2n, TipJacobian::actuation) at s.
+  Eigen::MatrixXd task(const Solution& s, const Eigen::MatrixXd& actuation, double scale) const;
+
+ private:
+  Eigen::Vector3d p_, d_ = Eigen::Vector3d::UnitZ();
+  bool direction_ = false;
+  double w_ = 0.0, tol_ = 1e-5, dir_tol_ = 0.01;
+};
+
+/// The equilibrium of a point of the descent: a solve, or a stateful step.
+inline const Solution& solutionOf(const Solution& s) {
+  return s;
+}
+inline const Solution& solutionOf(const StepResult& r) {
+  return r.solution;
+}
+
+/// |stability| below which an equilibrium is taken as near a fold (the measure is 1 without tube interaction).
+inline constexpr double kFoldStability = 0.05;
+
+/// One descent from a start point.
+template <class Point>
+struct Descent {
+  Point point;  ///< At the end (the best point of the descent).
+  Configuration q;
+  IkMeasure m;
+  bool reached = false;
+  int iterations = 0, evaluations = 0, jacobians = 0;
+  Eigen::MatrixXd jacobian;  ///< Last actuation Jacobian computed or used, and where.
+  Configuration jacobian_q;
+  std::string message;  ///< Why it stopped without reaching.
+};
+
+/// Damped least squares with a backtracking line search from `start` (at `q0`, evaluated). `eval(q, from, out)` gives
+/// the point at command q (from the accepted point `from`; false: refused); `differentiate(point, actuation)` its
+/// 6 x 2n actuation Jacobian (false: not defined). With `stale` (a Jacobian taken near q0) the first step uses it.
+/// `move_first`: the first full step is taken even without decrease (a stateful map whose value at q0 is not what any
+/// move from q0 gives: a contact that releases as soon as the tubes move); the descent goes on from there.
+template <class Point, class Eval, class Differentiate>
+Descent<Point> descend(const ActuatorSet& set, const IkGoal& goal, const IkOptions& o, Point start,
+                       const Configuration& q0, const Eigen::MatrixXd* stale, Eval&& eval,
+                       Differentiate&& differentiate, bool move_first = false) {
+  Descent<Point> d;
+  d.point = std::move(start);
+  d.q = q0;
+  d.m = goal.measure(solutionOf(d.point));
+  d.reached = goal.reached(d.m);
+  if (d.reached) {
+    if (stale) {
+      d.jacobian = *stale;
+      d.jacobian_q = q0;
+    }
+    return d;
+  }
+  // The actuation Jacobian of the step: exact at the current point, or the stale one for the first step.
+  Eigen::MatrixXd A;
+  bool exact = false;
+  if (stale && stale->rows() == 6 && stale->cols() == 2 * set.tubes()) {
+    A = *stale;
+    d.jacobian_q = q0;
+  }
+  double mu = o.damping;
+  int slow = 0;
+  // Longest fraction of the step tried first: halved steps that succeed make the next iteration start at twice the
+  // fraction that worked (near a fold, where full steps leave the branch, this saves their refused solves).
+  double reach = 1.0;
+  Point trial;
+  while (d.iterations < o.max_iterations) {
+    if (A.size() == 0) {
+      if (!differentiate(d.point, A)) {
+        A.resize(0, 0);
+        d.message = "the tip Jacobian is not defined here (a fold of the equilibria)";
+        break;
+      }
+      ++d.jacobians;
+      exact = true;
+      d.jacobian_q = d.q;
+    }
+    ++d.iterations;
+    const Eigen::MatrixXd G = goal.task(solutionOf(d.point), A, set.scale());
+    const double mean_diag = std::max(G.squaredNorm() / G.rows(), 1e-300);
+    bool accepted = false;
+    int refused = 0;  // trials of this iteration whose evaluation was refused (not converged, unstable, snapped)
+    for (bool first = true; !accepted; first = false) {
+      const Eigen::VectorXd dx = set.step(d.q, G, d.m.r, mu * mean_diag, o.max_step);
+      if (!(dx.squaredNorm() > 0.0)) break;
+      // Backtracking: the step (times `reach`), then half and a quarter of it; the first decrease of the cost is taken.
+      // With more damping (later rounds) the step itself is shorter: one trial each.
+      for (double t = reach; t > (first ? 0.2 : 0.99) * reach && !accepted; t *= 0.5) {
+        const Configuration qt = set.move(d.q, dx, t);
+        ++d.evaluations;
+        if (!eval(qt, d.point, trial)) {
+          ++refused;
+          continue;
+        }
+        const IkMeasure mt = goal.measure(solutionOf(trial));
+        if (mt.cost < d.m.cost || (move_first && d.iterations == 1 && t == 1.0)) {
+          slow = mt.cost > (1.0 - 1e-3) * d.m.cost ? slow + 1 : 0;
+          std::swap(d.point, trial);
+          d.q = qt;
+          d.m = mt;
+          accepted = true;
+          reach = std::min(1.0, 2.0 * t);
+        }
+      }
+      if (accepted || !exact) break;  // a stale Jacobian is replaced by the exact one before damping more
+      // At the end of the branch (a fold) shorter steps only creep toward it: give up this start.
+      if (refused >= 3 && std::abs(solutionOf(d.point).summary.stability) < kFoldStability) break;
+      mu = std::max(10.0 * mu, o.damping);
+      if (mu > 1e6) break;
+    }
+    d.jacobian = A;
+    if (!accepted && !exact) {
+      A.resize(0, 0);
+      continue;
+    }
+    if (!accepted) {
+      d.message = refused >= 3 && std::abs(solutionOf(d.point).summary.stability) < kFoldStability
+                      ? "the equilibrium branch ends (a fold) between this start and the target"
+                      : "no descent from the closest point found (the edge of the workspace or a local minimum)";
+      break;
+    }
+    if (goal.reached(d.m)) {
+      d.reached = true;
+      return d;
+    }
+    mu = std::max(mu * 0.1, 1e-12);
+    A.resize(0, 0);
+    exact = false;
+    if (refused >= 3 && std::abs(solutionOf(d.point).summary.stability) < kFoldStability) {
+      // Creeping along the end of the branch: steps toward the target leave it. Another start is cheaper.
+      d.message = "the equilibrium branch ends (a fold) between this start and the target";
+      break;
+    }
+    if (slow >= 4) {
+      d.message = "the tip error stopped decreasing (the edge of the workspace or a local minimum)";
+      break;
+    }
+  }
+  if (d.message.empty()) d.message = "iteration limit reached";
+  return d;
+}
+
+}  // namespace ctr::detail

@@ -24,9 +24,12 @@ constexpr double kTwistSlack = 1e-10;  // rad: a slip "reversal" smaller than th
 
 ContactCondition conditionFor(ContactMode mode, double stick_twist) {
   switch (mode) {
-    case ContactMode::Stick: return {ContactCondition::Law::Stick, stick_twist};
-    case ContactMode::SlipPositive: return {ContactCondition::Law::Torque, -1.0};  // inner moves +, torque -
-    case ContactMode::SlipNegative: return {ContactCondition::Law::Torque, +1.0};
+    case ContactMode::Stick:
+      return {ContactCondition::Law::Stick, stick_twist};
+    case ContactMode::SlipPositive:
+      return {ContactCondition::Law::Torque, -1.0};  // inner moves +, torque -
+    case ContactMode::SlipNegative:
+      return {ContactCondition::Law::Torque, +1.0};
   }
   return {};
 }
@@ -301,12 +304,13 @@ SubstepOutcome solveSubstep(const Robot& robot, const HysteresisState& prev, con
 
 }  // namespace
 
-StepResult initialState(const Robot& robot, const Configuration& q, Workspace& ws, const FrictionOptions& opt) {
+StepResult initialState(const Robot& robot, const Configuration& q, Workspace& ws, const FrictionOptions& opt,
+                        const Solution* branch) {
   StepResult r;
   const std::vector<ContactSite> sites = contactSites(robot, q);
   std::vector<ContactCondition> free(sites.size(), ContactCondition{ContactCondition::Law::Free, 0.0});
-  r.solution = robot.friction().boundary == 0.0 ? solve(robot, q, ws, opt.kinematics, nullptr)
-                                                 : solveWithContacts(robot, q, free, ws, opt.kinematics, nullptr);
+  r.solution = robot.friction().boundary == 0.0 ? solve(robot, q, ws, opt.kinematics, branch)
+                                                : solveWithContacts(robot, q, free, ws, opt.kinematics, branch);
   std::vector<ContactMode> modes(sites.size(), ContactMode::Stick);
   r.state = stateFrom(r.solution, modes, q, Eigen::VectorXd::Zero(robot.size()));
   r.summary.converged = r.solution.converged();
@@ -331,8 +335,8 @@ StepResult step(const Robot& robot, const HysteresisState& from, const Configura
   }
   const double da = q.size() ? (q.alpha - from.q.alpha).cwiseAbs().maxCoeff() : 0.0;
   const double db = q.size() ? (q.beta - from.q.beta).cwiseAbs().maxCoeff() : 0.0;
-  const int n_sub = std::max(1, static_cast<int>(std::ceil(std::max(da / opt.max_rotation_step,
-                                                                     db / opt.max_translation_step) - 1e-12)));
+  const int n_sub = std::max(
+      1, static_cast<int>(std::ceil(std::max(da / opt.max_rotation_step, db / opt.max_translation_step) - 1e-12)));
   HysteresisState cur = from;
   Eigen::VectorXd prev_twist = from.twist;
   for (int k = 1; k <= n_sub; ++k) {
@@ -363,8 +367,7 @@ StepResult step(const Robot& robot, const HysteresisState& from, const Configura
     }
     // Snap: the branch jumped (large tip twist change in one small sub-step) or became unstable.
     Eigen::VectorXd tw = sub.solution.twist;
-    if (prev_twist.size() == tw.size() && tw.size() > 0 &&
-        (tw - prev_twist).cwiseAbs().maxCoeff() > opt.snap_threshold)
+    if (prev_twist.size() == tw.size() && tw.size() > 0 && (tw - prev_twist).cwiseAbs().maxCoeff() > opt.snap_threshold)
       res.summary.snapped = true;
     prev_twist = tw;
     HysteresisState next = stateFrom(sub.solution, sub.modes, qk, dir);

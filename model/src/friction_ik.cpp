@@ -1,6 +1,7 @@
 // Friction-aware inverse kinematics: the stateful stick-slip step inverted by the damped least squares of
 // ik_solver.hpp, each evaluation a step from the given HysteresisState; and the friction-blind comparison.
 #include "ctr/model/friction_ik.hpp"
+#include "ctr/model/replay.hpp"
 
 #include <algorithm>
 #include <cmath>
@@ -176,7 +177,7 @@ Configuration approachStart(const Robot& robot, const Configuration& q, Approach
 StepResult approachState(const Robot& robot, const Configuration& q, Approach approach, double angle, Workspace& ws,
                          const FrictionOptions& o) {
   const Configuration from = approachStart(robot, q, approach, angle);
-  const StepResult r = initialState(robot, from, ws, o);
+  const StepResult r = restAt(robot, from, ws, o);  // as the first row of a replay (replay.hpp)
   if (approach == Approach::Rest || !r.state.valid) return r;
   return step(robot, r.state, q, ws, o);
 }

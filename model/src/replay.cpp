@@ -148,6 +148,22 @@ Move fromRest(const Robot& robot, const Configuration& home, const Configuration
   return m;
 }
 
+/// restAt as a Move (with the reason of a row that fails).
+Move atRest(const Robot& robot, const Configuration& q, Workspace& ws, const ReplayOptions& o) {
+  Move m;
+  const Admissibility adm = checkAdmissible(robot, q);
+  if (!adm) {
+    m.r.solution.q = q;
+    m.r.solution.summary.status = SolveStatus::Inadmissible;
+    m.r.summary.message = adm.message;
+  } else {
+    m.r = restAt(robot, q, ws, o.friction);
+  }
+  m.reason = reasonOf(robot, m.r);
+  m.ok = m.reason.empty();
+  return m;
+}
+
 double tipDistance(const Solution& a, const Solution& b) {
   return (a.tip_position - b.tip_position).norm();
 }
@@ -259,11 +275,25 @@ StepResult reachFromRest(const Robot& robot, const Configuration& q, Workspace& 
   return std::move(m.r);
 }
 
+StepResult restAt(const Robot& robot, const Configuration& q, Workspace& ws, const FrictionOptions& options) {
+  ReplayOptions o;
+  o.friction = options;
+  const Robot free = hasFriction(robot) ? robot.withFriction(FrictionCoefficients{}) : robot;
+  Move m = fromRest(free, restOf(q), q, ws, o);
+  if (!m.ok || !hasFriction(robot)) {
+    if (!m.reason.empty() && m.r.summary.message.empty()) m.r.summary.message = m.reason;
+    return std::move(m.r);
+  }
+  StepResult r = initialState(robot, q, ws, options, &m.r.solution);
+  r.solution.summary.snapped = false;
+  return r;
+}
+
 bool isPathMove(const Configuration& from, const Configuration& to, const ReplayOptions& o) {
   if (from.size() != to.size() || to.size() == 0) return false;
   double rot = std::abs(to.alpha[0] - from.alpha[0]);
   for (int i = 1; i < to.size(); ++i)
-    rot = std::max(rot, std::abs((to.alpha[i] - to.alpha[0]) - (from.alpha[i] - from.alpha[0])));
+    rot = std::max(rot, std::abs((to.alpha[i] - to.alpha[i - 1]) - (from.alpha[i] - from.alpha[i - 1])));
   const double lin = (to.beta - from.beta).cwiseAbs().maxCoeff();
   return rot <= o.path_rotation_step && lin <= o.path_translation_step;
 }
@@ -303,13 +333,16 @@ std::vector<ReplayRow> replay(const Robot& robot, const std::vector<Configuratio
       m = move(robot, good, q, ws, o);
       row.reached = Reached::Path;
       if (!(m.r.summary.converged && m.r.state.valid) && previous_failed) {
-        // Two failures in a row: the memory cannot be carried on; reached from rest here.
-        Move rest = fromRest(robot, restOf(q), q, ws, o);
+        // Two failures in a row: the memory cannot be carried on; the robot at rest here.
+        Move rest = atRest(robot, q, ws, o);
         if (rest.r.summary.converged && rest.r.state.valid) {
           m = std::move(rest);
           row.reached = Reached::Restart;
         }
       }
+    } else if (!good.valid) {
+      m = atRest(robot, q, ws, o);  // the first row (or after rows that all failed): the robot at rest there
+      row.reached = Reached::Rest;
     } else {
       m = fromRest(robot, restOf(q), q, ws, o);
       row.reached = Reached::Rest;

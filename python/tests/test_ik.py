@@ -62,12 +62,13 @@ def test_friction_aware_command_checked_by_the_stateful_step(cli):
     assert d["reached"]
     f = d["friction"]
     assert f["blind_tip_error"] > 5e-5 and f["alpha_difference"] > 1e-3
-    # Replay: the rows that make the start state, then the command, through the stateful model.
+    # Replay: the rows that make the start state, then the command, through the stateful model (the command is one
+    # large move, executed straight: the path is known).
     a0, b0 = f["start_commands"]
-    sim = ctr.simulate(robot, np.vstack([a0, d["alpha"]]), np.vstack([b0, d["beta"]]))
+    sim = ctr.simulate(robot, np.vstack([a0, d["alpha"]]), np.vstack([b0, d["beta"]]), branch="path")
     assert np.linalg.norm(sim["tip_position"][-1] - target) <= 1e-5 + 1e-9
     # The same from the state object: ctr.step of the command from the start state.
-    start = ctr.step(robot, ctr.initial_state(robot, a0[0], b0[0]).state, START["alpha"], START["beta"]).state
+    start = ctr.simulate(robot, a0, b0, keep_states=True)["states"][-1]  # at rest at the first row, then the approach
     r = ctr.step(robot, start, d["alpha"], d["beta"])
     assert np.linalg.norm(r.solution.tip_position - target) <= 1e-5 + 1e-9
     assert ctr.ik(robot, target, state=start)["alpha"] == pytest.approx(d["alpha"], abs=1e-12)

@@ -31,12 +31,12 @@ struct ContactMemory {
 
 /// @brief Everything the friction model remembers of the path so far. A plain value: copy it to branch a path.
 struct HysteresisState {
-  Configuration q;                      ///< Last commanded configuration.
-  Eigen::VectorXd base_twist_rate;      ///< Equilibrium branch: u_iz(0) at the last step (warm start).
+  Configuration q;                  ///< Last commanded configuration.
+  Eigen::VectorXd base_twist_rate;  ///< Equilibrium branch: u_iz(0) at the last step (warm start).
   Eigen::Vector3d base_moment = Eigen::Vector3d::Zero();  ///< With external loads: m(0) at the last step (warm start).
-  std::vector<ContactMemory> contacts;  ///< One per contact site at the last step.
-  Eigen::VectorXd direction;            ///< Last commanded rotation direction per tube (-1, 0, +1).
-  Eigen::VectorXd twist;                ///< Tip twist at the last step (snap detection).
+  std::vector<ContactMemory> contacts;                    ///< One per contact site at the last step.
+  Eigen::VectorXd direction;                              ///< Last commanded rotation direction per tube (-1, 0, +1).
+  Eigen::VectorXd twist;                                  ///< Tip twist at the last step (snap detection).
   Eigen::VectorXd interface_direction;  ///< Distributed friction: last commanded relative rotation sign per interface.
   bool valid = false;                   ///< False until initialised by initialState / a step.
   /// Warm-start memory of the solver (not physics): the state one sub-step back (command, branch, base moment and
@@ -80,7 +80,10 @@ struct StepResult {
 /// Uses the robot's coefficients from robot.friction(): boundary mu' (stick-slip or paper mode) or distributed mu
 /// (distributed_friction.hpp; sign from the commanded relative rotation), or both at once (the lumped torques then act
 /// on the distributed-friction equilibrium; stick-slip and paper modes as without distributed friction).
-StepResult initialState(const Robot& robot, const Configuration& q, Workspace& ws, const FrictionOptions& options = {});
+/// `branch` (optional): a frictionless equilibrium at q that picks the branch (Newton starts from it; replay.hpp's
+/// restAt passes the one reached from the aligned tubes); without it, the cold solve's.
+StepResult initialState(const Robot& robot, const Configuration& q, Workspace& ws, const FrictionOptions& options = {},
+                        const Solution* branch = nullptr);
 
 /// @brief Quasi-static move from the state `from` to the command q, sub-stepped so that the result does not depend
 /// on how the caller slices a path (see docs/friction.md for the tolerance rule at stick/slip changes).
@@ -97,10 +100,10 @@ struct FrictionBandOptions {
 /// torques within their bounds. Extreme shapes are the vertices of the torque box.
 struct FrictionBand {
   bool converged = false;
-  std::vector<Solution> shapes;           ///< Vertex (and interior) shapes; [0] = frictionless.
+  std::vector<Solution> shapes;                       ///< Vertex (and interior) shapes; [0] = frictionless.
   std::vector<std::vector<double>> torque_fractions;  ///< Per shape, torque / bound per contact.
-  Eigen::VectorXd twist_min, twist_max;   ///< Extremes of each twist over the shapes (rad).
-  double tip_spread = 0.0;                ///< Largest tip distance from the frictionless tip (m).
+  Eigen::VectorXd twist_min, twist_max;               ///< Extremes of each twist over the shapes (rad).
+  double tip_spread = 0.0;                            ///< Largest tip distance from the frictionless tip (m).
   std::string message;
 };
 

@@ -83,10 +83,11 @@ enum class Approach {
 /// for a non-finite angle.
 Configuration approachStart(const Robot& robot, const Configuration& q, Approach approach, double angle);
 
-/// @brief The state at q after the approach: initialState at approachStart(...), then one step to q. Every
-/// neighbouring pair turned by `angle` relative to each other, so the contacts carry the torques of that direction
-/// (slipping when `angle` exceeds their stick range). Rest: initialState(q). Replaying the commands
-/// {approachStart(...), q} (`ctr simulate`, replay) gives the same state.
+/// @brief The state at q after the approach: the robot at rest at approachStart(...) (restAt, as the first row of a
+/// replay), then one step to q. Every neighbouring pair turned by `angle` relative to each other, so the contacts carry
+/// the torques of that direction (slipping when `angle` exceeds their stick range). Rest: restAt(q). Replaying the
+/// commands {approachStart(...), q} (`ctr simulate`, replay.hpp) gives the same state when `angle` is within the
+/// replay's path step (30 deg).
 StepResult approachState(const Robot& robot, const Configuration& q, Approach approach, double angle, Workspace& ws,
                          const FrictionOptions& options = {});
 

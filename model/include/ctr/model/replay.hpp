@@ -3,15 +3,16 @@
 /// equilibrium branch each row is on, how the friction memory is carried, and what happens after a failed row.
 /// `ctr simulate`, the diagnosis (diagnosis/forward_model.hpp) and the Python module follow this one rule.
 ///
-/// The branch rule. A row whose commanded move from the previous row is small (every relative rotation and every
-/// translation within ReplayOptions::path_rotation_step / path_translation_step) is reached by continuation along
-/// the straight joint-space move, in the stick-slip sub-steps of step(): the robot followed the commanded path. A row
-/// reached by an unknown path (the first row; a larger move, as between the poses of a pose set) is reached *from
-/// rest*: the tubes aligned (no relative rotation, no twist, no friction torque) at the row's translations, then
-/// each tube rotated relative to tube 1 the short way (by the relative angle wrapped to (-pi, pi]) to its command,
-/// with the same sub-steps (reachFromRest). Both are quasi-static continuations from a stable state, so the replayed
-/// equilibrium is never an unstable one; a snap on the way (a jump to another branch) is a prediction of the model,
-/// reported as such and not given an output.
+/// The branch rule. A row whose commanded move from the previous row is small (tube 1's rotation, the rotation of
+/// every tube relative to its outer neighbour and every translation within ReplayOptions::path_rotation_step /
+/// path_translation_step) is reached by continuation along the straight joint-space move, in the stick-slip
+/// sub-steps of step(): the robot followed the commanded path. A row reached by an unknown path (a larger move, as
+/// between the poses of a pose set) is reached *from rest*: the tubes aligned (no relative rotation, no twist, no
+/// friction torque) at the row's translations, then each tube rotated relative to tube 1 the short way (by the
+/// relative angle wrapped to (-pi, pi]) to its command, with the same sub-steps (reachFromRest). The first row is the
+/// robot *at rest* there (restAt): on the branch that rotation reaches, with no friction torque stored. Both are
+/// quasi-static continuations from a stable state, so the replayed equilibrium is never an unstable one; a snap on
+/// the way (a jump to another branch) is a prediction of the model, reported as such and not given an output.
 #pragma once
 
 #include <string>
@@ -36,8 +37,8 @@ BranchRule parseBranchRule(const std::string& text);
 /// @brief How a row was reached.
 enum class Reached {
   Path,     ///< Continuation from the previous evaluated row along the straight commanded move.
-  Rest,     ///< From rest (reachFromRest), by the rule.
-  Restart,  ///< From rest because the move from the last evaluated state failed (friction memory lost).
+  Rest,     ///< From rest: the first row at rest there (restAt), later rows after an unknown path (reachFromRest).
+  Restart,  ///< At rest there (restAt) because the move from the last evaluated state failed (memory lost).
 };
 
 /// @brief "path", "rest", "restart".
@@ -47,8 +48,8 @@ const char* toString(Reached r);
 struct ReplayOptions {
   FrictionOptions friction;  ///< Sub-steps, snap threshold and solver options of every move.
   BranchRule branch = BranchRule::Auto;
-  /// Auto: a move whose largest relative rotation (alpha_i - alpha_1, or alpha_1 itself) exceeds this is an unknown
-  /// path (rad; 30 deg: a log samples a moving robot much more densely, pose sets move much further).
+  /// Auto: a move whose largest rotation (alpha_1, or alpha_i - alpha_{i-1}) exceeds this is an unknown path (rad;
+  /// 30 deg: a log samples a moving robot much more densely, pose sets move much further).
   double path_rotation_step = 0.5235987755982988;
   /// Auto: likewise for the largest translation change (m; 10 mm).
   double path_translation_step = 0.01;
@@ -82,13 +83,17 @@ struct ReplayRow {
 };
 
 /// @brief The equilibrium reached from rest at q (see the file comment): initialState at the aligned configuration
-/// with q's translations, then step() to q (the short way in every relative rotation). Rotation limits are not
-/// applied along the way (they bound commands, not the model's states).
+/// with q's translations, then step() to q (the short way in every relative rotation), friction acting along the
+/// way. Rotation limits are not applied along the way (they bound commands, not the model's states).
 StepResult reachFromRest(const Robot& robot, const Configuration& q, Workspace& ws,
                          const FrictionOptions& options = {});
 
-/// @brief True when Auto reaches `to` from `from` by continuation (every relative rotation and translation within
-/// the options' path steps).
+/// @brief The robot at rest at q: on the branch the rotation from the aligned tubes reaches (reachFromRest without
+/// friction), every contact stuck with no friction torque (initialState on that branch). The first row of a replay.
+StepResult restAt(const Robot& robot, const Configuration& q, Workspace& ws, const FrictionOptions& options = {});
+
+/// @brief True when Auto reaches `to` from `from` by continuation (tube 1's rotation, every tube's rotation relative
+/// to its outer neighbour and every translation within the options' path steps).
 bool isPathMove(const Configuration& from, const Configuration& to, const ReplayOptions& options);
 
 /// @brief What the caller knows of the path between rows that the rows themselves do not show (e.g. the full-rate

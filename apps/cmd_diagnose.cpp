@@ -88,7 +88,7 @@ void registerDiagnose(CLI::App& app, Action& action) {
           throw UsageError(std::string("--noise: ") + e.what());
         }
       }
-      d.predict.branch = parseBranchRule(o->branch);
+      d.predict.replay.branch = parseBranchRule(o->branch);
       // Progress: every message of the diagnosis, and a status line counting the selection rounds run (at most
       // --max-effects) and the candidates screened in the current one.
       Progress progress("diagnose", static_cast<std::size_t>(std::max(1, o->max_effects)), "rounds", o->quiet);

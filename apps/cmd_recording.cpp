@@ -173,7 +173,7 @@ void registerInject(CLI::App* parent, Action& action) {
       s.position_sd = o->noise_position;
       s.repeatability_position_sd = o->repeat_position;
       s.repeatability_tangent_sd = parseNumber(o->repeat_tangent, "--repeatability-tangent", true);
-      s.predict.branch = parseBranchRule(o->branch);
+      s.predict.replay.branch = parseBranchRule(o->branch);
       s.twist = o->measure.find("twist") != std::string::npos;
       s.tip_position = o->measure.find("tip_position") != std::string::npos;
       s.tip_tangent = o->measure.find("tip_tangent") != std::string::npos;

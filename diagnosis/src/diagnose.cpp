@@ -158,7 +158,7 @@ DiagnosisReport diagnose(const Robot& nominal, const io::Recording& given, const
   rep.stride = stride;
   rep.recording_rows = given.rows();
   rep.visits = vrec.rows();
-  rep.branch = toString(o.predict.branch);
+  rep.branch = toString(o.predict.replay.branch);
   detail::State s(nominal, rec, o, rep);
   for (int k = 0; k < rows; ++k) s.origin.push_back(visits.first_row[static_cast<std::size_t>(k * stride)] + 1);
   if (visits.anyRepeated())
@@ -195,7 +195,7 @@ DiagnosisReport diagnose(const Robot& nominal, const io::Recording& given, const
   s.say(Stage::Baseline, "baseline: replaying " + std::to_string(rows) +
                              " rows through the nominal model (branch rule " + rep.branch + ")");
   FitOptions bo = s.fo;
-  bo.predict.find_alternatives = true;
+  bo.predict.replay.find_alternatives = true;
   s.base = evaluateModel(nominal, rec, {}, s.all, bo, s.ws);
   const std::vector<std::vector<Alternative>> alternatives = s.base.prediction.alternatives;
   s.evaluable.assign(static_cast<std::size_t>(rows), 0);

@@ -147,13 +147,7 @@ Prediction predict(const Robot& nominal, const std::vector<Configuration>& comma
   const int rows = static_cast<int>(commands0.size());
   const int n = robot.size();
   const double nan = std::numeric_limits<double>::quiet_NaN();
-  ReplayOptions ro;
-  ro.friction = options.friction;
-  ro.branch = options.branch;
-  ro.path_rotation_step = options.path_rotation_step;
-  ro.path_translation_step = options.path_translation_step;
-  ro.coarse_rotation_step = options.coarse_rotation_step;
-  ro.find_alternatives = options.find_alternatives;
+  const ReplayOptions& ro = options.replay;
   // Commands within the admissibility tolerance are projected; rows beyond it are not evaluated.
   std::vector<Configuration> commands = commands0;
   std::vector<char> inadmissible(static_cast<std::size_t>(rows), 0);

@@ -24,7 +24,7 @@ std::vector<FirstOrderScreen> screenFirstOrder(const Robot& nominal, const io::R
   PredictOptions po = o.predict;
   po.keep_solutions = true;
   const Prediction p = predict(nominal, rec.commands, rec.time, model, ws, po);
-  const KinematicsOptions kin = po.friction.kinematics;
+  const KinematicsOptions kin = po.replay.friction.kinematics;
   const std::vector<Quantity> qs = presentQuantities(rec);
   const int n = rec.tubes;
   int comps = 0;

@@ -18,11 +18,7 @@ LookAlikes resolveLookAlikes(State& S, std::vector<Candidate>& cands, int best, 
   const io::Recording& rec = S.rec;
   const DiagnoseOptions& o = S.o;
   const FitOptions& fo = S.fo;
-  const FitOptions& fo_alone = S.fo_alone;
-  const std::vector<char>& all = S.all;
-  Workspace& ws = S.ws;
   Candidate& cur = S.cur;
-  const int chunks = S.chunks;
   auto deltaBic = [&](const Residuals& a, int ka, const Residuals& b, int kb) { return S.deltaBic(a, ka, b, kb); };
   auto nparams = [](const std::vector<Effect>& e) { return coordinateCount(e); };
   auto refine = [&](Candidate& c, Workspace& w) { refineCandidate(S, c, w); };
@@ -51,7 +47,7 @@ LookAlikes resolveLookAlikes(State& S, std::vector<Candidate>& cands, int best, 
     // W's screening model lists the accepted effects outside its group first (screenCandidate).
     int group_start = 0;
     for (const Effect& e : cur.fit.effects) group_start += !areLookAlikes(e.kind, W.slot.kind);
-    detail::parallelFor(static_cast<int>(rv.size()), o.threads, ws, [&](int j, Workspace& tws) {
+    detail::parallelFor(static_cast<int>(rv.size()), o.threads, S.ws, [&](int j, Workspace& tws) {
       const Candidate& R = cands[static_cast<std::size_t>(rv[static_cast<std::size_t>(j)])];
       std::vector<Effect> both = W.fit.effects;
       both.push_back(R.fit.effects.back());
@@ -61,7 +57,7 @@ LookAlikes resolveLookAlikes(State& S, std::vector<Candidate>& cands, int best, 
       // too, so the BIC comparisons are like for like); the group's accepted members, W and R are fitted.
       jo.first_free = group_start;
       try {
-        const FitResult J = fitEffects(nominal, rec, both, all, jo, tws, static_cast<int>(both.size()));
+        const FitResult J = fitEffects(nominal, rec, both, S.all, jo, tws, static_cast<int>(both.size()));
         S.count(J.evaluations);
         const int k = nparams(both);
         enc[static_cast<std::size_t>(j)] = {deltaBic(J.residuals, k, R.fit.residuals, nparams(R.fit.effects)),
@@ -71,7 +67,7 @@ LookAlikes resolveLookAlikes(State& S, std::vector<Candidate>& cands, int best, 
       }
     });
     // Rivals that may tie or win need their own held-out scores.
-    detail::parallelFor(static_cast<int>(rv.size()), o.threads, ws, [&](int j, Workspace& tws) {
+    detail::parallelFor(static_cast<int>(rv.size()), o.threads, S.ws, [&](int j, Workspace& tws) {
       Candidate& R = cands[static_cast<std::size_t>(rv[static_cast<std::size_t>(j)])];
       const Encompassing& e = enc[static_cast<std::size_t>(j)];
       if (!R.cv_done && e.ok && e.add_winner <= o.bic_threshold) guarded(S, R, tws, refine);
@@ -105,7 +101,7 @@ LookAlikes resolveLookAlikes(State& S, std::vector<Candidate>& cands, int best, 
         r.effect = R.fit.effects.back();
         r.delta_bic = R.delta_bic;
         r.heldout_rmse = R.cv.rmse;
-        r.heldout_p = stats::chunkedBootstrapTest(R.cv.row_score, W.cv.row_score, chunks);
+        r.heldout_p = stats::chunkedBootstrapTest(R.cv.row_score, W.cv.row_score, S.chunks);
         r.why =
             fmt("alone they fit equally well (BIC %.1f apart); together, neither adds on top of the other (BIC "
                 "%.1f and %.1f)",
@@ -174,11 +170,11 @@ LookAlikes resolveLookAlikes(State& S, std::vector<Candidate>& cands, int best, 
       for (std::size_t i = 1; i < partners.size(); ++i)
         start.push_back(cands[static_cast<std::size_t>(partners[i])].fit.effects.back());
       const int k = nparams(start);
-      P.fit = fitEffects(nominal, rec, start, all, fo_alone, ws, k);  // + intervals, linearisation
+      P.fit = fitEffects(nominal, rec, start, S.all, S.fo_alone, S.ws, k);  // + intervals, linearisation
       S.count(P.fit.evaluations);
       P.delta_bic = deltaBic(cur.fit.residuals, nparams(cur.fit.effects), P.fit.residuals, k);
       P.bic = cur.bic + P.delta_bic;
-      S.count(heldOut(S, P, ws, o.threads, o.one_step_cv));
+      S.count(heldOut(S, P, S.ws, o.threads, o.one_step_cv));
       P.pass = P.delta_bic < -(1.0 + partners.size()) * o.bic_threshold && P.heldout_p < o.heldout_p &&
                P.gain > o.min_heldout_gain;
       std::string names = W.slot.label();

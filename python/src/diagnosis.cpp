@@ -105,7 +105,7 @@ void registerDiagnosis(pyb::module_& m) {
           }
         }
         try {
-          d.predict.branch = parseBranchRule(branch);
+          d.predict.replay.branch = parseBranchRule(branch);
         } catch (const std::invalid_argument& e) {
           throw pyb::value_error(std::string("branch: ") + e.what());
         }

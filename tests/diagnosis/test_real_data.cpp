@@ -167,12 +167,12 @@ TEST(PoseSet, NoVerdictRestsOnAnOffBranchRow) {
   s.position_sd = 3e-4;
   s.tangent_sd = 0.3 * kDeg;
   s.seed = 13;
-  s.predict.branch = BranchRule::Path;  // what the robot did
+  s.predict.replay.branch = BranchRule::Path;  // what the robot did
   const io::Recording rec = simulateRecording(r, cmd, time, {}, s);
   // Rows where the robot's branch differs from the one reached from rest.
   Workspace ws;
   PredictOptions rest;
-  rest.branch = BranchRule::Rest;
+  rest.replay.branch = BranchRule::Rest;
   const Prediction from_rest = predict(r, cmd, time, {}, ws, rest);
   int off = 0;
   for (int k = 0; k < rec.rows(); ++k)

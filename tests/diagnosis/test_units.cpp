@@ -248,7 +248,7 @@ TEST(ForwardModel, CoarsePassEqualsFineReplay) {
     makeActuation(r, ao, cmd, time);
     Workspace ws;
     PredictOptions coarse, fine;
-    fine.coarse_rotation_step = 0.0;
+    fine.replay.coarse_rotation_step = 0.0;
     const Prediction a = predict(r, cmd, time, c.effects, ws, coarse);
     const Prediction b = predict(r, cmd, time, c.effects, ws, fine);
     SCOPED_TRACE(c.robot + " " + effectName(c.effects[0].kind));

@@ -29,22 +29,16 @@ struct PredictOptions {
   /// Full-rate commands of a decimated recording (nullptr: the recording's own rows are the whole log). Owned by
   /// the caller and alive during the prediction.
   const CommandHistory* history = nullptr;
-  /// Fine sub-steps of every move (replay.hpp; used whenever the coarse step fails or flags a snap).
-  FrictionOptions friction;
-  /// How each row's equilibrium is reached (replay.hpp): continuation along small moves, from rest after large ones.
-  BranchRule branch = BranchRule::Auto;
-  double path_rotation_step = ReplayOptions{}.path_rotation_step;        ///< rad (BranchRule::Auto).
-  double path_translation_step = ReplayOptions{}.path_translation_step;  ///< m (BranchRule::Auto).
-  /// Coarse rotation sub-step (rad) tried first where the end state does not depend on the sub-steps (replay.hpp);
-  /// tests/diagnosis checks the replay equals the fine one to 1e-8. 0 disables it.
-  double coarse_rotation_step = 0.175;  // 10 deg
-  /// List the other stable equilibria at rows reached from rest (Prediction::alternatives).
-  bool find_alternatives = false;
+  /// The replay (replay.hpp): the branch rule, the fine sub-steps of every move (2 deg / 1 mm here) and the coarse
+  /// sub-step tried first where the end state does not depend on the sub-steps (10 deg here; tests/diagnosis checks
+  /// the replay equals the fine one to 1e-8).
+  ReplayOptions replay;
   /// Keep each row's equilibrium (Prediction::solutions), e.g. to linearise the model around it (load screen).
   bool keep_solutions = false;
   PredictOptions() {
-    friction.max_rotation_step = 0.035;  // 2 deg
-    friction.kinematics.record_backbone = false;
+    replay.friction.max_rotation_step = 0.035;  // 2 deg
+    replay.friction.kinematics.record_backbone = false;
+    replay.coarse_rotation_step = 0.175;  // 10 deg
   }
 };
 
@@ -66,7 +60,7 @@ struct Prediction {
   int failures = 0;                      ///< Rows with ok = 0.
   int restarts = 0;                      ///< Rows reached from rest after a failure (memory lost).
   std::vector<Reached> reached;          ///< How each row was reached (path, rest, restart).
-  /// With PredictOptions::find_alternatives: per row, the other stable equilibria the robot may be in after an
+  /// With PredictOptions::replay.find_alternatives: per row, the other stable equilibria the robot may be in after an
   /// unknown path (replay.hpp; base frame); empty for the other rows.
   std::vector<std::vector<Alternative>> alternatives;
   /// Each row's equilibrium (with its contact laws) when PredictOptions::keep_solutions; an unconverged Solution on

@@ -1,4 +1,4 @@
-// Benchmarks of the inverse kinematics (issue #31; docs/ik.md): reach rate and cold time over the example robots,
+// Benchmarks of the inverse kinematics (docs/ik.md): reach rate and cold time over the example robots,
 // the warm servo update, and the friction-aware tracking of a 10 mm circle with mu' = 0.1 (tip RMS of friction-blind
 // vs friction-aware commands, replayed through the stateful model).
 //

@@ -152,7 +152,7 @@ void BM_StickSlipStep3(benchmark::State& st) {
   st.counters["newton_iterations"] = k > 0 ? iterations / k : 0.0;
 }
 
-// External loads (issue #15): the Dupont-lab robot with nitinol tubes (density 6450 kg/m^3 over its diameters),
+// External loads: the Dupont-lab robot with nitinol tubes (density 6450 kg/m^3 over its diameters),
 // gravity across the robot and a 0.05 N tip force.
 ctr::Robot loadedDupont() {
   const ctr::Robot r = loadExample("dupont_lab_3tube.yaml");

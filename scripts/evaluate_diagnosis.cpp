@@ -75,7 +75,7 @@ std::vector<Case> cases(bool quick) {
     add({"latency+friction_walk_B", "tube_pair_B", {{EffectKind::SensorLatency, 0, 0.3}, {EffectKind::BoundaryFriction, 0, 0.05}}, ActuationPattern::RandomWalk, 120, false, true, 1, false, 24});
     add({"toffset_walk_3tube", "three_tube_generic", {{EffectKind::TranslationOffset, 3, 0.004}}, ActuationPattern::RandomWalk, 120, true, false, 2, false, 25});
     add({"tbacklash_walk_3tube_posonly", "three_tube_generic", {{EffectKind::TranslationBacklash, 3, 0.003}}, ActuationPattern::RandomWalk, 150, true, false, 1, true, 26});
-    // External loads (issue #15): the descriptions have no density and no load; gravity weighs nitinol tubes. The
+    // External loads: the descriptions have no density and no load; gravity weighs nitinol tubes. The
     // Dupont-lab robot sags 0.1-0.2 mm under its weight (three_tube_generic: 4 um, invisible at any noise here).
     add({"gravity_walk_dupont", "dupont_lab_3tube", {parseEffect("gravity:scale=1,direction=0,-1,0")}, ActuationPattern::RandomWalk, 150, true, false, 1, false, 27});
     add({"gravity_random_dupont_noisy", "dupont_lab_3tube", {parseEffect("gravity:scale=1,direction=1,0,0")}, ActuationPattern::Random, 100, true, false, 2, false, 28});

@@ -21,7 +21,7 @@ ctest --test-dir "$BUILD/consumer" --output-on-failure
 cmake -S examples/planning_app -B "$BUILD/planning_app" -DCMAKE_PREFIX_PATH="$PWD/$BUILD/install" > /dev/null
 cmake --build "$BUILD/planning_app" -j"$JOBS"
 "$BUILD/planning_app/planning_app" examples/queries/proc_intracardiac.yaml
-# Reliability (issue 8): the test suite under ASan + UBSan (clang), then every libFuzzer target for 30 s, in one
+# Reliability: the test suite under ASan + UBSan (clang), then every libFuzzer target for 30 s, in one
 # shared clang tree. CI (CI=true) always runs both; locally CTR_SKIP_SANITIZERS=1 / CTR_SKIP_FUZZ=1 skip them.
 RELIABILITY_BUILD=${CTR_RELIABILITY_BUILD_DIR:-build-asan}
 # Under ASan two kinds of tests are left out of CI: the eight time-limited planning runs (they would explore 3-10x

@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# The Slurm path of issue 16, for real: starts a single-node Slurm cluster on localhost (scripts/slurm-local.sh),
+# The Slurm path of the benchmark campaigns, for real: starts a single-node Slurm cluster on localhost (scripts/slurm-local.sh),
 # submits the tiny campaign as a job array of 3 shards plus the dependent merge job (examples/slurm/submit.sh),
 # waits, and checks that every run is present exactly once, the shards ran as distinct array tasks, and the
 # database opens with the expected runs per planner. The daemons are stopped at the end, also on failure. Where the

@@ -1,4 +1,4 @@
-// Bad-input catalogue (issue 8): every case runs the real `ctr` binary on a bad input written into a fresh temporary
+// Bad-input catalogue: every case runs the real `ctr` binary on a bad input written into a fresh temporary
 // folder and checks (1) the documented exit code (2 = bad input or usage, 1 = runtime failure), (2) that standard
 // error names the file, the line and/or the key where applicable and says what is wrong, and (3) that no output file
 // (nor a temporary file) is left behind: the folder holds exactly the inputs the case wrote, unchanged.

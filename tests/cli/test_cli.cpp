@@ -140,7 +140,7 @@ TEST(Cli, SweepBothDirectionsWithFrictionShowsTheEnvelope) {
   EXPECT_EQ(rows[18][11], -1);
 }
 
-// External loads (issue #15): --tip-force/--tip-moment/--gravity on fk, sweep, simulate; `loads:` in the robot YAML;
+// External loads: --tip-force/--tip-moment/--gravity on fk, sweep, simulate; `loads:` in the robot YAML;
 // fk --jacobian adds the exact tip Jacobian and compliance.
 namespace {
 

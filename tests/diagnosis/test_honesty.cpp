@@ -1,4 +1,4 @@
-// Honest diagnosis (issue 14): rows the model cannot evaluate are excluded and listed (never given another row's
+// Honest diagnosis: rows the model cannot evaluate are excluded and listed (never given another row's
 // output), rounded coincident tube ends are projected, translation-stage effects, and effects outside the candidate
 // library are reported as unexplained instead of being given a wrong name.
 #include <gtest/gtest.h>

@@ -1,4 +1,4 @@
-// The load candidates (issue 15 item 3): `gravity` (scale, direction) and `tip_load` (force): parsing, the robot
+// The load candidates: `gravity` (scale, direction) and `tip_load` (force): parsing, the robot
 // they build, the JSON they report, and concealed loads found (or not invented) by the diagnosis.
 #include <gtest/gtest.h>
 

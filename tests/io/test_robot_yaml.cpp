@@ -155,7 +155,7 @@ std::vector<BadRobot> badRobots() {
        "tube2", 11, "missing required key"},
       {"two_documents", base({}, "---\nname: other\n"), "", "", 20, "more than one YAML document"},
       {"non_scalar_key", base({{14, "    [curvature]: 4.1"}}), "", "inner", 14, "plain names"},
-      // External loads (issue #15).
+      // External loads.
       {"loads_not_map", base({}, "loads: 9.81\n"), "loads", "", 19, "expected a map"},
       {"loads_unknown_key", base({}, "loads:\n  gravty: [0, 0, -9.81]\n"), "gravty", "", 20,
        "did you mean 'gravity'?"},

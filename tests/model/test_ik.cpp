@@ -1,4 +1,4 @@
-// Inverse kinematics (issue #31): every answer is checked by an independent forward kinematics solve (a fresh
+// Inverse kinematics: every answer is checked by an independent forward kinematics solve (a fresh
 // workspace, the library's default discretisation) and against the admissible set; the friction-aware commands are
 // checked by stepping the stateful model again from the same state. No timing here (bench/bench_ik.cpp).
 #include <gtest/gtest.h>

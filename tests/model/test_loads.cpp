@@ -1,4 +1,4 @@
-// External loads (issue #15): the loaded Cosserat-rod solver against an independent planar elastica solution, global
+// External loads: the loaded Cosserat-rod solver against an independent planar elastica solution, global
 // force and moment balance along the backbone, zero-load agreement with the torsion-only model, convergence under
 // step refinement, friction under gravity.
 #include <gtest/gtest.h>

@@ -136,7 +136,7 @@ if (/<script[^>]+src=|<link[^>]+href=["']?https?:/i.test(htmlText)) fail('the re
       check(!(d.report.failed_rows || []).length || await page.locator('#failed-rows').count() === 1, 'no failed-rows section');
       check(info.charts.some((c) => /residual vs/.test(c.title)), 'no residual-vs-configuration chart');
       check(info.charts.some((c) => /Tip position error|twist/i.test(c.title)), 'no measured-vs-model chart');
-      // One row per fitted parameter of the final (full-data) model, each with its 95 % interval shown (issue #16).
+      // One row per fitted parameter of the final (full-data) model, each with its 95 % interval shown.
       const finalParams = d.report.final.effects.flatMap((e) =>
         Object.keys(e).filter((k) => !['effect', 'tube', 'interval95'].includes(k)).map((k) => `${e.effect} ${k}`));
       if (finalParams.length) {

@@ -84,7 +84,7 @@ bool isStateful(EffectKind k);
 int lookAlikeGroup(EffectKind k);
 /// @brief True when a recording may not tell a and b apart: the same non-zero group, or a load (group 3) and a
 /// bending shape parameter (precurvature, bending_stiffness), which bend the robot like a load does. Precurvature
-/// and bending stiffness are not look-alikes of each other (unchanged since issue 14).
+/// and bending stiffness are not look-alikes of each other.
 bool areLookAlikes(EffectKind a, EffectKind b);
 /// @brief True when the kind has a look-alike (areLookAlikes with some kind).
 bool isLookAlike(EffectKind k);

@@ -179,7 +179,6 @@ struct Branches {
   bool active = false;
   HysteresisState primary;
   std::vector<HysteresisState> others;
-  std::vector<Solution> primary_solution;  // 0 or 1
   std::vector<Solution> other_solutions;
 };
 
@@ -248,7 +247,6 @@ void followAlternatives(const Robot& free, const Configuration& q, Workspace& ws
     return;
   }
   b.primary = p.r.state;
-  b.primary_solution = {p.r.solution};
   std::vector<HysteresisState> others;
   std::vector<Solution> sols;
   for (const HysteresisState& s : b.others) {

@@ -135,14 +135,14 @@ void describeRemainder(State& s) {
       s.base_ratio > 1.0 ? std::clamp((s.base_ratio - u.heldout_ratio) / (s.base_ratio - 1.0), 0.0, 1.0) : 0.0;
   u.where = remainderWords(m, u.heldout_ratio, s.rep.noise);
   u.described.clear();
-  const double bic_lib = s.cur.bic - s.deltaBic(lib.fit.residuals, coordinateCount(lib.fit.effects),
-                                                s.cur.fit.residuals, coordinateCount(s.cur.fit.effects));
+  const double delta_bic = s.deltaBic(lib.fit.residuals, coordinateCount(lib.fit.effects), s.cur.fit.residuals,
+                                      coordinateCount(s.cur.fit.effects));
   for (std::size_t j : generic) {
     const Effect& g = s.cur.fit.effects[j];
     GenericDescription d;
     d.model = g;
     d.description = describeGeneric(g, j < s.cur.fit.uncertainty.size() ? &s.cur.fit.uncertainty[j] : nullptr, s.rec);
-    d.delta_bic = s.cur.bic - bic_lib;
+    d.delta_bic = delta_bic;
     d.heldout_rmse = s.cur.cv.rmse;
     double p = 1.0;
     d.heldout_ratio = s.heldoutRatio(s.cur.cv, p);

@@ -74,41 +74,46 @@ std::vector<ConfigVariable> configVariables(const io::Recording& rec) {
   return out;
 }
 
+NoiseTest testAgainstNoise(const io::Recording& rec, const Residuals& r, const NoiseLevels& noise,
+                           const std::vector<char>& use) {
+  NoiseTest t;
+  const std::vector<Quantity> qs = presentQuantities(rec);
+  for (Quantity q : qs) {
+    const Eigen::MatrixXd& R = r.of(q);
+    const double sd = noise.of(q);
+    double cq = 0;
+    int dq = 0;
+    for (Eigen::Index k = 0; k < R.rows(); ++k)
+      if ((use.empty() || (k < static_cast<Eigen::Index>(use.size()) && use[static_cast<std::size_t>(k)])) &&
+          R.row(k).allFinite() && sd > 0) {
+        cq += R.row(k).squaredNorm() / (sd * sd);
+        dq += rowDof(q, R.cols());
+      }
+    t.chi += cq;
+    t.dof += dq;
+    if (dq > 0) t.p_value = std::min(t.p_value, stats::fSf(cq / dq, dq, noise.dof(q)) * static_cast<double>(qs.size()));
+  }
+  t.p_value = std::min(1.0, t.p_value);
+  if (t.dof > 0) t.ratio = t.chi / t.dof;
+  return t;
+}
+
 MismatchReport locateMismatch(const io::Recording& rec, const Prediction& p, const Residuals& r,
                               const NoiseLevels& noise, const MismatchOptions& o) {
   MismatchReport rep;
   const int rows = rec.rows();
   const std::vector<Quantity> qs = presentQuantities(rec);
   const std::vector<ConfigVariable> vars = configVariables(rec);
-  // Global test per quantity: the mean square against the noise variance, an F test when the noise was estimated
-  // (its degrees of freedom), chi-square when given; Bonferroni over the quantities. The family-wise false-alarm
-  // rate alpha is shared equally by the four families of tests (global, bins, direction, scaling).
-  double chi = 0;
-  int dof = 0;
-  double p_global = 1.0;
-  for (Quantity q : qs) {
-    const Eigen::MatrixXd& R = r.of(q);
-    const double s = noise.of(q);
-    double cq = 0;
-    int dq = 0;
-    for (Eigen::Index k = 0; k < R.rows(); ++k)
-      if (R.row(k).allFinite()) {
-        cq += R.row(k).squaredNorm() / (s * s);
-        dq += rowDof(q, R.cols());
-      }
-    chi += cq;
-    dof += dq;
-    if (dq > 0) p_global = std::min(p_global, stats::fSf(cq / dq, dq, noise.dof(q)) * static_cast<double>(qs.size()));
-  }
-  rep.global_p_value = std::min(1.0, p_global);
-  rep.exceeds_noise = rep.global_p_value < o.alpha / 4 && chi > 1.3 * dof;
+  // The global test (testAgainstNoise). The family-wise false-alarm rate alpha is shared equally by the four
+  // families of tests (global, bins, direction, scaling).
+  const NoiseTest global = testAgainstNoise(rec, r, noise);
+  const double ratio_all = global.dof ? global.ratio : 0.0;
+  rep.global_p_value = global.p_value;
+  rep.exceeds_noise = rep.global_p_value < o.alpha / 4 && global.chi > 1.3 * global.dof;
   {
-    MismatchFinding g{"exceeds_noise",
-                      "all",
-                      "all",
-                      rep.global_p_value,
-                      dof ? chi / dof : 0.0,
-                      fmt("all rows: residuals are %.2f x the noise variance", dof ? chi / dof : 0.0)};
+    MismatchFinding g{"exceeds_noise", "all",
+                      "all",           rep.global_p_value,
+                      ratio_all,       fmt("all rows: residuals are %.2f x the noise variance", ratio_all)};
     rep.tests.push_back(g);
   }
   const int B = std::max(2, o.bins);

@@ -82,8 +82,11 @@ bool sameCommand(const Configuration& a, const Configuration& b) {
          ((a.beta - b.beta).cwiseAbs().maxCoeff() <= 1e-12);
 }
 
-/// Component of a residual difference that carries noise: a tangent's part normal to the measured tangent t.
-Eigen::VectorXd noisePart(Quantity q, const Eigen::VectorXd& e, const Eigen::VectorXd& t) {
+/// The part of a difference of residuals (or of measurements) that carries noise: twist differences wrapped to
+/// (-pi, pi], a tangent's part normal to the measured tangent t.
+Eigen::VectorXd noisePart(Quantity q, Eigen::VectorXd e, const Eigen::VectorXd& t) {
+  if (q == Quantity::Twist)
+    for (Eigen::Index c = 0; c < e.size(); ++c) e[c] = std::remainder(e[c], 2 * M_PI);
   if (q != Quantity::TipTangent || t.size() != 3 || !t.allFinite() || !(t.norm() > 0)) return e;
   const Eigen::Vector3d u = t.normalized();
   return e - u * u.dot(e);
@@ -228,10 +231,7 @@ Visits collapseFrames(const io::Recording& rec) {
       double sq = 0;
       for (int r = a; r < e; ++r) {
         if (!M.row(r).allFinite() || !O.row(j).allFinite()) continue;
-        Eigen::VectorXd d = (M.row(r) - O.row(j)).transpose();
-        if (q == Quantity::Twist)
-          for (Eigen::Index c = 0; c < d.size(); ++c) d[c] = std::remainder(d[c], 2 * M_PI);
-        d = noisePart(q, d, O.row(j).transpose());
+        const Eigen::VectorXd d = noisePart(q, (M.row(r) - O.row(j)).transpose(), O.row(j).transpose());
         sq += d.squaredNorm();
         ++m;
       }
@@ -316,11 +316,8 @@ NoiseReport estimateNoise(const io::Recording& rec, const Residuals& r, const st
                                       rec.commands[static_cast<std::size_t>(prev)]))
             continue;
           done[j] = 1;
-          Eigen::VectorXd e = (R.row(order[j]) - R.row(prev)).transpose() / std::sqrt(2.0);
-          if (q == Quantity::Twist)
-            for (Eigen::Index c = 0; c < e.size(); ++c)
-              e[c] = std::remainder(e[c] * std::sqrt(2.0), 2 * M_PI) / std::sqrt(2.0);
-          rep.push_back({diff(e, prev).squaredNorm(), 0.0});
+          const Eigen::VectorXd e = diff((R.row(order[j]) - R.row(prev)).transpose(), prev) / std::sqrt(2.0);
+          rep.push_back({e.squaredNorm(), 0.0});
           prev = order[j];
         }
       }
@@ -338,11 +335,9 @@ NoiseReport estimateNoise(const io::Recording& rec, const Residuals& r, const st
         if (!(finiteRow(k - 1) && finiteRow(k) && finiteRow(k + 1)) || fromRest(k) || fromRest(k + 1)) continue;
         const double da = (F.row(k) - F.row(k - 1)).norm(), db = (F.row(k + 1) - F.row(k)).norm();
         const double wa = da + db > 0 ? db / (da + db) : 0.5, wb = 1.0 - wa;
-        Eigen::VectorXd e = (R.row(k) - wa * R.row(k - 1) - wb * R.row(k + 1)).transpose();
-        if (q == Quantity::Twist)
-          for (Eigen::Index c = 0; c < e.size(); ++c) e[c] = std::remainder(e[c], 2 * M_PI);
-        e /= std::sqrt(1.0 + wa * wa + wb * wb);
-        d.push_back({diff(e, k).squaredNorm(), std::max(da, db)});
+        const Eigen::VectorXd e = diff((R.row(k) - wa * R.row(k - 1) - wb * R.row(k + 1)).transpose(), k) /
+                                  std::sqrt(1.0 + wa * wa + wb * wb);
+        d.push_back({e.squaredNorm(), std::max(da, db)});
       }
       // Second differences of independent noise are correlated at lags 1 and 2 (-2/3 and 1/6 for equal weights):
       // the median's degrees of freedom shrink by 1 + 2 (4/9 + 1/36).
@@ -367,11 +362,8 @@ NoiseReport estimateNoise(const io::Recording& rec, const Residuals& r, const st
             }
           }
           if (best < 0 || !pairs.insert({std::min(k, best), std::max(k, best)}).second) continue;
-          Eigen::VectorXd e = (R.row(k) - R.row(best)).transpose();
-          if (q == Quantity::Twist)
-            for (Eigen::Index c = 0; c < e.size(); ++c) e[c] = std::remainder(e[c], 2 * M_PI);
-          e /= std::sqrt(2.0);
-          d.push_back({diff(e, k).squaredNorm(), bd});
+          const Eigen::VectorXd e = diff((R.row(k) - R.row(best)).transpose(), k) / std::sqrt(2.0);
+          d.push_back({e.squaredNorm(), bd});
         }
       }
       std::sort(d.begin(), d.end(), [](const Difference& a, const Difference& b) { return a.distance < b.distance; });

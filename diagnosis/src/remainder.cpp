@@ -48,29 +48,9 @@ std::string remainderWords(const MismatchReport& m, double ratio, const NoiseRep
 }
 
 double State::heldoutRatio(const CrossValidation& cv, double& p) const {
-  // Per quantity: the held-out mean square against the noise variance, an F test with the noise estimate's degrees
-  // of freedom (chi-square when the noise is given); Bonferroni over the quantities.
-  double chi = 0;
-  int dof = 0;
-  p = 1.0;
-  const NoiseLevels& noise = fo.noise;
-  const std::vector<Quantity> qs = presentQuantities(rec);
-  for (Quantity q : qs) {
-    const Eigen::MatrixXd& R = cv.heldout.of(q);
-    const double sd = noise.of(q);
-    double cq = 0;
-    int dq = 0;
-    for (int k = 0; k < rec.rows(); ++k)
-      if (evaluable[static_cast<std::size_t>(k)] && R.row(k).allFinite() && sd > 0) {
-        cq += R.row(k).squaredNorm() / (sd * sd);
-        dq += rowDof(q, R.cols());
-      }
-    chi += cq;
-    dof += dq;
-    if (dq > 0) p = std::min(p, stats::fSf(cq / dq, dq, noise.dof(q)) * static_cast<double>(qs.size()));
-  }
-  p = std::min(1.0, p);
-  return dof ? chi / dof : 1.0;
+  const NoiseTest t = testAgainstNoise(rec, cv.heldout, fo.noise, evaluable);
+  p = t.p_value;
+  return t.ratio;
 }
 
 void assessRemainder(State& s) {

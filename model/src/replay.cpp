@@ -82,6 +82,16 @@ std::string reasonOf(const Robot& robot, const StepResult& r) {
   return "";
 }
 
+/// A row whose command is not admissible: no equilibrium, the reason.
+Move inadmissibleMove(const Robot& robot, const Configuration& q, const Admissibility& adm) {
+  Move m;
+  m.r.solution.q = q;
+  m.r.solution.summary.status = SolveStatus::Inadmissible;
+  m.r.summary.message = adm.message;
+  m.reason = reasonOf(robot, m.r);
+  return m;
+}
+
 /// A quasi-static move of `robot` from `from` to q: the coarse sub-steps where the end state does not depend on
 /// them (ReplayOptions::coarse_rotation_step), else the fine ones.
 Move move(const Robot& robot, const HysteresisState& from, const Configuration& q, Workspace& ws,
@@ -122,13 +132,7 @@ Move fromRest(const Robot& robot, const Configuration& home, const Configuration
               const ReplayOptions& o) {
   Move m;
   const Admissibility adm = checkAdmissible(robot, q);
-  if (!adm) {
-    m.r.solution.q = q;
-    m.r.solution.summary.status = SolveStatus::Inadmissible;
-    m.r.summary.message = adm.message;
-    m.reason = reasonOf(robot, m.r);
-    return m;
-  }
+  if (!adm) return inadmissibleMove(robot, q, adm);
   const Robot free = hasRotationLimits(robot) ? withoutRotationLimits(robot) : robot;
   StepResult start = initialState(free, home, ws, o.friction);
   if (!(start.summary.converged && start.state.valid)) {
@@ -150,15 +154,10 @@ Move fromRest(const Robot& robot, const Configuration& home, const Configuration
 
 /// restAt as a Move (with the reason of a row that fails).
 Move atRest(const Robot& robot, const Configuration& q, Workspace& ws, const ReplayOptions& o) {
-  Move m;
   const Admissibility adm = checkAdmissible(robot, q);
-  if (!adm) {
-    m.r.solution.q = q;
-    m.r.solution.summary.status = SolveStatus::Inadmissible;
-    m.r.summary.message = adm.message;
-  } else {
-    m.r = restAt(robot, q, ws, o.friction);
-  }
+  if (!adm) return inadmissibleMove(robot, q, adm);
+  Move m;
+  m.r = restAt(robot, q, ws, o.friction);
   m.reason = reasonOf(robot, m.r);
   m.ok = m.reason.empty();
   return m;
@@ -172,6 +171,13 @@ double tipDistance(const Solution& a, const Solution& b) {
 bool sameEquilibrium(const Solution& a, const Solution& b) {
   if (tipDistance(a, b) > 1e-6) return false;
   return a.twist.size() != b.twist.size() || a.twist.size() == 0 || (a.twist - b.twist).cwiseAbs().maxCoeff() <= 1e-5;
+}
+
+/// True when s is none of `known` (the same equilibrium to the solver tolerance).
+bool isNew(const Solution& s, const std::vector<Solution>& known) {
+  for (const Solution& k : known)
+    if (sameEquilibrium(s, k)) return false;
+  return true;
 }
 
 /// Frictionless branches tracked for the alternatives: the replayed row's own (primary) and the others.
@@ -229,10 +235,9 @@ void searchAlternatives(const Robot& free, const Configuration& q, const Solutio
     found.push_back(std::move(cold));
   }
   for (StepResult& r : found) {
-    if (!r.solution.converged() || !r.solution.summary.stable || sameEquilibrium(r.solution, primary)) continue;
-    bool dup = false;
-    for (const Solution& s : b.other_solutions) dup = dup || sameEquilibrium(r.solution, s);
-    if (dup) continue;
+    if (!r.solution.converged() || !r.solution.summary.stable || sameEquilibrium(r.solution, primary) ||
+        !isNew(r.solution, b.other_solutions))
+      continue;
     b.other_solutions.push_back(r.solution);
     b.others.push_back(r.state);
   }
@@ -251,10 +256,7 @@ void followAlternatives(const Robot& free, const Configuration& q, Workspace& ws
   std::vector<Solution> sols;
   for (const HysteresisState& s : b.others) {
     Move m = move(free, s, q, ws, o);
-    if (!m.ok || sameEquilibrium(m.r.solution, p.r.solution)) continue;
-    bool dup = false;
-    for (const Solution& x : sols) dup = dup || sameEquilibrium(m.r.solution, x);
-    if (dup) continue;
+    if (!m.ok || sameEquilibrium(m.r.solution, p.r.solution) || !isNew(m.r.solution, sols)) continue;
     others.push_back(m.r.state);
     sols.push_back(m.r.solution);
   }
@@ -310,10 +312,9 @@ std::vector<ReplayRow> replay(const Robot& robot, const std::vector<Configuratio
     ReplayRow& row = out[k];
     const Admissibility adm = checkAdmissible(robot, q);
     if (!adm) {
-      row.result.solution.q = q;
-      row.result.solution.summary.status = SolveStatus::Inadmissible;
-      row.result.summary.message = adm.message;
-      row.reason = reasonOf(robot, row.result);
+      Move m = inadmissibleMove(robot, q, adm);
+      row.reason = m.reason;
+      row.result = std::move(m.r);
       previous_failed = true;
       continue;
     }

@@ -67,6 +67,20 @@ struct MismatchReport {
   bool exceeds_noise = false;
 };
 
+/// @brief The residuals of some rows tested against the noise.
+struct NoiseTest {
+  double chi = 0.0;      ///< Sum of squared residuals over the noise variance.
+  int dof = 0;           ///< Independent components summed (rowDof).
+  double ratio = 1.0;    ///< chi / dof (1 when nothing was summed).
+  double p_value = 1.0;  ///< That the residuals are no larger than the noise: per quantity an F test of its mean
+                         ///< square with the noise estimate's degrees of freedom (chi-square when the noise is
+                         ///< given), Bonferroni over the quantities.
+};
+
+/// @brief Tests the residuals of the rows flagged in `use` (empty: all) against the noise.
+NoiseTest testAgainstNoise(const io::Recording& rec, const Residuals& r, const NoiseLevels& noise,
+                           const std::vector<char>& use = {});
+
 /// @brief Runs the tests on residuals `r` of a model whose prediction is `p` (moments per row), given noise levels.
 MismatchReport locateMismatch(const io::Recording& rec, const Prediction& p, const Residuals& r,
                               const NoiseLevels& noise, const MismatchOptions& options = {});

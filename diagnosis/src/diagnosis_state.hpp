@@ -105,11 +105,18 @@ struct LookAlikes {
   Candidate pair;                         ///< The joint model of the winner and its partners.
   std::vector<Rival> ties;                ///< Look-alikes this recording cannot tell from the winner.
   std::map<int, std::string> rival_note;  ///< Candidate index -> why it lost to (or ties with) the winner.
+  bool look_alikes = true;                ///< The partners are look-alikes of the winner (else a joint pair).
 };
 
 /// Encompassing tests of cands[best] against the best screened candidates of its look-alike group (`ranked`: the
 /// round's candidates by screening BIC).
 LookAlikes resolveLookAlikes(State& s, std::vector<Candidate>& cands, int best, const std::vector<int>& ranked);
+
+/// When no candidate of a round passes on its own: the two strongest refined candidates of different kinds, each
+/// with a held-out gain that is not significant alone, fitted jointly. The pair is accepted (best + one partner) when
+/// each adds on top of the other and together they predict the held-out rows significantly better than the current
+/// model; otherwise best stays -1.
+LookAlikes jointPair(State& s, std::vector<Candidate>& cands, const std::vector<int>& ranked);
 
 /// Runs selection round `round` on top of s.cur (screening, finalists, held-out preference, look-alikes, joint
 /// refinement); records the findings. Returns false when no candidate was accepted.

@@ -13,6 +13,71 @@
 
 namespace ctr::diagnosis::detail {
 
+namespace {
+
+// A partner adds on top of the winner in-sample, but it may stand in for physics outside the group (a stage offset
+// for a tip load, say): it is kept only if it still adds on top of the winner and the best passing candidate outside
+// the group (library physics; a generic description can stand in for anything). A partner that does not is left to
+// the next round, which compares it with that candidate on equal terms.
+void dropProxyPartners(State& S, std::vector<Candidate>& cands, int best, int group_start, std::vector<int>& partners,
+                       std::map<int, std::string>& rival_note) {
+  const DiagnoseOptions& o = S.o;
+  const Candidate& W = cands[static_cast<std::size_t>(best)];
+  int x = -1;
+  for (std::size_t i = 0; i < cands.size(); ++i) {
+    const Candidate& c = cands[i];
+    if (static_cast<int>(i) == best || !c.pass || c.fit.effects.empty() || isGeneric(c.slot.kind) ||
+        areLookAlikes(c.slot.kind, W.slot.kind))
+      continue;
+    if (x < 0 || c.bic < cands[static_cast<std::size_t>(x)].bic) x = static_cast<int>(i);
+  }
+  if (x < 0) return;
+  const Candidate& X = cands[static_cast<std::size_t>(x)];
+  FitOptions jo = S.fo;
+  jo.intervals = false;
+  jo.first_free = group_start;  // as in the encompassing fits: the accepted effects outside the group are held
+  std::vector<Effect> wx = W.fit.effects;
+  wx.push_back(X.fit.effects.back());
+  FitResult WX;
+  try {
+    WX = fitEffects(S.nominal, S.rec, wx, S.all, jo, S.ws, static_cast<int>(wx.size()));
+  } catch (const std::exception&) {
+    return;  // the check cannot be made; the partners stand on their encompassing fits
+  }
+  S.count(WX.evaluations);
+  const int kwx = coordinateCount(WX.effects);
+  std::vector<double> adds(partners.size(), 0.0);
+  std::vector<char> ok(partners.size(), 0);
+  parallelFor(static_cast<int>(partners.size()), o.threads, S.ws, [&](int j, Workspace& tws) {
+    std::vector<Effect> wxp = WX.effects;
+    wxp.push_back(cands[static_cast<std::size_t>(partners[static_cast<std::size_t>(j)])].fit.effects.back());
+    try {
+      const FitResult F = fitEffects(S.nominal, S.rec, wxp, S.all, jo, tws, static_cast<int>(wxp.size()));
+      S.count(F.evaluations);
+      adds[static_cast<std::size_t>(j)] = S.deltaBic(F.residuals, coordinateCount(wxp), WX.residuals, kwx);
+      ok[static_cast<std::size_t>(j)] = 1;
+    } catch (const std::exception&) {
+    }
+  });
+  std::vector<int> kept;
+  for (std::size_t j = 0; j < partners.size(); ++j) {
+    const Candidate& P = cands[static_cast<std::size_t>(partners[j])];
+    if (!ok[j] || adds[j] > o.bic_threshold) {
+      kept.push_back(partners[j]);
+      continue;
+    }
+    S.say(DiagnoseProgress::Stage::LookAlikes, "look-alikes: " + P.slot.label() + " adds on top of " + W.slot.label() +
+                                                   " but not on top of " + W.slot.label() + " and " + X.slot.label() +
+                                                   fmt(" (BIC %+.1f); left to the next round", -adds[j]));
+    rival_note[partners[j]] = "it adds on top of " + W.slot.label() + " but not on top of " + W.slot.label() + " and " +
+                              X.slot.label() + fmt(" (BIC %+.1f): it may stand in for ", -adds[j]) + X.slot.label() +
+                              ", so it was not accepted with " + W.slot.label();
+  }
+  partners = kept;
+}
+
+}  // namespace
+
 LookAlikes resolveLookAlikes(State& S, std::vector<Candidate>& cands, int best, const std::vector<int>& ranked) {
   const Robot& nominal = S.nominal;
   const io::Recording& rec = S.rec;
@@ -151,6 +216,7 @@ LookAlikes resolveLookAlikes(State& S, std::vector<Candidate>& cands, int best, 
     });
     const int room = o.max_effects - static_cast<int>(cur.fit.effects.size()) - 1;
     if (static_cast<int>(partners.size()) > room) partners.resize(static_cast<std::size_t>(std::max(0, room)));
+    if (switch_to < 0 && !partners.empty()) dropProxyPartners(S, cands, best, group_start, partners, rival_note);
     if (switch_to >= 0) {
       S.say(DiagnoseProgress::Stage::LookAlikes,
             "look-alikes: " + cands[static_cast<std::size_t>(switch_to)].slot.label() + " explains what " +

@@ -295,7 +295,7 @@ bool selectionRound(State& S, int round) {
       }
     }
   }
-  LookAlikes la = resolveLookAlikes(S, cands, best, ranked);
+  LookAlikes la = best >= 0 ? resolveLookAlikes(S, cands, best, ranked) : jointPair(S, cands, ranked);
   best = la.best;
   std::map<int, std::string>& rival_note = la.rival_note;
   std::vector<Rival>& ties = la.ties;
@@ -359,11 +359,13 @@ bool selectionRound(State& S, int round) {
           others += (others.empty() ? "" : ", ") + cands[static_cast<std::size_t>(x)].slot.label();
       if (static_cast<int>(i) != best)
         others = cands[static_cast<std::size_t>(best)].slot.label() + (others.empty() ? "" : ", " + others);
-      f.explanation = "accepted together with its look-alike(s) " + others + ": " + describePhysics(c.slot.kind) +
-                      ". " + (note != rival_note.end() ? note->second + ". " : std::string()) +
-                      fmt("Fitted together on top of the previous model they lower BIC by %.1f and the held-out "
-                          "error by %.1f %% (one-sided p = %.2g).",
-                          -c.delta_bic, 100 * c.gain, c.heldout_p);
+      f.explanation =
+          std::string(la.look_alikes ? "accepted together with its look-alike(s) " : "accepted together with ") +
+          others + ": " + describePhysics(c.slot.kind) + ". " +
+          (note != rival_note.end() ? note->second + ". " : std::string()) +
+          fmt("Fitted together on top of the previous model they lower BIC by %.1f and the held-out "
+              "error by %.1f %% (one-sided p = %.2g).",
+              -c.delta_bic, 100 * c.gain, c.heldout_p);
     } else if (f.accepted) {
       f.explanation = "accepted: " + describePhysics(c.slot.kind) + ". " +
                       fmt("Fitted on top of the previous model it lowers BIC by %.1f and the held-out error by %.1f %% "

@@ -42,7 +42,8 @@ const Effect* find(const DiagnosisReport& rep, EffectKind k) {
 }
 
 void expectHeldOutDown(const DiagnosisReport& rep) {
-  for (const auto& kv : rep.baseline.heldout_rmse) EXPECT_LT(rep.final.heldout_rmse.at(kv.first), kv.second) << kv.first;
+  for (const auto& kv : rep.baseline.heldout_rmse)
+    EXPECT_LT(rep.final.heldout_rmse.at(kv.first), kv.second) << kv.first;
 }
 
 }  // namespace
@@ -147,4 +148,25 @@ TEST(Concealed, NullThreeTubeTimedWalk) {
   s.seed = 22;
   const Result res = run(r, r, {}, a, s);
   EXPECT_TRUE(res.rep.verdict.empty()) << res.rep.summary;
+}
+
+TEST(Concealed, TwoWeakEffectsTogether) {
+  // Friction and a torsional stiffness on a sweep, each absorbing part of the other's signature: alone neither
+  // predicts the held-out rows significantly better, so no single candidate passes its round; the joint pair does,
+  // and both must be named at their values.
+  const Robot r = robot("tube_pair_B");
+  ActuationOptions a;
+  a.rows = 73;
+  a.dt = 0;
+  a.seed = 42;
+  SimulationOptions s;
+  s.seed = 43;
+  const Result res =
+      run(r, r, {{EffectKind::BoundaryFriction, 0, 0.06}, {EffectKind::TorsionalStiffness, 0, 0.3}}, a, s);
+  auto v = res.rep.verdict;
+  std::sort(v.begin(), v.end());
+  EXPECT_EQ(v, (std::vector<std::string>{"boundary_friction", "torsional_stiffness"})) << res.rep.summary;
+  if (const Effect* e = find(res.rep, EffectKind::BoundaryFriction)) EXPECT_NEAR(e->value, 0.06, 0.012);
+  if (const Effect* e = find(res.rep, EffectKind::TorsionalStiffness)) EXPECT_NEAR(e->value, 0.3, 0.06);
+  expectHeldOutDown(res.rep);
 }

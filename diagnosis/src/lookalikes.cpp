@@ -16,8 +16,9 @@ namespace ctr::diagnosis::detail {
 namespace {
 
 // A partner adds on top of the winner in-sample, but it may stand in for physics outside the group (a stage offset
-// for a tip load, say): it is kept only if it still adds on top of the winner and the best passing candidate outside
-// the group (library physics; a generic description can stand in for anything). A partner that does not is left to
+// for a tip load, say): it is kept only if it still adds on top of the winner and the strongest candidate outside the
+// group (by BIC, passing or not: a load too weak to pass alone may be what the partner takes up; library physics
+// only, since a generic description can stand in for anything). A partner that does not is left to
 // the next round, which compares it with that candidate on equal terms.
 void dropProxyPartners(State& S, std::vector<Candidate>& cands, int best, int group_start, std::vector<int>& partners,
                        std::map<int, std::string>& rival_note) {
@@ -26,8 +27,8 @@ void dropProxyPartners(State& S, std::vector<Candidate>& cands, int best, int gr
   int x = -1;
   for (std::size_t i = 0; i < cands.size(); ++i) {
     const Candidate& c = cands[i];
-    if (static_cast<int>(i) == best || !c.pass || c.fit.effects.empty() || isGeneric(c.slot.kind) ||
-        areLookAlikes(c.slot.kind, W.slot.kind))
+    if (static_cast<int>(i) == best || c.failed || c.probed_only || !(c.delta_bic < -o.bic_threshold) ||
+        c.fit.effects.empty() || isGeneric(c.slot.kind) || areLookAlikes(c.slot.kind, W.slot.kind))
       continue;
     if (x < 0 || c.bic < cands[static_cast<std::size_t>(x)].bic) x = static_cast<int>(i);
   }

@@ -170,3 +170,33 @@ TEST(Concealed, TwoWeakEffectsTogether) {
   if (const Effect* e = find(res.rep, EffectKind::TorsionalStiffness)) EXPECT_NEAR(e->value, 0.3, 0.06);
   expectHeldOutDown(res.rep);
 }
+
+TEST(Concealed, StageOffsetDoesNotStandInForATipLoad) {
+  // A drive offset and a tip force on a random walk of the Dupont-lab design with translations, 2x the public noise.
+  // Other offsets and the Poisson ratio add on top of the drive offset in-sample (they take up part of the force,
+  // which does not pass alone) but not on top of the drive offset and the tip load: they must not be accepted with
+  // the drive offset, and the next round must name the load.
+  const Robot r = robot("dupont_lab_3tube");
+  ActuationOptions a;
+  a.pattern = ActuationPattern::RandomWalk;
+  a.rows = 120;
+  a.translate = true;
+  a.dt = 0;
+  a.seed = 47;
+  SimulationOptions s;
+  s.twist_sd *= 2;
+  s.position_sd *= 2;
+  s.tangent_sd *= 2;
+  s.seed = 48;
+  const Result res =
+      run(r, r, {parseEffect("tip_load:force=-0.02,0.02,0"), {EffectKind::ActuatorOffset, 2, 0.1}}, a, s);
+  auto v = res.rep.verdict;
+  std::sort(v.begin(), v.end());
+  EXPECT_EQ(v, (std::vector<std::string>{"actuator_offset", "tip_load"})) << res.rep.summary;
+  if (const Effect* e = find(res.rep, EffectKind::ActuatorOffset)) EXPECT_NEAR(e->value, 0.1, 0.02);
+  if (const Effect* e = find(res.rep, EffectKind::TipLoad)) {
+    EXPECT_NEAR(e->vec.x(), -0.02, 0.006);
+    EXPECT_NEAR(e->vec.y(), 0.02, 0.006);
+  }
+  expectHeldOutDown(res.rep);
+}

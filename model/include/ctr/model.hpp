@@ -1,5 +1,5 @@
 /// @file model.hpp
-/// @brief Umbrella header of ctr::model.
+/// @brief Umbrella header of the `ctr::model` CMake target (its API lives in namespace `ctr`).
 #pragma once
 
 #include "ctr/model/backbone.hpp"

@@ -347,3 +347,36 @@ TEST(FrictionIk, ApproachDirectionSetsTheContactMemory) {
   }
   EXPECT_GE(opposite, 2);
 }
+
+TEST(FrictionIk, PaperModeAndDistributedFrictionCommandsReachThroughTheirOwnStep) {
+  // The inverse is of whatever stateful model the options and the robot describe: the paper's always-slipping mode
+  // (eq. 34-35), and distributed friction (eq. 15-21) on top of the boundary friction. Each command, stepped again
+  // from the same state in a fresh workspace with the same options, puts the tip on the target.
+  struct Case {
+    const char* name;
+    FrictionCoefficients mu;
+    FrictionMode mode;
+  };
+  for (const Case& c :
+       {Case{"paper", {0.1, 0.0}, FrictionMode::Paper}, Case{"distributed", {0.05, 0.1}, FrictionMode::StickSlip}}) {
+    SCOPED_TRACE(c.name);
+    const Robot r = example("dupont_lab_3tube.yaml").withFriction(c.mu);
+    Workspace ws;
+    FrictionIkOptions o;
+    o.friction.mode = c.mode;
+    const StepResult start = approachState(r, kDupontStart, Approach::Positive, 0.5, ws, o.friction);
+    ASSERT_TRUE(start.summary.converged) << start.summary.message;
+    Configuration q1 = kDupontStart;
+    q1.alpha += Eigen::Vector3d(0.1, -0.2, 0.3);
+    const Eigen::Vector3d target = fk(r, q1).tip_position;
+    const FrictionIkResult res = frictionInverseKinematics(r, start.state, IkTarget(target), ws, o);
+    ASSERT_TRUE(res.summary.reached()) << res.summary.message;
+    expectAdmissible(r, res.q);
+    Workspace fresh;
+    const StepResult check = step(r, start.state, res.q, fresh, o.friction);
+    ASSERT_TRUE(check.summary.converged) << check.summary.message;
+    EXPECT_LE((check.solution.tip_position - target).norm(), IkOptions{}.tolerance + 1e-9);
+    // Friction acts: the friction-blind command, stepped through the same model, leaves the tip off the target.
+    EXPECT_GT(res.cost.blind_tip_error, 5 * IkOptions{}.tolerance);
+  }
+}

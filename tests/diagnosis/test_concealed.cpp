@@ -4,6 +4,7 @@
 
 #include <algorithm>
 
+#include "actuation_cases.hpp"
 #include "ctr/diagnosis/diagnose.hpp"
 #include "ctr/diagnosis/simulate.hpp"
 #include "ctr/io/robot_yaml.hpp"
@@ -93,12 +94,7 @@ TEST(Concealed, FrictionMaskedByPoissonRatio) {
 TEST(Concealed, OffsetPositionOnlyUnknownFrameThreeTubes) {
   // 3 tubes with translations, random walk, only tip positions, in an unknown sensor frame.
   const Robot r = robot("three_tube_generic");
-  ActuationOptions a;
-  a.pattern = ActuationPattern::RandomWalk;
-  a.rows = 120;
-  a.translate = true;
-  a.dt = 0;
-  a.seed = 5;
+  ActuationOptions a = test::randomWalk(120, true, 0, 5);
   SimulationOptions s;
   s.twist = s.tip_tangent = false;
   s.position_sd = 3e-4;
@@ -120,12 +116,8 @@ TEST(Concealed, OffsetPositionOnlyUnknownFrameThreeTubes) {
 TEST(Concealed, LatencyIsNotFriction) {
   // Timed random walk: the measurement lags by 0.3 s; direction-dependent residuals that scale with speed.
   const Robot r = robot("tube_pair_A");
-  ActuationOptions a;
-  a.pattern = ActuationPattern::RandomWalk;
-  a.rows = 120;
-  a.dt = 0.1;
+  ActuationOptions a = test::randomWalk(120, false, 0.1, 9);
   a.max_speed = 1.0;
-  a.seed = 9;
   SimulationOptions s;
   s.seed = 10;
   const Result res = run(r, r, {{EffectKind::SensorLatency, 0, 0.3}}, a, s);
@@ -138,12 +130,7 @@ TEST(Concealed, LatencyIsNotFriction) {
 
 TEST(Concealed, NullThreeTubeTimedWalk) {
   const Robot r = robot("three_tube_generic");
-  ActuationOptions a;
-  a.pattern = ActuationPattern::RandomWalk;
-  a.rows = 100;
-  a.translate = true;
-  a.dt = 0.1;
-  a.seed = 21;
+  ActuationOptions a = test::randomWalk(100, true, 0.1, 21);
   SimulationOptions s;
   s.seed = 22;
   const Result res = run(r, r, {}, a, s);
@@ -177,14 +164,9 @@ TEST(Concealed, StageOffsetDoesNotStandInForATipLoad) {
   // which does not pass alone) but not on top of the drive offset and the tip load: they must not be accepted with
   // the drive offset, and the next round must name the load.
   const Robot r = robot("dupont_lab_3tube");
-  ActuationOptions a;
-  a.pattern = ActuationPattern::RandomWalk;
-  a.rows = 120;
-  a.translate = true;
-  a.dt = 0;
-  a.seed = 47;
+  ActuationOptions a = test::randomWalk(120, true, 0, 47);
   SimulationOptions s;
-  s.twist_sd *= 2;
+  s.twist_sd *= 2;  // 2x the public noise
   s.position_sd *= 2;
   s.tangent_sd *= 2;
   s.seed = 48;

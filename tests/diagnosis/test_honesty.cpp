@@ -8,6 +8,7 @@
 
 #include <fstream>
 
+#include "actuation_cases.hpp"
 #include "ctr/diagnosis/diagnose.hpp"
 #include "ctr/diagnosis/import.hpp"
 #include "ctr/diagnosis/simulate.hpp"
@@ -33,12 +34,7 @@ std::vector<Configuration> sweep(const Robot& r, Eigen::VectorXd& time) {
 // Random-walk commands (and times when dt > 0).
 std::vector<Configuration> walk(const Robot& r, int rows, double dt, unsigned seed, bool translate,
                                 Eigen::VectorXd& time) {
-  ActuationOptions a;
-  a.pattern = ActuationPattern::RandomWalk;
-  a.rows = rows;
-  a.dt = dt;
-  a.seed = seed;
-  a.translate = translate;
+  const ActuationOptions a = test::randomWalk(rows, translate, dt, seed);
   std::vector<Configuration> cmd;
   makeActuation(r, a, cmd, time);
   return cmd;

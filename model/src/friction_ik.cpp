@@ -6,7 +6,6 @@
 #include <algorithm>
 #include <cmath>
 #include <optional>
-#include <sstream>
 #include <stdexcept>
 
 #include "ctr/model/jacobian.hpp"
@@ -132,19 +131,7 @@ std::vector<FrictionIkResult> frictionInverseKinematicsPath(const Robot& robot, 
       res.step = std::move(best->point);
       res.jacobian = std::move(best->jacobian);
       res.jacobian_q = best->jacobian_q;
-      res.summary.status = best->reached ? IkStatus::Reached : IkStatus::NotReached;
-      res.summary.tip_error = best->m.position_error;
-      res.summary.direction_error = best->m.direction_error;
-      res.summary.closest = res.step.solution.tip_position;
-      res.summary.stable = res.step.solution.summary.stable;
-      res.summary.stability = res.step.solution.summary.stability;
-      if (!best->reached) {
-        std::ostringstream os;
-        os << "not reached: the closest tip found is " << best->m.position_error * 1e3 << " mm from the target";
-        if (goal.rows() == 6) os << " (direction " << best->m.direction_error << " rad off)";
-        os << "; " << best->message;
-        res.summary.message = os.str();
-      }
+      detail::summarise(*best, res.step.solution, goal, 0, res.summary);
     }
     if (res.cost.blind_q.size() == res.q.size() && res.q.size() > 0) {
       res.cost.alpha_difference = (res.q.alpha - res.cost.blind_q.alpha).cwiseAbs().maxCoeff();

@@ -5,7 +5,6 @@
 #include <algorithm>
 #include <cmath>
 #include <optional>
-#include <sstream>
 #include <stdexcept>
 
 #include "ctr/model/jacobian.hpp"
@@ -183,24 +182,12 @@ class Run {
     r.solution = std::move(best_->point);
     r.jacobian = std::move(best_->jacobian);
     r.jacobian_q = best_->jacobian_q;
-    r.summary.status = best_->reached ? IkStatus::Reached : IkStatus::NotReached;
-    r.summary.tip_error = best_->m.position_error;
-    r.summary.direction_error = best_->m.direction_error;
-    r.summary.closest = r.solution.tip_position;
-    r.summary.stable = r.solution.summary.stable;
-    r.summary.stability = r.solution.summary.stability;
+    detail::summarise(*best_, r.solution, goal_, summary_.starts, r.summary);
     r.summary.branch_dependent = rank_ == 1;
-    if (rank_ == 1)
+    if (rank_ == 1 && best_->reached)
       r.summary.message =
           "reached on an equilibrium branch that a cold solve of the configuration does not give (several stable "
           "equilibria coexist there): the robot gets there only along a continuous path from the start";
-    if (!best_->reached) {
-      std::ostringstream os;
-      os << "not reached: the closest tip found is " << best_->m.position_error * 1e3 << " mm from the target";
-      if (goal_.rows() == 6) os << " (direction " << best_->m.direction_error << " rad off)";
-      os << " after " << summary_.starts << (summary_.starts == 1 ? " start" : " starts") << "; " << best_->message;
-      r.summary.message = os.str();
-    }
     return r;
   }
 

@@ -8,6 +8,7 @@
 #include <cmath>
 #include <memory>
 #include <random>
+#include <sstream>
 #include <vector>
 
 #include "ctr/model/friction.hpp"
@@ -211,6 +212,25 @@ Descent<Point> descend(const ActuatorSet& set, const IkGoal& goal, const IkOptio
   }
   if (d.message.empty()) d.message = "iteration limit reached";
   return d;
+}
+
+/// The summary fields of the descent `d` kept as the answer, whose equilibrium is `sol`: status, errors, closest tip,
+/// stability and, when not reached, the message (`starts` > 0 names the starts tried).
+template <class Point>
+void summarise(const Descent<Point>& d, const Solution& sol, const IkGoal& goal, int starts, IkSummary& s) {
+  s.status = d.reached ? IkStatus::Reached : IkStatus::NotReached;
+  s.tip_error = d.m.position_error;
+  s.direction_error = d.m.direction_error;
+  s.closest = sol.tip_position;
+  s.stable = sol.summary.stable;
+  s.stability = sol.summary.stability;
+  if (d.reached) return;
+  std::ostringstream os;
+  os << "not reached: the closest tip found is " << d.m.position_error * 1e3 << " mm from the target";
+  if (goal.rows() == 6) os << " (direction " << d.m.direction_error << " rad off)";
+  if (starts > 0) os << " after " << starts << (starts == 1 ? " start" : " starts");
+  os << "; " << d.message;
+  s.message = os.str();
 }
 
 }  // namespace ctr::detail

@@ -6,8 +6,10 @@
 
 #include "commands.hpp"
 #include "ctr/diagnosis/diagnose.hpp"
+#include "ctr/io/file.hpp"
 #include "ctr/io/recording.hpp"
 #include "ctr/io/robot_yaml.hpp"
+#include "ctr/model/replay.hpp"
 #include "html_report.hpp"
 #include "progress.hpp"
 
@@ -43,7 +45,7 @@ void registerDiagnose(CLI::App& app, Action& action) {
                   "How the replay reaches each row's equilibrium: auto (continuation along moves of at most 30 deg / "
                   "10 mm from the previous row, from rest after larger ones), path (always continuation: the robot "
                   "moved straight between rows), rest (always from rest: the path between rows is unknown)")
-      ->check(CLI::IsMember({"auto", "path", "rest"}));
+      ->check(CLI::IsMember({toString(BranchRule::Auto), toString(BranchRule::Path), toString(BranchRule::Rest)}));
   sub->add_option("--folds", o->folds, "Contiguous held-out blocks")->check(CLI::Range(2, 20));
   sub->add_option("--threads", o->threads, "Candidates fitted in parallel")->check(CLI::Range(1, 64));
   sub->add_option("--max-effects", o->max_effects, "Largest combination of effects")->check(CLI::Range(0, 6));

@@ -8,8 +8,10 @@
 #include "commands.hpp"
 #include "ctr/diagnosis/import.hpp"
 #include "ctr/diagnosis/simulate.hpp"
+#include "ctr/io/file.hpp"
 #include "ctr/io/recording.hpp"
 #include "ctr/io/robot_yaml.hpp"
+#include "ctr/model/replay.hpp"
 
 namespace ctr::cli {
 
@@ -98,7 +100,7 @@ void registerInject(CLI::App* parent, Action& action) {
   sub->add_option("--branch", o->branch,
                   "How the robot reaches each row: auto, path (straight between rows), rest (from rest); as "
                   "`ctr simulate --branch`")
-      ->check(CLI::IsMember({"auto", "path", "rest"}));
+      ->check(CLI::IsMember({toString(BranchRule::Auto), toString(BranchRule::Path), toString(BranchRule::Rest)}));
   sub->add_option("--effect", o->effects,
                   "Effect to inject, e.g. boundary_friction:mu=0.12, "
                   "actuator_backlash:tube=2,width=12deg, tip_load:force=0.05,0,-0.1 (N, base "

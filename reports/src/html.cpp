@@ -1,7 +1,7 @@
 // Assembly of a self-contained HTML report from the embedded bundles.
 #include <stdexcept>
 
-#include "ctr/io/recording.hpp"
+#include "ctr/io/file.hpp"
 #include "ctr/reports/reports.hpp"
 
 namespace ctr::reports {

@@ -7,8 +7,8 @@
 #include <sstream>
 
 #include "commands.hpp"
-#include "ctr/io/ik_json.hpp"
 #include "ctr/io/file.hpp"
+#include "ctr/io/ik_json.hpp"
 #include "ctr/io/recording.hpp"
 #include "ctr/io/robot_yaml.hpp"
 #include "ctr/io/tip_path.hpp"

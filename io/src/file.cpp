@@ -14,7 +14,9 @@ namespace fs = std::filesystem;
 namespace ctr::io {
 namespace {
 
-std::string errnoText(int err) { return err ? std::string(std::strerror(err)) : std::string("unknown error"); }
+std::string errnoText(int err) {
+  return err ? std::string(std::strerror(err)) : std::string("unknown error");
+}
 
 }  // namespace
 

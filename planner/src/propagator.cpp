@@ -59,7 +59,9 @@ std::vector<Configuration> startCommands(const Configuration& q, const StartHist
       commands.push_back(from);
       break;
     }
-    case StartHistory::Kind::Path: commands = h.path; break;
+    case StartHistory::Kind::Path:
+      commands = h.path;
+      break;
   }
   commands.push_back(q);
   return commands;

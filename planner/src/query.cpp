@@ -7,8 +7,8 @@
 #include <set>
 #include <sstream>
 
-#include "ctr/io/input_error.hpp"
 #include "ctr/io/file.hpp"
+#include "ctr/io/input_error.hpp"
 
 namespace ctr::plan {
 namespace {

@@ -29,7 +29,8 @@ std::vector<Configuration> replayCommands(const std::vector<Configuration>& wayp
   commands.push_back(waypoints[0]);
   for (std::size_t k = 0; k + 1 < waypoints.size(); ++k) {
     const int n = subdivisions(waypoints[k], waypoints[k + 1], rotation_step, translation_step);
-    for (int j = 1; j <= n; ++j) commands.push_back(interpolate(waypoints[k], waypoints[k + 1], static_cast<double>(j) / n));
+    for (int j = 1; j <= n; ++j)
+      commands.push_back(interpolate(waypoints[k], waypoints[k + 1], static_cast<double>(j) / n));
   }
   return commands;
 }

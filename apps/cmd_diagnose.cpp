@@ -31,7 +31,7 @@ void registerDiagnose(CLI::App& app, Action& action) {
   sub->add_option("--recording", o->recording, "Recording CSV (formats.md), rows in the order taken")->required();
   sub->add_option("--frame", o->frame,
                   "Frame of measured tips: base, or unknown (registration estimated in every model)")
-      ->check(CLI::IsMember({"base", "unknown"}));
+      ->check(CLI::IsMember({toString(diagnosis::FrameMode::Base), toString(diagnosis::FrameMode::Unknown)}));
   sub->add_option("--json", o->json, "Diagnosis JSON to write (formats.md)")->required();
   sub->add_option("--report", o->report, "Plain-language Markdown report to write");
   sub->add_option("--plot-data", o->plot, "Plot data JSON to write (measured/nominal/fitted curves, binned residuals)");
@@ -67,7 +67,8 @@ void registerDiagnose(CLI::App& app, Action& action) {
             o->recording, 0, "",
             "the recording has " + std::to_string(rec.rows()) + " data row(s); the diagnosis needs at least 8");
       diagnosis::DiagnoseOptions d;
-      d.frame = o->frame == "unknown" ? diagnosis::FrameMode::Unknown : diagnosis::FrameMode::Base;
+      d.frame = o->frame == toString(diagnosis::FrameMode::Unknown) ? diagnosis::FrameMode::Unknown
+                                                                     : diagnosis::FrameMode::Base;
       d.folds = o->folds;
       d.threads = o->threads;
       d.max_effects = o->max_effects;

@@ -87,7 +87,8 @@ void registerInject(CLI::App* parent, Action& action) {
   sub->add_option("--actuation", o->actuation, "Actuation CSV (alpha_*, beta_*, optional time); default: --pattern");
   sub->add_option("--pattern", o->pattern,
                   "Generated actuation: sweep (paper protocol), random (random order), random-walk")
-      ->check(CLI::IsMember({"sweep", "random", "random-walk"}));
+      ->check(CLI::IsMember({toString(diagnosis::ActuationPattern::Sweep), toString(diagnosis::ActuationPattern::Random),
+                             toString(diagnosis::ActuationPattern::RandomWalk)}));
   sub->add_option("--rows", o->rows, "Rows of random / random-walk patterns");
   sub->add_option("--step-deg", o->step_deg, "Sweep step (deg)");
   sub->add_option("--dt", o->dt, "Time step of the generated time column (s); 0 = no time column");
@@ -152,9 +153,9 @@ void registerInject(CLI::App* parent, Action& action) {
         }
       } else {
         diagnosis::ActuationOptions a;
-        a.pattern = o->pattern == "sweep"    ? diagnosis::ActuationPattern::Sweep
-                    : o->pattern == "random" ? diagnosis::ActuationPattern::Random
-                                             : diagnosis::ActuationPattern::RandomWalk;
+        for (diagnosis::ActuationPattern p : {diagnosis::ActuationPattern::Sweep, diagnosis::ActuationPattern::Random,
+                                              diagnosis::ActuationPattern::RandomWalk})
+          if (o->pattern == toString(p)) a.pattern = p;
         a.rows = o->rows;
         a.step_deg = o->step_deg;
         a.dt = o->dt;

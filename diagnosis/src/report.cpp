@@ -251,7 +251,7 @@ std::string reportToJson(const DiagnosisReport& r) {
     if (q == Quantity::TipTangent) x["per"] = "direction normal to the tangent";
     j["noise"][quantityName(q)] = x;
   }
-  j["frame"] = r.frame == FrameMode::Unknown ? "unknown" : "base";
+  j["frame"] = toString(r.frame);
   if (r.frame == FrameMode::Unknown) {
     json reg;
     json R = json::array();

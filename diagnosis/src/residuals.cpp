@@ -8,6 +8,10 @@
 
 namespace ctr::diagnosis {
 
+const char* toString(FrameMode mode) {
+  return mode == FrameMode::Unknown ? "unknown" : "base";
+}
+
 const char* quantityName(Quantity q) {
   switch (q) {
     case Quantity::Twist:

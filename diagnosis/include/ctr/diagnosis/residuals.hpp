@@ -30,6 +30,9 @@ enum class FrameMode {
   Unknown,  ///< Unknown sensor frame: a rigid registration (+ tip offset) is estimated in every model.
 };
 
+/// @brief "base" / "unknown".
+const char* toString(FrameMode mode);
+
 /// @brief Noise standard deviation of each quantity: per scalar component for twist (rad) and tip position (m), per
 /// direction normal to the measured tangent for the tip tangent (its residual has 2 degrees of freedom per row).
 /// With the degrees of freedom of each level's estimate (infinity when the level is given), which the tests against

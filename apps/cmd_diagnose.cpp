@@ -68,7 +68,7 @@ void registerDiagnose(CLI::App& app, Action& action) {
             "the recording has " + std::to_string(rec.rows()) + " data row(s); the diagnosis needs at least 8");
       diagnosis::DiagnoseOptions d;
       d.frame = o->frame == toString(diagnosis::FrameMode::Unknown) ? diagnosis::FrameMode::Unknown
-                                                                     : diagnosis::FrameMode::Base;
+                                                                    : diagnosis::FrameMode::Base;
       d.folds = o->folds;
       d.threads = o->threads;
       d.max_effects = o->max_effects;

@@ -87,8 +87,9 @@ void registerInject(CLI::App* parent, Action& action) {
   sub->add_option("--actuation", o->actuation, "Actuation CSV (alpha_*, beta_*, optional time); default: --pattern");
   sub->add_option("--pattern", o->pattern,
                   "Generated actuation: sweep (paper protocol), random (random order), random-walk")
-      ->check(CLI::IsMember({toString(diagnosis::ActuationPattern::Sweep), toString(diagnosis::ActuationPattern::Random),
-                             toString(diagnosis::ActuationPattern::RandomWalk)}));
+      ->check(
+          CLI::IsMember({toString(diagnosis::ActuationPattern::Sweep), toString(diagnosis::ActuationPattern::Random),
+                         toString(diagnosis::ActuationPattern::RandomWalk)}));
   sub->add_option("--rows", o->rows, "Rows of random / random-walk patterns");
   sub->add_option("--step-deg", o->step_deg, "Sweep step (deg)");
   sub->add_option("--dt", o->dt, "Time step of the generated time column (s); 0 = no time column");

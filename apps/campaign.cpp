@@ -212,7 +212,9 @@ Campaign loadCampaign(const std::string& path) {
                            "]; query names identify the runs and must be unique");
     names[q.name] = i;
     c.queries.push_back({qp.string(), q.name});
-    h = fnv1a(q.name + "\n" + contentsOrEmpty(qp.string()) + "\n" + contentsOrEmpty(q.robot) + "\n" + contentsOrEmpty(q.environment), h);
+    h = fnv1a(q.name + "\n" + contentsOrEmpty(qp.string()) + "\n" + contentsOrEmpty(q.robot) + "\n" +
+                  contentsOrEmpty(q.environment),
+              h);
   }
   c.modes = stringList(path, root["modes"], "modes");
   for (std::size_t i = 0; i < c.modes.size(); ++i) {

@@ -15,7 +15,7 @@ namespace ctr::plan {
 /// @brief How the robot arrived at the start configuration.
 struct StartHistory {
   enum class Kind {
-    Rest,      ///< Torque-free contacts (e.g. just assembled / relaxed): frictionless start.
+    Rest,      ///< At rest (ctr::restAt: the branch reached from the aligned tubes, contacts torque-free).
     Positive,  ///< Arrived by rotating every tube positively (by `approach` rad).
     Negative,  ///< Arrived by rotating every tube negatively.
     Path,      ///< Arrived along the given configurations (in order), ending at the start.

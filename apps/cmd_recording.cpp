@@ -200,8 +200,8 @@ void registerInject(CLI::App* parent, Action& action) {
         std::vector<std::string> v;
         nlohmann::json list = nlohmann::json::array();
         for (const auto& e : effects) {
-          v.push_back(diagnosis::effectName(e.kind));
-          nlohmann::json x{{"effect", diagnosis::effectName(e.kind)}};
+          v.push_back(diagnosis::toString(e.kind));
+          nlohmann::json x{{"effect", diagnosis::toString(e.kind)}};
           for (const diagnosis::NamedParameter& p : diagnosis::namedParameters(e)) {
             if (p.name == "tube")
               x["tube"] = e.tube;

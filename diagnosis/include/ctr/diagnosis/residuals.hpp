@@ -20,7 +20,7 @@ namespace ctr::diagnosis {
 enum class Quantity { Twist, TipPosition, TipTangent };
 
 /// @brief JSON name: "twist", "tip_position", "tip_tangent".
-const char* quantityName(Quantity q);
+const char* toString(Quantity q);
 /// @brief The quantities present in a recording.
 std::vector<Quantity> presentQuantities(const io::Recording& rec);
 

@@ -90,9 +90,9 @@ void printInfo(std::ostream& os, const env::Environment& e) {
   os << "occupied     " << st.occupied_volume * 1e6 << " cm^3 (free " << st.free_volume * 1e6 << " cm^3)\n";
   os << "build time   " << e.buildSeconds() << " s\n";
   for (const auto& s : e.sources()) os << "source       " << s << "\n";
-  os << "base pose    " << e.basePoseSource() << ": position " << fmtMm(e.basePose().translation())
-     << ", direction " << e.basePose().linear().col(2).transpose() << " ("
-     << env::toString(e.occupancy(e.basePose().translation())) << ")\n";
+  os << "base pose    " << e.basePoseSource() << ": position " << fmtMm(e.basePose().translation()) << ", direction "
+     << e.basePose().linear().col(2).transpose() << " (" << env::toString(e.occupancy(e.basePose().translation()))
+     << ")\n";
   for (const auto& s : e.starts())
     os << "start        " << s.name << ": position " << fmtMm(s.pose.translation()) << ", direction "
        << s.pose.linear().col(2).transpose() << "\n";

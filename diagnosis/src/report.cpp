@@ -180,8 +180,8 @@ std::string reportToJson(const DiagnosisReport& r) {
       json a = json::array();
       for (const Rival& rv : f.ambiguous_with) {
         json y{{"effect", toString(rv.effect.kind)}, {"parameters", parametersJson(namedParameters(rv.effect))},
-               {"delta_bic", num(rv.delta_bic)},       {"heldout_rmse", mapJson(rv.heldout_rmse)},
-               {"heldout_p", num(rv.heldout_p)},       {"why", rv.why}};
+               {"delta_bic", num(rv.delta_bic)},     {"heldout_rmse", mapJson(rv.heldout_rmse)},
+               {"heldout_p", num(rv.heldout_p)},     {"why", rv.why}};
         a.push_back(y);
       }
       x["ambiguous_with"] = a;
@@ -361,11 +361,10 @@ std::string reportToMarkdown(const DiagnosisReport& r, const io::Recording& full
   for (const auto& [q, e] : r.noise.by_quantity) {
     const double u = q == Quantity::TipPosition ? 1e3 : 180 / M_PI;
     const std::string unit = q == Quantity::TipPosition ? " mm" : " deg";
-    o << "| " << toString(q) << (q == Quantity::TipTangent ? " (per normal direction)" : "") << " | "
-      << f4(e.sigma * u) << unit << " | " << e.source << (e.supported ? "" : " (upper bound)") << " | ["
-      << f4(e.interval95[0] * u) << ", " << f4(e.interval95[1] * u) << "]" << unit << " | "
-      << (std::isfinite(e.dof) ? f4(e.dof) : std::string("given")) << " | " << e.note
-      << (e.jitter > 0 ? "; frame jitter " + f4(e.jitter * u) + unit : std::string()) << " |\n";
+    o << "| " << toString(q) << (q == Quantity::TipTangent ? " (per normal direction)" : "") << " | " << f4(e.sigma * u)
+      << unit << " | " << e.source << (e.supported ? "" : " (upper bound)") << " | [" << f4(e.interval95[0] * u) << ", "
+      << f4(e.interval95[1] * u) << "]" << unit << " | " << (std::isfinite(e.dof) ? f4(e.dof) : std::string("given"))
+      << " | " << e.note << (e.jitter > 0 ? "; frame jitter " + f4(e.jitter * u) + unit : std::string()) << " |\n";
   }
   o << "\n## Where the nominal model misses\n\n";
   if (r.mismatch.findings.empty()) {

@@ -69,8 +69,8 @@ TEST(Noise, TangentAndPositionEstimatesAreWithinTenPercentAtThreeLevels) {
       EXPECT_TRUE(e.supported) << e.note;
       EXPECT_LT(e.interval95[0], e.sigma);
       EXPECT_GT(e.interval95[1], e.sigma);
-      std::printf("%s at %.1f: %.4f of the truth, 95 %% [%.4f, %.4f], %.0f dof\n", toString(q), level,
-                  e.sigma / want, e.interval95[0] / want, e.interval95[1] / want, e.dof);
+      std::printf("%s at %.1f: %.4f of the truth, 95 %% [%.4f, %.4f], %.0f dof\n", toString(q), level, e.sigma / want,
+                  e.interval95[0] / want, e.interval95[1] / want, e.dof);
     }
   }
 }

@@ -10,7 +10,7 @@ namespace ctr::cli {
 
 void registerSimulate(CLI::App& app, Action& action) {
   struct Opts {
-    std::string robot, actuation, out, branch = "auto";
+    std::string robot, actuation, out, branch = toString(BranchRule::Auto);
     bool allow_failures = false;
     FrictionCli friction;
     LoadsCli loads;

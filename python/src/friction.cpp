@@ -248,7 +248,7 @@ void registerFriction(pyb::module_& m) {
         return d;
       },
       arg("robot"), arg("alpha"), arg("beta"), arg("options") = pyb::none(), arg("keep_states") = false,
-      arg("branch") = "auto",
+      arg("branch") = toString(BranchRule::Auto),
       "Replays K commands (alpha, beta: (K, n)) through the stateful friction model as `ctr simulate` (branch: "
       "'auto', 'path' or 'rest', docs/friction.md \"Replaying a sequence\"). Dict of arrays: alpha, beta, twist, "
       "tip_position, tip_tangent (NaN where not converged), stability, converged, stable, snapped, status, message "

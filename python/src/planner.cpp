@@ -194,7 +194,7 @@ void registerPlanner(pyb::module_& m) {
         arg("check_files") = true, "Parses query text; relative paths resolve against base_dir.");
   m.def(
       "planner_names", [](const std::string& mode) { return plan::plannerNames(plan::parseMode(mode)); },
-      arg("mode") = "exact", "Known planner names of a mode.");
+      arg("mode") = toString(plan::Mode::Exact), "Known planner names of a mode.");
 
   pyb::class_<Replay>(m, "ReplayReport",
                       "The planned path replayed at fine resolution through the stateful friction model: the summary "

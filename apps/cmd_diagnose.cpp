@@ -17,7 +17,8 @@ namespace ctr::cli {
 
 void registerDiagnose(CLI::App& app, Action& action) {
   struct Opts {
-    std::string robot, recording, frame = toString(diagnosis::FrameMode::Base), json, report, plot, candidates, html, noise, branch = toString(BranchRule::Auto);
+    std::string robot, recording, frame = toString(diagnosis::FrameMode::Base), json, report, plot, candidates, html,
+                                  noise, branch = toString(BranchRule::Auto);
     int folds = 4, threads = 2, max_effects = 4;
     double bic_threshold = 10.0;
     bool quiet = false;

@@ -74,7 +74,8 @@ void registerInject(CLI::App* parent, Action& action) {
   struct Opts {
     std::string robot, actuation, pattern = "sweep", out, truth, measure = "twist,tip_position,tip_tangent";
     std::vector<std::string> effects;
-    std::string noise_twist = "0.5deg", noise_tangent = "0.2deg", repeat_tangent = "0", branch = toString(BranchRule::Auto);
+    std::string noise_twist = "0.5deg", noise_tangent = "0.2deg", repeat_tangent = "0",
+                branch = toString(BranchRule::Auto);
     double noise_position = 1e-4, dt = 0.1, step_deg = 10, max_speed = 1.0, returns = 0.0, repeat_position = 0.0;
     int rows = 150, frames = 1;
     bool translate = false, sensor_frame = false;

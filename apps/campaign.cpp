@@ -23,7 +23,9 @@ namespace {
 
 using io::InputError;
 
-std::string readFile(const std::string& path) {
+// The bytes of a file for the campaign's fingerprint; "" for what is not a readable file (an environment given by name,
+// a folder), which io::readFile would refuse.
+std::string contentsOrEmpty(const std::string& path) {
   std::ifstream in(path, std::ios::binary);
   std::stringstream ss;
   ss << in.rdbuf();
@@ -210,7 +212,9 @@ Campaign loadCampaign(const std::string& path) {
                            "]; query names identify the runs and must be unique");
     names[q.name] = i;
     c.queries.push_back({qp.string(), q.name});
-    h = fnv1a(q.name + "\n" + readFile(qp.string()) + "\n" + readFile(q.robot) + "\n" + readFile(q.environment), h);
+    h = fnv1a(q.name + "\n" + contentsOrEmpty(qp.string()) + "\n" + contentsOrEmpty(q.robot) + "\n" +
+                  contentsOrEmpty(q.environment),
+              h);
   }
   c.modes = stringList(path, root["modes"], "modes");
   for (std::size_t i = 0; i < c.modes.size(); ++i) {

@@ -159,7 +159,7 @@ void FrictionCli::add(CLI::App* app) {
                   "Distributed Coulomb coefficient mu (overrides the robot's)")
       ->check(finiteNonNegative());
   app->add_option("--friction-mode", mode, "stick-slip (default) or paper (always slipping, eq. 34-35)")
-      ->check(CLI::IsMember({"stick-slip", "paper"}));
+      ->check(CLI::IsMember({toString(FrictionMode::StickSlip), toString(FrictionMode::Paper)}));
 }
 
 Robot FrictionCli::apply(const Robot& robot) const {
@@ -197,7 +197,7 @@ Robot LoadsCli::apply(const Robot& robot) const {
 
 FrictionOptions FrictionCli::options() const {
   FrictionOptions o;
-  o.mode = mode == "paper" ? FrictionMode::Paper : FrictionMode::StickSlip;
+  o.mode = mode == toString(FrictionMode::Paper) ? FrictionMode::Paper : FrictionMode::StickSlip;
   o.kinematics.record_backbone = false;
   return o;
 }

@@ -28,7 +28,7 @@
 #include "campaign.hpp"
 #include "commands.hpp"
 #include "ctr/environments/environment_yaml.hpp"
-#include "ctr/io/recording.hpp"
+#include "ctr/io/file.hpp"
 #include "ctr/io/robot_yaml.hpp"
 #include "ctr/planner/planner.hpp"
 #include "ctr/planner/stopwatch.hpp"

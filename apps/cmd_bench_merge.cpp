@@ -24,7 +24,7 @@
 
 #include "campaign.hpp"
 #include "cli_common.hpp"
-#include "ctr/io/recording.hpp"
+#include "ctr/io/file.hpp"
 #include "html_report.hpp"
 
 namespace fs = std::filesystem;

@@ -6,7 +6,7 @@
 #include <nlohmann/json.hpp>
 
 #include "commands.hpp"
-#include "ctr/io/recording.hpp"
+#include "ctr/io/file.hpp"
 #include "ctr/io/robot_yaml.hpp"
 #include "ctr/model/friction.hpp"
 #ifdef CTR_WITH_PLANNER

@@ -6,8 +6,10 @@
 
 #include "commands.hpp"
 #include "ctr/diagnosis/diagnose.hpp"
+#include "ctr/io/file.hpp"
 #include "ctr/io/recording.hpp"
 #include "ctr/io/robot_yaml.hpp"
+#include "ctr/model/replay.hpp"
 #include "html_report.hpp"
 #include "progress.hpp"
 
@@ -15,7 +17,8 @@ namespace ctr::cli {
 
 void registerDiagnose(CLI::App& app, Action& action) {
   struct Opts {
-    std::string robot, recording, frame = "base", json, report, plot, candidates, html, noise, branch = "auto";
+    std::string robot, recording, frame = toString(diagnosis::FrameMode::Base), json, report, plot, candidates, html,
+                                  noise, branch = toString(BranchRule::Auto);
     int folds = 4, threads = 2, max_effects = 4;
     double bic_threshold = 10.0;
     bool quiet = false;
@@ -29,7 +32,7 @@ void registerDiagnose(CLI::App& app, Action& action) {
   sub->add_option("--recording", o->recording, "Recording CSV (formats.md), rows in the order taken")->required();
   sub->add_option("--frame", o->frame,
                   "Frame of measured tips: base, or unknown (registration estimated in every model)")
-      ->check(CLI::IsMember({"base", "unknown"}));
+      ->check(CLI::IsMember({toString(diagnosis::FrameMode::Base), toString(diagnosis::FrameMode::Unknown)}));
   sub->add_option("--json", o->json, "Diagnosis JSON to write (formats.md)")->required();
   sub->add_option("--report", o->report, "Plain-language Markdown report to write");
   sub->add_option("--plot-data", o->plot, "Plot data JSON to write (measured/nominal/fitted curves, binned residuals)");
@@ -43,7 +46,7 @@ void registerDiagnose(CLI::App& app, Action& action) {
                   "How the replay reaches each row's equilibrium: auto (continuation along moves of at most 30 deg / "
                   "10 mm from the previous row, from rest after larger ones), path (always continuation: the robot "
                   "moved straight between rows), rest (always from rest: the path between rows is unknown)")
-      ->check(CLI::IsMember({"auto", "path", "rest"}));
+      ->check(CLI::IsMember({toString(BranchRule::Auto), toString(BranchRule::Path), toString(BranchRule::Rest)}));
   sub->add_option("--folds", o->folds, "Contiguous held-out blocks")->check(CLI::Range(2, 20));
   sub->add_option("--threads", o->threads, "Candidates fitted in parallel")->check(CLI::Range(1, 64));
   sub->add_option("--max-effects", o->max_effects, "Largest combination of effects")->check(CLI::Range(0, 6));
@@ -65,7 +68,8 @@ void registerDiagnose(CLI::App& app, Action& action) {
             o->recording, 0, "",
             "the recording has " + std::to_string(rec.rows()) + " data row(s); the diagnosis needs at least 8");
       diagnosis::DiagnoseOptions d;
-      d.frame = o->frame == "unknown" ? diagnosis::FrameMode::Unknown : diagnosis::FrameMode::Base;
+      d.frame = o->frame == toString(diagnosis::FrameMode::Unknown) ? diagnosis::FrameMode::Unknown
+                                                                    : diagnosis::FrameMode::Base;
       d.folds = o->folds;
       d.threads = o->threads;
       d.max_effects = o->max_effects;

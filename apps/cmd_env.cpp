@@ -90,14 +90,14 @@ void printInfo(std::ostream& os, const env::Environment& e) {
   os << "occupied     " << st.occupied_volume * 1e6 << " cm^3 (free " << st.free_volume * 1e6 << " cm^3)\n";
   os << "build time   " << e.buildSeconds() << " s\n";
   for (const auto& s : e.sources()) os << "source       " << s << "\n";
-  os << "base pose    " << e.basePoseSource() << ": position " << fmtMm(e.basePose().translation())
-     << ", direction " << e.basePose().linear().col(2).transpose() << " ("
-     << env::occupancyName(e.occupancy(e.basePose().translation())) << ")\n";
+  os << "base pose    " << e.basePoseSource() << ": position " << fmtMm(e.basePose().translation()) << ", direction "
+     << e.basePose().linear().col(2).transpose() << " (" << env::toString(e.occupancy(e.basePose().translation()))
+     << ")\n";
   for (const auto& s : e.starts())
     os << "start        " << s.name << ": position " << fmtMm(s.pose.translation()) << ", direction "
        << s.pose.linear().col(2).transpose() << "\n";
   for (const auto& t : e.targets())
-    os << "target       " << t.name << ": " << fmtMm(t.position) << " (" << env::occupancyName(e.occupancy(t.position))
+    os << "target       " << t.name << ": " << fmtMm(t.position) << " (" << env::toString(e.occupancy(t.position))
        << ", " << std::setprecision(4) << (t.position - e.basePose().translation()).norm() * 1e3
        << " mm from the base)\n";
   os << "collision    safety margin " << e.collisionDefaults().safety_margin * 1e3 << " mm, unknown space "

@@ -4,7 +4,7 @@
 #include <iostream>
 
 #include "commands.hpp"
-#include "ctr/io/recording.hpp"
+#include "ctr/io/file.hpp"
 #include "ctr/io/robot_yaml.hpp"
 #include "ctr/model/backbone.hpp"
 #include "ctr/model/jacobian.hpp"

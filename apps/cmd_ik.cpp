@@ -7,6 +7,7 @@
 #include <sstream>
 
 #include "commands.hpp"
+#include "ctr/io/file.hpp"
 #include "ctr/io/ik_json.hpp"
 #include "ctr/io/recording.hpp"
 #include "ctr/io/robot_yaml.hpp"
@@ -20,8 +21,8 @@ namespace ctr::cli {
 namespace {
 
 Approach parseHistory(const std::string& h) {
-  if (h == "positive") return Approach::Positive;
-  if (h == "negative") return Approach::Negative;
+  for (Approach a : {Approach::Positive, Approach::Negative})
+    if (h == toString(a)) return a;
   return Approach::Rest;
 }
 
@@ -56,7 +57,7 @@ void registerIk(CLI::App& app, Action& action) {
   sub->add_option("--history", o->history,
                   "How the robot reached the --from configuration: rest (default), positive or negative (every tube "
                   "turned that way relative to its outer neighbour by --approach)")
-      ->check(CLI::IsMember({"rest", "positive", "negative"}));
+      ->check(CLI::IsMember({toString(Approach::Rest), toString(Approach::Positive), toString(Approach::Negative)}));
   sub->add_option("--approach", o->approach, "Rotation of that approach (rad; default 0.5)")->check(finitePositive());
   sub->add_option("--tolerance", o->tolerance, "Tip distance accepted as reached (m; default 1e-5)")
       ->check(finitePositive());

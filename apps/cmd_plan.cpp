@@ -4,7 +4,7 @@
 #include <sstream>
 
 #include "commands.hpp"
-#include "ctr/io/recording.hpp"
+#include "ctr/io/file.hpp"
 #include "ctr/planner/planner.hpp"
 #include "ctr/planner/result_json.hpp"
 #include "html_report.hpp"

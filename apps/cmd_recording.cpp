@@ -8,8 +8,10 @@
 #include "commands.hpp"
 #include "ctr/diagnosis/import.hpp"
 #include "ctr/diagnosis/simulate.hpp"
+#include "ctr/io/file.hpp"
 #include "ctr/io/recording.hpp"
 #include "ctr/io/robot_yaml.hpp"
+#include "ctr/model/replay.hpp"
 
 namespace ctr::cli {
 
@@ -72,7 +74,8 @@ void registerInject(CLI::App* parent, Action& action) {
   struct Opts {
     std::string robot, actuation, pattern = "sweep", out, truth, measure = "twist,tip_position,tip_tangent";
     std::vector<std::string> effects;
-    std::string noise_twist = "0.5deg", noise_tangent = "0.2deg", repeat_tangent = "0", branch = "auto";
+    std::string noise_twist = "0.5deg", noise_tangent = "0.2deg", repeat_tangent = "0",
+                branch = toString(BranchRule::Auto);
     double noise_position = 1e-4, dt = 0.1, step_deg = 10, max_speed = 1.0, returns = 0.0, repeat_position = 0.0;
     int rows = 150, frames = 1;
     bool translate = false, sensor_frame = false;
@@ -85,7 +88,9 @@ void registerInject(CLI::App* parent, Action& action) {
   sub->add_option("--actuation", o->actuation, "Actuation CSV (alpha_*, beta_*, optional time); default: --pattern");
   sub->add_option("--pattern", o->pattern,
                   "Generated actuation: sweep (paper protocol), random (random order), random-walk")
-      ->check(CLI::IsMember({"sweep", "random", "random-walk"}));
+      ->check(
+          CLI::IsMember({toString(diagnosis::ActuationPattern::Sweep), toString(diagnosis::ActuationPattern::Random),
+                         toString(diagnosis::ActuationPattern::RandomWalk)}));
   sub->add_option("--rows", o->rows, "Rows of random / random-walk patterns");
   sub->add_option("--step-deg", o->step_deg, "Sweep step (deg)");
   sub->add_option("--dt", o->dt, "Time step of the generated time column (s); 0 = no time column");
@@ -98,7 +103,7 @@ void registerInject(CLI::App* parent, Action& action) {
   sub->add_option("--branch", o->branch,
                   "How the robot reaches each row: auto, path (straight between rows), rest (from rest); as "
                   "`ctr simulate --branch`")
-      ->check(CLI::IsMember({"auto", "path", "rest"}));
+      ->check(CLI::IsMember({toString(BranchRule::Auto), toString(BranchRule::Path), toString(BranchRule::Rest)}));
   sub->add_option("--effect", o->effects,
                   "Effect to inject, e.g. boundary_friction:mu=0.12, "
                   "actuator_backlash:tube=2,width=12deg, tip_load:force=0.05,0,-0.1 (N, base "
@@ -150,9 +155,9 @@ void registerInject(CLI::App* parent, Action& action) {
         }
       } else {
         diagnosis::ActuationOptions a;
-        a.pattern = o->pattern == "sweep"    ? diagnosis::ActuationPattern::Sweep
-                    : o->pattern == "random" ? diagnosis::ActuationPattern::Random
-                                             : diagnosis::ActuationPattern::RandomWalk;
+        for (diagnosis::ActuationPattern p : {diagnosis::ActuationPattern::Sweep, diagnosis::ActuationPattern::Random,
+                                              diagnosis::ActuationPattern::RandomWalk})
+          if (o->pattern == toString(p)) a.pattern = p;
         a.rows = o->rows;
         a.step_deg = o->step_deg;
         a.dt = o->dt;
@@ -196,8 +201,8 @@ void registerInject(CLI::App* parent, Action& action) {
         std::vector<std::string> v;
         nlohmann::json list = nlohmann::json::array();
         for (const auto& e : effects) {
-          v.push_back(diagnosis::effectName(e.kind));
-          nlohmann::json x{{"effect", diagnosis::effectName(e.kind)}};
+          v.push_back(diagnosis::toString(e.kind));
+          nlohmann::json x{{"effect", diagnosis::toString(e.kind)}};
           for (const diagnosis::NamedParameter& p : diagnosis::namedParameters(e)) {
             if (p.name == "tube")
               x["tube"] = e.tube;

@@ -10,7 +10,7 @@ namespace ctr::cli {
 
 void registerSimulate(CLI::App& app, Action& action) {
   struct Opts {
-    std::string robot, actuation, out, branch = "auto";
+    std::string robot, actuation, out, branch = toString(BranchRule::Auto);
     bool allow_failures = false;
     FrictionCli friction;
     LoadsCli loads;
@@ -27,7 +27,7 @@ void registerSimulate(CLI::App& app, Action& action) {
                   "How each row's equilibrium is reached: auto (continuation along small moves from the previous "
                   "row, from rest after the first row and moves beyond 30 deg / 10 mm), path (always continuation), "
                   "rest (always from rest); docs/friction.md \"Replaying a sequence\"")
-      ->check(CLI::IsMember({"auto", "path", "rest"}));
+      ->check(CLI::IsMember({toString(BranchRule::Auto), toString(BranchRule::Path), toString(BranchRule::Rest)}));
   o->friction.add(sub);
   o->loads.add(sub);
   sub->callback([o, &action]() {

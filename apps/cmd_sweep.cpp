@@ -4,7 +4,7 @@
 #include <sstream>
 
 #include "commands.hpp"
-#include "ctr/io/recording.hpp"
+#include "ctr/io/file.hpp"
 #include "ctr/io/robot_yaml.hpp"
 #include "ctr/model/friction.hpp"
 #include "html_report.hpp"

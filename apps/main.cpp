@@ -6,7 +6,7 @@
 
 int main(int argc, char** argv) {
   using namespace ctr::cli;
-  CLI::App app{"ctr -- friction-aware modeling and motion planning of concentric tube robots"};
+  CLI::App app{"ctr -- friction-aware modeling and motion planning of concentric tube robots", "ctr"};
   app.require_subcommand(1);
   app.set_help_all_flag("--help-all", "Help for all subcommands");
   Action action;

@@ -158,7 +158,7 @@ int main(int argc, char** argv) {
                   << f.effect.valueText() << ") dBIC " << f.delta_bic << " held-out p " << f.heldout_p << "\n";
     }
     std::vector<std::string> truth;
-    for (const Effect& e : k.effects) truth.push_back(effectName(e.kind));
+    for (const Effect& e : k.effects) truth.push_back(toString(e.kind));
     const std::string tl = label(truth), vl = label(rep.verdict);
     const bool ok = tl == vl;
     // Not exact but honest: every verdict entry ("X or Y": the recording cannot tell) contains a true effect and

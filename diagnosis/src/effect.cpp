@@ -79,7 +79,7 @@ bool isGeneric(EffectKind k) {
   return facts(k).generic;
 }
 
-const char* effectName(EffectKind k) {
+const char* toString(EffectKind k) {
   return facts(k).name;
 }
 const char* parameterName(EffectKind k) {
@@ -164,14 +164,14 @@ std::string describePhysics(EffectKind k) {
 
 EffectKind parseEffectKind(const std::string& name) {
   for (EffectKind k : allEffectKinds())
-    if (name == effectName(k)) return k;
+    if (name == toString(k)) return k;
   std::string all;
-  for (EffectKind k : allEffectKinds()) all += std::string(all.empty() ? "" : ", ") + effectName(k);
+  for (EffectKind k : allEffectKinds()) all += std::string(all.empty() ? "" : ", ") + toString(k);
   throw std::invalid_argument("unknown effect '" + name + "' (known: " + all + ")");
 }
 
 std::string Effect::label() const {
-  std::string s = effectName(kind);
+  std::string s = toString(kind);
   if (isPerTube(kind)) s += "[tube " + std::to_string(tube) + "]";
   return s;
 }

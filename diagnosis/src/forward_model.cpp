@@ -48,7 +48,7 @@ std::vector<Configuration> transformActuation(const std::vector<Configuration>& 
       const double w = t1 > t0 ? (t - t0) / (t1 - t0) : 0.0;
       const Configuration& a = commands[static_cast<std::size_t>(j)];
       const Configuration& b = commands[static_cast<std::size_t>(std::min(j + 1, rows - 1))];
-      q[static_cast<std::size_t>(k)] = Configuration(a.alpha + w * (b.alpha - a.alpha), a.beta + w * (b.beta - a.beta));
+      q[static_cast<std::size_t>(k)] = interpolate(a, b, w);
     }
   }
   // 2. Backlash (play) per tube on the rotation or the translation.

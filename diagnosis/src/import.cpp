@@ -7,6 +7,8 @@
 #include <sstream>
 #include <stdexcept>
 
+#include "ctr/io/file.hpp"
+
 namespace ctr::diagnosis {
 
 ImportOptions dupontLabImportOptions() {

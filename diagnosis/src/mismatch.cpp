@@ -158,10 +158,10 @@ MismatchReport locateMismatch(const io::Recording& rec, const Prediction& p, con
         const double ratio = std::sqrt(bchi[static_cast<std::size_t>(b)] / bcnt[static_cast<std::size_t>(b)]);
         MismatchFinding f{"exceeds_noise",
                           v.name,
-                          quantityName(q),
+                          toString(q),
                           sig[j].first,
                           ratio,
-                          v.name + fmt(" in [%.1f, %.1f] ", a0 * unit, a1 * unit) + uname + ": " + quantityName(q) +
+                          v.name + fmt(" in [%.1f, %.1f] ", a0 * unit, a1 * unit) + uname + ": " + toString(q) +
                               fmt(" residual RMS %.1f x noise (%.0f rows)", ratio, brows[static_cast<std::size_t>(b)])};
         rep.findings.push_back(f);
       }
@@ -170,7 +170,7 @@ MismatchReport locateMismatch(const io::Recording& rec, const Prediction& p, con
         for (int d : {1, -1}) {
           BinSummary bs;
           bs.variable = v.name;
-          bs.quantity = quantityName(q);
+          bs.quantity = toString(q);
           bs.lo = lo + (hi - lo) * b / B;
           bs.hi = lo + (hi - lo) * (b + 1) / B;
           bs.direction = d;
@@ -238,8 +238,8 @@ MismatchReport locateMismatch(const io::Recording& rec, const Prediction& p, con
           width = std::max(width, 2 * bf.coef.row(2).norm());
         }
         const double pd = stats::chiSquareSf(chid, dofd);
-        MismatchFinding f{"direction_dependent", v.name, quantityName(q), pd, chid / std::max(1, dofd), ""};
-        f.where = quantityName(q) + std::string(" differs between approaching ") + v.name +
+        MismatchFinding f{"direction_dependent", v.name, toString(q), pd, chid / std::max(1, dofd), ""};
+        f.where = toString(q) + std::string(" differs between approaching ") + v.name +
                   " from below and from above at the same configuration" +
                   fmt(": largest gap %.3g ", width * (q == Quantity::Twist         ? 180 / M_PI
                                                       : q == Quantity::TipPosition ? 1e3

@@ -136,7 +136,7 @@ std::string reportToJson(const DiagnosisReport& r) {
   for (const Effect& e : r.final_effects) {
     const auto u = r.final_uncertainty.find(e.label());
     const std::vector<NamedParameter> ps = namedParameters(e, u != r.final_uncertainty.end() ? &u->second : nullptr);
-    json x{{"effect", effectName(e.kind)}};
+    json x{{"effect", toString(e.kind)}};
     for (const NamedParameter& p : ps) x[p.name] = paramValueJson(p);
     // One-parameter kinds: "interval95": [lo, hi] (as before); kinds with several parameters: one per parameter,
     // {"scale": [lo, hi], "direction": [[lo, hi], [lo, hi], [lo, hi]]} or {"force": [[lo, hi], x3]}.
@@ -159,7 +159,7 @@ std::string reportToJson(const DiagnosisReport& r) {
   json fs = json::array();
   for (const Finding& f : r.findings) {
     json x;
-    x["effect"] = effectName(f.effect.kind);
+    x["effect"] = toString(f.effect.kind);
     x["accepted"] = f.accepted;
     x["round"] = f.round;
     x["parameters"] = parametersJson(f.parameters);
@@ -179,9 +179,9 @@ std::string reportToJson(const DiagnosisReport& r) {
     if (!f.ambiguous_with.empty()) {
       json a = json::array();
       for (const Rival& rv : f.ambiguous_with) {
-        json y{{"effect", effectName(rv.effect.kind)}, {"parameters", parametersJson(namedParameters(rv.effect))},
-               {"delta_bic", num(rv.delta_bic)},       {"heldout_rmse", mapJson(rv.heldout_rmse)},
-               {"heldout_p", num(rv.heldout_p)},       {"why", rv.why}};
+        json y{{"effect", toString(rv.effect.kind)}, {"parameters", parametersJson(namedParameters(rv.effect))},
+               {"delta_bic", num(rv.delta_bic)},     {"heldout_rmse", mapJson(rv.heldout_rmse)},
+               {"heldout_p", num(rv.heldout_p)},     {"why", rv.why}};
         a.push_back(y);
       }
       x["ambiguous_with"] = a;
@@ -201,7 +201,7 @@ std::string reportToJson(const DiagnosisReport& r) {
     un["fraction_explained"] = num(u.fraction_explained);
     un["heldout_rmse"] = mapJson(u.heldout_rmse);
     json nz = json::object();
-    for (const auto& [q, e] : r.noise.by_quantity) nz[quantityName(q)] = num(e.sigma);
+    for (const auto& [q, e] : r.noise.by_quantity) nz[toString(q)] = num(e.sigma);
     un["noise"] = nz;
     json um = json::array();
     for (const auto& f : u.mismatch) um.push_back(mismatchJson(f));
@@ -212,7 +212,7 @@ std::string reportToJson(const DiagnosisReport& r) {
     if (!u.described.empty()) {
       json d = json::array();
       for (const GenericDescription& g : u.described)
-        d.push_back(json{{"model", effectName(g.model.kind)},
+        d.push_back(json{{"model", toString(g.model.kind)},
                          {"parameters", parametersJson(namedParameters(g.model))},
                          {"description", g.description},
                          {"delta_bic", num(g.delta_bic)},
@@ -249,9 +249,9 @@ std::string reportToJson(const DiagnosisReport& r) {
       x["frames"] = e.frames;
     }
     if (q == Quantity::TipTangent) x["per"] = "direction normal to the tangent";
-    j["noise"][quantityName(q)] = x;
+    j["noise"][toString(q)] = x;
   }
-  j["frame"] = r.frame == FrameMode::Unknown ? "unknown" : "base";
+  j["frame"] = toString(r.frame);
   if (r.frame == FrameMode::Unknown) {
     json reg;
     json R = json::array();
@@ -282,7 +282,7 @@ std::string reportToMarkdown(const DiagnosisReport& r, const io::Recording& full
   std::ostringstream o;
   o << "# Diagnosis\n\n";
   o << "Recording: " << r.rows << " rows, " << rec.tubes << " tubes, measured:";
-  for (Quantity q : presentQuantities(rec)) o << " " << quantityName(q);
+  for (Quantity q : presentQuantities(rec)) o << " " << toString(q);
   o << (rec.hasTime() ? ", timed" : ", untimed")
     << "; frame: " << (r.frame == FrameMode::Unknown ? "unknown (registration estimated in every model)" : "base")
     << ". Held-out scheme: " << r.folds
@@ -361,11 +361,10 @@ std::string reportToMarkdown(const DiagnosisReport& r, const io::Recording& full
   for (const auto& [q, e] : r.noise.by_quantity) {
     const double u = q == Quantity::TipPosition ? 1e3 : 180 / M_PI;
     const std::string unit = q == Quantity::TipPosition ? " mm" : " deg";
-    o << "| " << quantityName(q) << (q == Quantity::TipTangent ? " (per normal direction)" : "") << " | "
-      << f4(e.sigma * u) << unit << " | " << e.source << (e.supported ? "" : " (upper bound)") << " | ["
-      << f4(e.interval95[0] * u) << ", " << f4(e.interval95[1] * u) << "]" << unit << " | "
-      << (std::isfinite(e.dof) ? f4(e.dof) : std::string("given")) << " | " << e.note
-      << (e.jitter > 0 ? "; frame jitter " + f4(e.jitter * u) + unit : std::string()) << " |\n";
+    o << "| " << toString(q) << (q == Quantity::TipTangent ? " (per normal direction)" : "") << " | " << f4(e.sigma * u)
+      << unit << " | " << e.source << (e.supported ? "" : " (upper bound)") << " | [" << f4(e.interval95[0] * u) << ", "
+      << f4(e.interval95[1] * u) << "]" << unit << " | " << (std::isfinite(e.dof) ? f4(e.dof) : std::string("given"))
+      << " | " << e.note << (e.jitter > 0 ? "; frame jitter " + f4(e.jitter * u) + unit : std::string()) << " |\n";
   }
   o << "\n## Where the nominal model misses\n\n";
   if (r.mismatch.findings.empty()) {

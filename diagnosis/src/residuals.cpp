@@ -8,7 +8,11 @@
 
 namespace ctr::diagnosis {
 
-const char* quantityName(Quantity q) {
+const char* toString(FrameMode mode) {
+  return mode == FrameMode::Unknown ? "unknown" : "base";
+}
+
+const char* toString(Quantity q) {
   switch (q) {
     case Quantity::Twist:
       return "twist";
@@ -127,7 +131,7 @@ std::map<std::string, double> rmse(const io::Recording& rec, const Residuals& r,
   for (Quantity q : presentQuantities(rec)) {
     const SumSquares s = sumSquares(r.of(q), use);
     if (s.count == 0) continue;
-    out[quantityName(q)] = q == Quantity::Twist ? std::sqrt(s.ss / s.count) : std::sqrt(s.ss / std::max(1, s.rows));
+    out[toString(q)] = q == Quantity::Twist ? std::sqrt(s.ss / s.count) : std::sqrt(s.ss / std::max(1, s.rows));
   }
   return out;
 }

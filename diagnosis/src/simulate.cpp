@@ -29,6 +29,18 @@ std::pair<double, double> innerRange(const Robot& robot, const Configuration& q)
 
 }  // namespace
 
+const char* toString(ActuationPattern pattern) {
+  switch (pattern) {
+    case ActuationPattern::Sweep:
+      return "sweep";
+    case ActuationPattern::Random:
+      return "random";
+    case ActuationPattern::RandomWalk:
+      return "random-walk";
+  }
+  return "?";
+}
+
 void makeActuation(const Robot& robot, const ActuationOptions& o, std::vector<Configuration>& commands,
                    Eigen::VectorXd& time) {
   const int n = robot.size();

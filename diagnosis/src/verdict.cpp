@@ -21,7 +21,7 @@ std::string noiseWords(const NoiseReport& n) {
   std::vector<std::string> parts;
   for (const auto& [q, e] : n.by_quantity) {
     const bool pos = q == Quantity::TipPosition;
-    parts.push_back(std::string(quantityName(q)) +
+    parts.push_back(std::string(toString(q)) +
                     fmt(pos ? " %.3g mm" : " %.3g deg", pos ? e.sigma * 1e3 : e.sigma * 180 / M_PI) + " (" + e.source +
                     ")");
   }
@@ -78,10 +78,10 @@ void writeVerdict(State& s) {
   std::set<std::string> seen;
   for (const Effect& e : cur.fit.effects) {
     if (s.confounded.count(e.label()) || isGeneric(e.kind)) continue;  // partial explanations, descriptions
-    std::string name = effectName(e.kind);
+    std::string name = toString(e.kind);
     std::set<std::string> alt;
     for (const Rival& r : s.rivals_of[e.label()])
-      if (std::string(effectName(r.effect.kind)) != name) alt.insert(effectName(r.effect.kind));
+      if (std::string(toString(r.effect.kind)) != name) alt.insert(toString(r.effect.kind));
     for (const std::string& a : alt) name += " or " + a;
     if (seen.insert(name).second) rep.verdict.push_back(name);
   }

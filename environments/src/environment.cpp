@@ -19,9 +19,21 @@ namespace ctr::env {
 
 const char* toString(UnknownSpace u) { return u == UnknownSpace::Free ? "free" : "occupied"; }
 
+const char* toString(Occupancy o) {
+  switch (o) {
+    case Occupancy::Free:
+      return "free";
+    case Occupancy::Occupied:
+      return "occupied";
+    case Occupancy::Unknown:
+      return "unknown";
+  }
+  return "unknown";
+}
+
 UnknownSpace parseUnknownSpace(const std::string& text) {
-  if (text == "free") return UnknownSpace::Free;
-  if (text == "occupied") return UnknownSpace::Occupied;
+  if (text == toString(UnknownSpace::Free)) return UnknownSpace::Free;
+  if (text == toString(UnknownSpace::Occupied)) return UnknownSpace::Occupied;
   throw std::invalid_argument("unknown space must be 'free' or 'occupied', not '" + text + "'");
 }
 

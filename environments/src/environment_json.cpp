@@ -21,14 +21,6 @@ Json poseJson(const Eigen::Isometry3d& T) {
 
 }  // namespace
 
-const char* occupancyName(Occupancy o) {
-  switch (o) {
-    case Occupancy::Free: return "free";
-    case Occupancy::Occupied: return "occupied";
-    default: return "unknown";
-  }
-}
-
 std::string infoJson(const Environment& e, int indent) {
   const OccupancyStats st = e.stats();
   Json j;
@@ -44,7 +36,7 @@ std::string infoJson(const Environment& e, int indent) {
   j["build_seconds"] = e.buildSeconds();
   j["base_pose"] = poseJson(e.basePose());
   j["base_pose"]["source"] = e.basePoseSource();
-  j["base_pose"]["occupancy"] = occupancyName(e.occupancy(e.basePose().translation()));
+  j["base_pose"]["occupancy"] = toString(e.occupancy(e.basePose().translation()));
   Json starts = Json::array();
   for (const auto& s : e.starts()) {
     Json p = poseJson(s.pose);
@@ -57,7 +49,7 @@ std::string infoJson(const Environment& e, int indent) {
   for (const auto& t : e.targets())
     targets.push_back({{"name", t.name},
                        {"position", vec(t.position)},
-                       {"occupancy", occupancyName(e.occupancy(t.position))},
+                       {"occupancy", toString(e.occupancy(t.position))},
                        {"distance_from_base", (t.position - e.basePose().translation()).norm()},
                        {"source", t.source}});
   j["targets"] = targets;

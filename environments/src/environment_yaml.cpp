@@ -209,16 +209,22 @@ SourceSpec parseSource(const Ctx& c, const YAML::Node& n, const std::string& wha
     if (n["threshold"]) s.selection.threshold = number(c, n["threshold"], "threshold");
     if (n["affine"]) {
       const std::string a = text(c, n["affine"], "affine");
-      if (a == "auto") s.affine = NiftiAffine::Auto;
-      else if (a == "sform") s.affine = NiftiAffine::Sform;
-      else if (a == "qform") s.affine = NiftiAffine::Qform;
-      else c.fail(n["affine"], "affine", "must be auto, sform or qform");
+      bool known = false;
+      for (NiftiAffine f : {NiftiAffine::Auto, NiftiAffine::Sform, NiftiAffine::Qform})
+        if (a == toString(f)) {
+          s.affine = f;
+          known = true;
+        }
+      if (!known) c.fail(n["affine"], "affine", "must be auto, sform or qform");
     }
     if (n["sampling"]) {
       const std::string a = text(c, n["sampling"], "sampling");
-      if (a == "conservative") s.sampling = NiftiSampling::Conservative;
-      else if (a == "centre" || a == "center") s.sampling = NiftiSampling::Centre;
-      else c.fail(n["sampling"], "sampling", "must be conservative or centre");
+      if (a == toString(NiftiSampling::Conservative))
+        s.sampling = NiftiSampling::Conservative;
+      else if (a == toString(NiftiSampling::Centre) || a == "center")
+        s.sampling = NiftiSampling::Centre;
+      else
+        c.fail(n["sampling"], "sampling", "must be conservative or centre");
     }
     return s;
   }

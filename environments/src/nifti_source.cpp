@@ -17,6 +17,22 @@
 
 namespace ctr::env {
 
+const char* toString(NiftiAffine affine) {
+  switch (affine) {
+    case NiftiAffine::Auto:
+      return "auto";
+    case NiftiAffine::Sform:
+      return "sform";
+    case NiftiAffine::Qform:
+      return "qform";
+  }
+  return "?";
+}
+
+const char* toString(NiftiSampling sampling) {
+  return sampling == NiftiSampling::Centre ? "centre" : "conservative";
+}
+
 namespace {
 
 struct NimDeleter {
@@ -189,11 +205,11 @@ NiftiVolume readNifti(const std::string& path, NiftiAffine affine) {
   if (affine == NiftiAffine::Sform || (affine == NiftiAffine::Auto && has_s)) {
     if (!has_s) fail(path, "key 'affine': sform requested but the file has no sform (sform_code = 0)");
     A = toEigen(h.sto_xyz);
-    vol.affine_used = "sform";
+    vol.affine_used = toString(NiftiAffine::Sform);
   } else if (affine == NiftiAffine::Qform || (affine == NiftiAffine::Auto && has_q)) {
     if (!has_q) fail(path, "key 'affine': qform requested but the file has no qform (qform_code = 0)");
     A = toEigen(h.qto_xyz);
-    vol.affine_used = "qform";
+    vol.affine_used = toString(NiftiAffine::Qform);
   } else {
     fail(path,
          "the file has no voxel-to-world affine (qform_code = sform_code = 0): world coordinates are undefined; "

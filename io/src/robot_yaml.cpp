@@ -16,7 +16,7 @@
 #include <utility>
 #include <vector>
 
-#include "ctr/io/recording.hpp"  // readFile, writeFileAtomic
+#include "ctr/io/file.hpp"
 #include "text_util.hpp"
 
 namespace ctr::io {

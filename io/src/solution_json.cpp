@@ -20,10 +20,7 @@ std::string solutionJson(const Solution& sol, int indent) {
   for (int k = 0; k < sol.base_twist_rate.size(); ++k) j["base_twist_rate"].push_back(sol.base_twist_rate[k]);
   j["moments"] = nlohmann::json::array();
   for (const auto& m : sol.moments)
-    j["moments"].push_back({{"kind", m.kind == MomentKind::TubeEnd ? "tube_end" : "curvature_discontinuity"},
-                            {"tube", m.tube + 1},
-                            {"s", m.s},
-                            {"magnitude", m.magnitude}});
+    j["moments"].push_back({{"kind", toString(m.kind)}, {"tube", m.tube + 1}, {"s", m.s}, {"magnitude", m.magnitude}});
   if (!sol.summary.message.empty()) j["message"] = sol.summary.message;
   return j.dump(indent);
 }

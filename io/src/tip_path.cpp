@@ -6,7 +6,7 @@
 #include <map>
 #include <new>
 
-#include "ctr/io/recording.hpp"
+#include "ctr/io/file.hpp"
 #include "text_util.hpp"
 
 namespace ctr::io {

@@ -4,11 +4,32 @@
 #include <cmath>
 #include <limits>
 #include <sstream>
+#include <stdexcept>
 
 namespace ctr {
 
 Configuration Configuration::zeros(int n) {
   return Configuration(Eigen::VectorXd::Zero(n), Eigen::VectorXd::Zero(n));
+}
+
+int subdivisions(const Configuration& from, const Configuration& to, double max_rotation_step,
+                 double max_translation_step) {
+  if (from.alpha.size() != to.alpha.size() || from.beta.size() != to.beta.size())
+    throw std::invalid_argument("subdivisions: the configurations have different numbers of tubes");
+  if (!(max_rotation_step > 0.0) || !(max_translation_step > 0.0))
+    throw std::invalid_argument("subdivisions: the step sizes must be positive");
+  const double da = to.alpha.size() ? (to.alpha - from.alpha).cwiseAbs().maxCoeff() : 0.0;
+  const double db = to.beta.size() ? (to.beta - from.beta).cwiseAbs().maxCoeff() : 0.0;
+  const double steps = std::ceil(std::max(da / max_rotation_step, db / max_translation_step) - kSubdivisionSlack);
+  if (!std::isfinite(da) || !std::isfinite(db) || !(steps < static_cast<double>(std::numeric_limits<int>::max())))
+    throw std::invalid_argument("subdivisions: the move is not finite or needs too many steps");
+  return std::max(1, static_cast<int>(steps));
+}
+
+Configuration interpolate(const Configuration& from, const Configuration& to, double t) {
+  if (t == 0.0) return from;
+  if (t == 1.0) return to;
+  return Configuration(from.alpha + t * (to.alpha - from.alpha), from.beta + t * (to.beta - from.beta));
 }
 
 Admissibility checkAdmissible(const Robot& robot, const Configuration& q, double tol) {

@@ -304,6 +304,28 @@ SubstepOutcome solveSubstep(const Robot& robot, const HysteresisState& prev, con
 
 }  // namespace
 
+const char* toString(FrictionMode mode) {
+  switch (mode) {
+    case FrictionMode::StickSlip:
+      return "stick-slip";
+    case FrictionMode::Paper:
+      return "paper";
+  }
+  return "?";
+}
+
+const char* toString(ContactMode mode) {
+  switch (mode) {
+    case ContactMode::Stick:
+      return "stick";
+    case ContactMode::SlipPositive:
+      return "slip_positive";
+    case ContactMode::SlipNegative:
+      return "slip_negative";
+  }
+  return "?";
+}
+
 StepResult initialState(const Robot& robot, const Configuration& q, Workspace& ws, const FrictionOptions& opt,
                         const Solution* branch) {
   StepResult r;
@@ -333,18 +355,12 @@ StepResult step(const Robot& robot, const HysteresisState& from, const Configura
     res.summary.message = adm.message;
     return res;
   }
-  const double da = q.size() ? (q.alpha - from.q.alpha).cwiseAbs().maxCoeff() : 0.0;
-  const double db = q.size() ? (q.beta - from.q.beta).cwiseAbs().maxCoeff() : 0.0;
-  const int n_sub = std::max(
-      1, static_cast<int>(std::ceil(std::max(da / opt.max_rotation_step, db / opt.max_translation_step) - 1e-12)));
+  const int n_sub = subdivisions(from.q, q, opt.max_rotation_step, opt.max_translation_step);
   HysteresisState cur = from;
   Eigen::VectorXd prev_twist = from.twist;
   for (int k = 1; k <= n_sub; ++k) {
-    const double t = static_cast<double>(k) / n_sub;
     // The last sub-step ends exactly at q (the state then remembers the command itself, not a rounding of it).
-    const Configuration qk = k == n_sub ? q
-                                        : Configuration(from.q.alpha + t * (q.alpha - from.q.alpha),
-                                                        from.q.beta + t * (q.beta - from.q.beta));
+    const Configuration qk = interpolate(from.q, q, static_cast<double>(k) / n_sub);
     FrictionOptions o = opt;
     o.kinematics.record_backbone = (k == n_sub) && opt.kinematics.record_backbone;
     SubstepOutcome sub = solveSubstep(robot, cur, qk, ws, o);
@@ -384,22 +400,68 @@ StepResult step(const Robot& robot, const HysteresisState& from, const Configura
   return res;
 }
 
+long bandShapeWith(const FrictionBand& band, const std::vector<ContactSite>& sites,
+                   const std::vector<double>& fractions) {
+  if (band.sites.size() != sites.size() || fractions.size() != sites.size()) return -1;
+  std::vector<std::size_t> at(sites.size());  // index in band.sites of each site
+  for (std::size_t c = 0; c < sites.size(); ++c) {
+    const auto it = std::find(band.sites.begin(), band.sites.end(), sites[c]);
+    if (it == band.sites.end()) return -1;
+    at[c] = static_cast<std::size_t>(it - band.sites.begin());
+  }
+  for (std::size_t i = 0; i < band.shapes.size() && i < band.torque_fractions.size(); ++i) {
+    bool same = true;
+    for (std::size_t c = 0; c < sites.size() && same; ++c) same = band.torque_fractions[i][at[c]] == fractions[c];
+    if (same) return static_cast<long>(i);
+  }
+  return -1;
+}
+
 FrictionBand frictionBand(const Robot& robot, const Configuration& q, Workspace& ws, const FrictionBandOptions& opt) {
   FrictionBand band;
-  const std::vector<ContactSite> sites = contactSites(robot, q);
-  const std::size_t k = sites.size();
+  band.sites = contactSites(robot, q);
+  const std::size_t k = band.sites.size();
+  // The shape of the followed band with the same fractions, if any.
+  auto followed = [&](const std::vector<double>& frac) -> const Solution* {
+    if (!opt.follow) return nullptr;
+    const long i = bandShapeWith(*opt.follow, band.sites, frac);
+    return i >= 0 ? &opt.follow->shapes[static_cast<std::size_t>(i)] : nullptr;
+  };
   std::vector<ContactCondition> free(k, ContactCondition{ContactCondition::Law::Free, 0.0});
-  Solution base = solveWithContacts(robot, q, free, ws, opt.kinematics, nullptr);
+  const std::vector<double> zero(k, 0.0);
+  const Solution* base_warm = opt.follow && !opt.follow->shapes.empty() ? &opt.follow->shapes[0] : nullptr;
+  Solution base = solveWithContacts(robot, q, free, ws, opt.kinematics, base_warm);
   if (!base.converged()) {
     band.message = "frictionless equilibrium did not converge: " + base.summary.message;
     return band;
   }
-  band.shapes.push_back(base);
-  band.torque_fractions.push_back(std::vector<double>(k, 0.0));
-  const double mu = robot.friction().boundary;
+  band.shapes.push_back(std::move(base));
+  band.torque_fractions.push_back(zero);
   band.converged = true;
+  // The extremes over the shapes found; the band so far when a check ends it.
+  auto finish = [&band]() -> FrictionBand& {
+    const Solution& b = band.shapes[0];
+    band.twist_min = band.twist_max = b.twist;
+    for (const Solution& s : band.shapes) {
+      band.twist_min = band.twist_min.cwiseMin(s.twist);
+      band.twist_max = band.twist_max.cwiseMax(s.twist);
+      band.tip_spread = std::max(band.tip_spread, (s.tip_position - b.tip_position).norm());
+    }
+    return band;
+  };
+  // The caller's check of the newest shape: false ends the band.
+  auto accepted = [&]() {
+    if (!opt.check) return true;
+    const std::string why = opt.check(band);
+    if (why.empty()) return true;
+    band.converged = false;
+    band.message = why;
+    return false;
+  };
+  if (!accepted()) return finish();
+  const double mu = robot.friction().boundary;
   if (mu > 0.0 && k > 0) {
-    // Levels per contact: -1, interior samples, +1 (0 is the frictionless shape already).
+    // Levels per contact: -1, +1, interior samples (0 is the frictionless shape already).
     std::vector<double> levels{-1.0, 1.0};
     for (int i = 1; i <= opt.interior_samples; ++i) {
       const double f = static_cast<double>(i) / (opt.interior_samples + 1);
@@ -423,23 +485,20 @@ FrictionBand frictionBand(const Robot& robot, const Configuration& q, Workspace&
         all_zero = all_zero && std::abs(frac[c]) < 1e-12;
       }
       if (all_zero) continue;
-      Solution s = solveWithContacts(robot, q, cond, ws, opt.kinematics, &base);
+      const Solution* warm = followed(frac);
+      Solution s = solveWithContacts(robot, q, cond, ws, opt.kinematics, warm ? warm : &band.shapes[0]);
       if (!s.converged()) {
         band.converged = false;
         band.message = "a band vertex did not converge: " + s.summary.message;
+        if (opt.check) return finish();
         continue;
       }
       band.shapes.push_back(std::move(s));
       band.torque_fractions.push_back(frac);
+      if (!accepted()) return finish();
     }
   }
-  band.twist_min = band.twist_max = base.twist;
-  for (const Solution& s : band.shapes) {
-    band.twist_min = band.twist_min.cwiseMin(s.twist);
-    band.twist_max = band.twist_max.cwiseMax(s.twist);
-    band.tip_spread = std::max(band.tip_spread, (s.tip_position - base.tip_position).norm());
-  }
-  return band;
+  return finish();
 }
 
 }  // namespace ctr

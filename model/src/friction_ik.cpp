@@ -148,6 +148,18 @@ FrictionIkResult frictionInverseKinematics(const Robot& robot, const HysteresisS
   return std::move(frictionInverseKinematicsPath(robot, state, {target}, ws, o).front());
 }
 
+const char* toString(Approach approach) {
+  switch (approach) {
+    case Approach::Rest:
+      return "rest";
+    case Approach::Positive:
+      return "positive";
+    case Approach::Negative:
+      return "negative";
+  }
+  return "?";
+}
+
 Configuration approachStart(const Robot& robot, const Configuration& q, Approach approach, double angle) {
   if (!std::isfinite(angle)) throw std::invalid_argument("approachStart: the angle is not finite");
   Configuration from = q;

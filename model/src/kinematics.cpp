@@ -1154,18 +1154,14 @@ Solution continueTo(const Robot& robot, const Solution& from, const Configuratio
     Solution s = solve(robot, q, ws, options, nullptr);
     return s;
   }
-  const double da = (q.alpha - from.q.alpha).cwiseAbs().maxCoeff();
-  const double db = (q.beta - from.q.beta).cwiseAbs().maxCoeff();
-  const int steps = std::max(1, static_cast<int>(std::ceil(std::max(da / options.max_rotation_step,
-                                                                    db / options.max_translation_step))));
+  const int steps = subdivisions(from.q, q, options.max_rotation_step, options.max_translation_step);
   KinematicsOptions inner = options;
   inner.record_backbone = false;
   Solution cur = from;
   bool snapped = false;
   int iters = 0;
   for (int k = 1; k <= steps; ++k) {
-    const double t = static_cast<double>(k) / steps;
-    Configuration qk(from.q.alpha + t * (q.alpha - from.q.alpha), from.q.beta + t * (q.beta - from.q.beta));
+    const Configuration qk = interpolate(from.q, q, static_cast<double>(k) / steps);
     if (k == steps) inner.record_backbone = options.record_backbone;
     Solution next = solve(robot, qk, ws, inner, &cur);
     iters += next.summary.iterations;

@@ -299,7 +299,7 @@ bool isPathMove(const Configuration& from, const Configuration& to, const Replay
 }
 
 std::vector<ReplayRow> replay(const Robot& robot, const std::vector<Configuration>& commands, Workspace& ws,
-                              const ReplayOptions& o, const ReplayPath& known) {
+                              const ReplayOptions& o, const ReplayPath& known, const ReplayObserver& observer) {
   std::vector<ReplayRow> out(commands.size());
   const bool friction = hasFriction(robot);
   const Robot free = friction ? robot.withFriction(FrictionCoefficients{}) : robot;
@@ -316,6 +316,10 @@ std::vector<ReplayRow> replay(const Robot& robot, const std::vector<Configuratio
       row.reason = m.reason;
       row.result = std::move(m.r);
       previous_failed = true;
+      if (observer && !observer(k, row)) {
+        out.resize(k + 1);
+        break;
+      }
       continue;
     }
     // The path to this row is known when the rule says so and the move from the last command is small.
@@ -375,6 +379,10 @@ std::vector<ReplayRow> replay(const Robot& robot, const std::vector<Configuratio
     if (evaluated) good = m.r.state;  // after a snap the replay goes on from the branch it landed on
     previous_failed = !evaluated;
     row.result = std::move(m.r);
+    if (observer && !observer(k, row)) {
+      out.resize(k + 1);
+      break;
+    }
   }
   return out;
 }

@@ -34,26 +34,62 @@ std::shared_ptr<StateCache> fromStep(const StepResult& r, bool snapped_before) {
 
 }  // namespace
 
-std::shared_ptr<const StateCache> startCache(const Context& ctx, const Configuration& q, const StartHistory& h) {
-  Workspace& ws = scratch().ws;
-  const FrictionOptions fo = stepOptions(ctx);
-  const Robot& r = ctx.robot();
-  std::vector<Configuration> path;
+const char* toString(StartHistory::Kind kind) {
+  switch (kind) {
+    case StartHistory::Kind::Rest:
+      return "rest";
+    case StartHistory::Kind::Positive:
+      return "positive";
+    case StartHistory::Kind::Negative:
+      return "negative";
+    case StartHistory::Kind::Path:
+      return "path";
+  }
+  return "?";
+}
+
+std::vector<Configuration> startCommands(const Configuration& q, const StartHistory& h) {
+  std::vector<Configuration> commands;
   switch (h.kind) {
     case StartHistory::Kind::Rest: break;
     case StartHistory::Kind::Positive:
     case StartHistory::Kind::Negative: {
       Configuration from = q;
       from.alpha.array() -= (h.kind == StartHistory::Kind::Positive ? 1.0 : -1.0) * h.approach;
-      path.push_back(from);
+      commands.push_back(from);
       break;
     }
-    case StartHistory::Kind::Path: path = h.path; break;
+    case StartHistory::Kind::Path:
+      commands = h.path;
+      break;
   }
-  StepResult cur = initialState(r, path.empty() ? q : path.front(), ws, fo);
-  for (std::size_t k = 1; k < path.size() && cur.state.valid; ++k) cur = step(r, cur.state, path[k], ws, fo);
-  if (!path.empty() && cur.state.valid) cur = step(r, cur.state, q, ws, fo);
-  return fromStep(cur, false);
+  commands.push_back(q);
+  return commands;
+}
+
+ReplayOptions replayOptions(const Context& ctx) {
+  ReplayOptions o;
+  o.friction = stepOptions(ctx);
+  o.branch = BranchRule::Path;
+  o.coarse_rotation_step = 0.0;
+  return o;
+}
+
+std::string historyFailure(std::size_t index, const ReplayRow& row) {
+  if (row.result.summary.converged && row.result.state.valid && row.reached != Reached::Restart) return "";
+  return "start history, command " + std::to_string(index + 1) + ": " + row.reason;
+}
+
+std::shared_ptr<const StateCache> startCache(const Context& ctx, const Configuration& q, const StartHistory& h) {
+  const std::vector<ReplayRow> rows = replay(ctx.robot(), startCommands(q, h), scratch().ws, replayOptions(ctx));
+  for (std::size_t k = 0; k + 1 < rows.size(); ++k) {
+    const std::string why = historyFailure(k, rows[k]);
+    if (why.empty()) continue;
+    auto c = std::make_shared<StateCache>();
+    c->why = why;
+    return c;
+  }
+  return fromStep(rows.back().result, false);
 }
 
 std::shared_ptr<const StateCache> propagateCache(const Context& ctx, const StateCache& from, const Configuration& to) {
@@ -75,17 +111,11 @@ std::shared_ptr<const StateCache> propagateCache(const Context& ctx, const State
   // (converged, stable, no snap, collision-free), so that the replay at that resolution sees only checked states.
   ThreadScratch& t = scratch();
   const Configuration& q0 = from.hysteresis.q;
-  const double da = (to.alpha - q0.alpha).cwiseAbs().maxCoeff(), db = (to.beta - q0.beta).cwiseAbs().maxCoeff();
-  const int sub = std::max(1, static_cast<int>(std::ceil(std::max(da / ctx.options().rotation_resolution,
-                                                                  db / ctx.options().translation_resolution) -
-                                                         1e-9)));
+  const int sub = subdivisions(q0, to, ctx.options().rotation_resolution, ctx.options().translation_resolution);
   FrictionOptions fo = stepOptions(ctx);
   HysteresisState h = from.hysteresis;
   for (int k = 1; k <= sub; ++k) {
-    const double s = static_cast<double>(k) / sub;
-    const Configuration qk = k == sub ? to
-                                      : Configuration(q0.alpha + s * (to.alpha - q0.alpha),
-                                                      q0.beta + s * (to.beta - q0.beta));
+    const Configuration qk = interpolate(q0, to, static_cast<double>(k) / sub);
     const StepResult r = step(ctx.robot(), h, qk, t.ws, fo);
     if (k == sub) return fromStep(r, false);
     auto c = fromStep(r, false);

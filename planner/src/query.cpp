@@ -7,8 +7,8 @@
 #include <set>
 #include <sstream>
 
+#include "ctr/io/file.hpp"
 #include "ctr/io/input_error.hpp"
-#include "ctr/io/recording.hpp"
 
 namespace ctr::plan {
 namespace {
@@ -144,15 +144,13 @@ Query parseQueryYaml(const std::string& text, const std::string& source, const s
   q.start = configuration(c, st, "start");
   if (st["history"]) {
     const std::string h = c.text(st["history"], "start.history");
-    if (h == "rest") {
-      q.history.kind = StartHistory::Kind::Rest;
-    } else if (h == "positive") {
-      q.history.kind = StartHistory::Kind::Positive;
-    } else if (h == "negative") {
-      q.history.kind = StartHistory::Kind::Negative;
-    } else {
-      c.fail(st["history"], "start.history", "'" + h + "' is not one of rest, positive, negative");
-    }
+    bool known = false;
+    for (StartHistory::Kind k : {StartHistory::Kind::Rest, StartHistory::Kind::Positive, StartHistory::Kind::Negative})
+      if (h == toString(k)) {
+        q.history.kind = k;
+        known = true;
+      }
+    if (!known) c.fail(st["history"], "start.history", "'" + h + "' is not one of rest, positive, negative");
   }
   if (st["approach"]) {
     q.history.approach = c.number(st["approach"], "start.approach");

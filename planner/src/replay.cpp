@@ -2,6 +2,8 @@
 
 #include <cmath>
 #include <cstdio>
+#include <iterator>
+#include <limits>
 #include <sstream>
 
 namespace ctr::plan {
@@ -18,16 +20,20 @@ std::string num(double v) {
   return b;
 }
 
-const char* modeName(ContactMode m) {
-  switch (m) {
-    case ContactMode::Stick: return "stick";
-    case ContactMode::SlipPositive: return "slip+";
-    case ContactMode::SlipNegative: return "slip-";
-  }
-  return "";
-}
-
 }  // namespace
+
+std::vector<Configuration> replayCommands(const std::vector<Configuration>& waypoints, double rotation_step,
+                                          double translation_step) {
+  std::vector<Configuration> commands;
+  if (waypoints.empty()) return commands;
+  commands.push_back(waypoints[0]);
+  for (std::size_t k = 0; k + 1 < waypoints.size(); ++k) {
+    const int n = subdivisions(waypoints[k], waypoints[k + 1], rotation_step, translation_step);
+    for (int j = 1; j <= n; ++j)
+      commands.push_back(interpolate(waypoints[k], waypoints[k + 1], static_cast<double>(j) / n));
+  }
+  return commands;
+}
 
 ReplayReport replayPath(const Context& ctx, const std::vector<Configuration>& waypoints, const StartHistory& history,
                         const GoalTest& goal, double rotation_step, double translation_step) {
@@ -37,21 +43,46 @@ ReplayReport replayPath(const Context& ctx, const std::vector<Configuration>& wa
     return R;
   }
   ThreadScratch& t = scratch();
-  FrictionOptions fo = ctx.options().friction;
-  fo.kinematics.record_backbone = true;
-  const Robot& robot = ctx.robot();
+  // The start history, then the path: the start row is the last of the history.
+  std::vector<Configuration> commands = startCommands(waypoints[0], history);
+  const std::size_t start = commands.size() - 1;
+  std::vector<Configuration> path = replayCommands(waypoints, rotation_step, translation_step);
+  commands.insert(commands.end(), std::make_move_iterator(path.begin() + 1), std::make_move_iterator(path.end()));
   R.min_clearance = std::numeric_limits<double>::infinity();
-  auto record = [&](const Configuration& q, const Solution& sol, const HysteresisState& h, bool snapped) {
+  Solution last;
+  bool completed = true;
+  // The planner's checks on top of the replay's rule: every state from the start on converged, stable, snap-free,
+  // collision-free; the replay ends at the first move that does not converge.
+  auto observe = [&](std::size_t k, ReplayRow& row) {
+    if (k < start) {
+      const std::string why = historyFailure(k, row);
+      if (!why.empty()) R.first_failure = "start: " + why;
+      completed = why.empty();
+      return completed;
+    }
+    StepResult& r = row.result;
+    if (k == start && !r.solution.converged()) {
+      R.first_failure = "start: " + row.reason;
+      completed = false;
+      return false;
+    }
+    if (k > start && !(r.summary.converged && r.state.valid)) {
+      if (R.first_failure.empty()) R.first_failure = "step " + std::to_string(R.steps) + ": " + row.reason;
+      R.stable = false;
+      completed = false;
+      return false;
+    }
+    // A snap on the way to the start (in its history) is where the history put the robot, not a failure of the path.
+    const bool snapped = k > start && r.summary.snapped;
     ReplayPoint p;
-    p.q = q;
-    p.hysteresis = h;
-    const ShapeCheck c = checkShape(ctx, sol, t);
+    p.q = commands[k];
+    const ShapeCheck c = checkShape(ctx, r.solution, t);
     p.valid = c.ok && !snapped;
     if (snapped) {
       ++R.snaps;
       R.stable = false;
     }
-    if (sol.converged() && !sol.summary.stable) {
+    if (r.solution.converged() && !r.solution.summary.stable) {
       ++R.unstable;
       R.stable = false;
     }
@@ -61,50 +92,27 @@ ReplayReport replayPath(const Context& ctx, const std::vector<Configuration>& wa
     }
     if (!p.valid && R.first_failure.empty())
       R.first_failure = "step " + std::to_string(R.steps) + ": " + (snapped ? std::string("snap") : c.reason);
-    if (sol.converged() && ctx.checker().distanceField()) {
-      p.clearance = ctx.checker().clearance(sol, t.query).clearance;
+    if (r.solution.converged() && ctx.checker().distanceField()) {
+      p.clearance = ctx.checker().clearance(r.solution, t.query).clearance;
       R.min_clearance = std::min(R.min_clearance, p.clearance);
     }
-    p.solution = sol;
+    if (k + 1 == commands.size()) last = r.solution;
+    p.solution = std::move(r.solution);
     p.solution.backbone.clear();
+    p.hysteresis = std::move(r.state);
     R.points.push_back(std::move(p));
     ++R.steps;
+    return true;
   };
-  const std::shared_ptr<const StateCache> start = startCache(ctx, waypoints[0], history);
-  if (!start->solution.converged()) {
-    R.first_failure = "start: " + start->why;
-    return R;
-  }
-  HysteresisState state = start->hysteresis;
-  Solution last = start->solution;
-  record(waypoints[0], last, state, false);
-  for (std::size_t k = 0; k + 1 < waypoints.size(); ++k) {
-    const Configuration d(waypoints[k + 1].alpha - waypoints[k].alpha, waypoints[k + 1].beta - waypoints[k].beta);
-    const double a = d.alpha.cwiseAbs().maxCoeff(), b = d.beta.cwiseAbs().maxCoeff();
-    const int steps = std::max(1, static_cast<int>(std::ceil(std::max(a / rotation_step, b / translation_step) - 1e-9)));
-    for (int j = 1; j <= steps; ++j) {
-      const double s = static_cast<double>(j) / steps;
-      // As the propagator: the last sub-step ends exactly at the waypoint.
-      const Configuration q = j == steps ? waypoints[k + 1]
-                                         : Configuration(waypoints[k].alpha + s * d.alpha, waypoints[k].beta + s * d.beta);
-      const StepResult r = step(robot, state, q, t.ws, fo);
-      if (!r.summary.converged) {
-        if (R.first_failure.empty()) R.first_failure = "step " + std::to_string(R.steps) + ": " + r.summary.message;
-        R.stable = false;
-        return R;
-      }
-      state = r.state;
-      last = r.solution;
-      record(q, last, state, r.summary.snapped);
-    }
-  }
+  replay(ctx.robot(), commands, t.ws, replayOptions(ctx), {}, observe);
+  if (!std::isfinite(R.min_clearance)) R.min_clearance = 0.0;
+  if (!completed) return R;
   R.completed = true;
   const auto [tip_err, dir_err, reached] = goal(last);
   R.tip_error = tip_err;
   R.direction_error = dir_err;
   R.goal_reached = reached;
   if (!reached && R.first_failure.empty()) R.first_failure = "goal missed by " + num(tip_err) + " m";
-  if (!std::isfinite(R.min_clearance)) R.min_clearance = 0.0;
   return R;
 }
 
@@ -137,7 +145,7 @@ std::string replayCsv(const Robot& robot, const ReplayReport& r) {
       for (const auto& c : p.hysteresis.contacts)
         if (siteName(c.site) == s) m = &c;
       if (m) {
-        os << ',' << modeName(m->mode) << ',' << num(m->torque) << ',' << num(m->relative_twist);
+        os << ',' << toString(m->mode) << ',' << num(m->torque) << ',' << num(m->relative_twist);
       } else {
         os << ",,,";
       }

@@ -20,37 +20,16 @@ KinematicsOptions shapeOptions(const Context& ctx) {
   return k;
 }
 
-int stepsFor(const Context& ctx, const Configuration& d) {
-  const double a = d.alpha.size() ? d.alpha.cwiseAbs().maxCoeff() : 0.0;
-  const double b = d.beta.size() ? d.beta.cwiseAbs().maxCoeff() : 0.0;
-  return std::max(
-      1, static_cast<int>(std::ceil(
-             std::max(a / ctx.options().rotation_resolution, b / ctx.options().translation_resolution) - 1e-9)));
-}
-
 bool jumped(const Solution& a, const Solution& b, double threshold) {
   return a.twist.size() == b.twist.size() && a.twist.size() > 0 &&
          (a.twist - b.twist).cwiseAbs().maxCoeff() > threshold;
 }
 
-// The friction band followed along a path: [0] frictionless, then one shape per torque-box vertex (bit c of the
-// vertex code = sign of the torque at sites[c]).
-struct Band {
-  std::vector<Solution> shapes;
-  std::vector<ContactSite> sites;
-};
-
-// The previous band's vertex with the same torque signs at the same sites (sites are matched by identity: their
-// order along the backbone changes when ends cross or separate). -1 if the previous band has other sites.
-long alignedVertex(const Band& prev, const std::vector<ContactSite>& sites, std::size_t code) {
-  if (prev.sites.size() != sites.size() || prev.shapes.size() != (std::size_t(1) << sites.size()) + 1) return -1;
-  std::size_t prev_code = 0;
-  for (std::size_t c = 0; c < sites.size(); ++c) {
-    const auto it = std::find(prev.sites.begin(), prev.sites.end(), sites[c]);
-    if (it == prev.sites.end()) return -1;
-    if ((code >> c) & 1u) prev_code |= std::size_t(1) << static_cast<std::size_t>(it - prev.sites.begin());
-  }
-  return static_cast<long>(prev_code) + 1;
+// The previous band's shape with the same torques at the same sites as shape i of `cur` (FrictionBand::sites and
+// torque_fractions; sites are matched by identity: their order along the backbone changes when ends cross or
+// separate). -1 if the previous band has other sites.
+long alignedShape(const FrictionBand& prev, const FrictionBand& cur, std::size_t i) {
+  return bandShapeWith(prev, cur.sites, cur.torque_fractions[i]);
 }
 
 // Where a contact site of the previous band vanishes (an end retracting into the actuation unit, a discontinuity
@@ -59,9 +38,9 @@ long alignedVertex(const Band& prev, const std::vector<ContactSite>& sites, std:
 // of a shape here with the same torque signs at the sites both bands share (a site that appears starts stuck, inside
 // its bounds, so it does not move the robot: any sign of it will do).
 // No previous band (a motion's first configuration): nothing is released.
-bool releaseIsSmooth(const Band* previous, const Band& cur, double threshold) {
+bool releaseIsSmooth(const FrictionBand* previous, const FrictionBand& cur, double threshold) {
   if (!previous || previous->shapes.size() < 2 || cur.shapes.empty()) return true;
-  const Band& prev = *previous;
+  const FrictionBand& prev = *previous;
   std::vector<long> to_cur(prev.sites.size(), -1);  // index in cur.sites of each previous site, -1 if it vanished
   bool vanished = false;
   for (std::size_t j = 0; j < prev.sites.size(); ++j) {
@@ -73,76 +52,55 @@ bool releaseIsSmooth(const Band* previous, const Band& cur, double threshold) {
     }
   }
   if (!vanished) return true;
-  const std::size_t n_prev = std::size_t(1) << prev.sites.size();
-  const std::size_t n_cur = cur.shapes.size() == 1 ? 1 : (std::size_t(1) << cur.sites.size());
-  for (std::size_t pc = 0; pc < n_prev && pc + 1 < prev.shapes.size(); ++pc) {
+  // The vertices of each band (shape 0 when the band has no others).
+  const std::size_t first_cur = cur.shapes.size() == 1 ? 0 : 1;
+  for (std::size_t pc = 1; pc < prev.shapes.size(); ++pc) {
     bool landed = false;
-    for (std::size_t cc = 0; cc < n_cur && !landed; ++cc) {
+    for (std::size_t cc = first_cur; cc < cur.shapes.size() && !landed; ++cc) {
       bool same_signs = true;
       for (std::size_t j = 0; j < prev.sites.size() && same_signs; ++j)
-        if (to_cur[j] >= 0) same_signs = ((pc >> j) & 1u) == ((cc >> static_cast<std::size_t>(to_cur[j])) & 1u);
-      if (!same_signs) continue;
-      const Solution& here = cur.shapes.size() == 1 ? cur.shapes[0] : cur.shapes[cc + 1];
-      landed = !jumped(prev.shapes[pc + 1], here, threshold);
+        if (to_cur[j] >= 0)
+          same_signs = prev.torque_fractions[pc][j] == cur.torque_fractions[cc][static_cast<std::size_t>(to_cur[j])];
+      if (same_signs) landed = !jumped(prev.shapes[pc], cur.shapes[cc], threshold);
     }
     if (!landed) return false;
   }
   return true;
 }
 
-bool bandAt(const Context& ctx, const Configuration& q, ThreadScratch& t, const Band* prev, Band& out,
+// The friction band at q (ctr::frictionBand, vertices only), followed from the band at the previous configuration of
+// a motion: every shape converged, stable and collision-free, no shape jumping from its counterpart in `prev`.
+bool bandAt(const Context& ctx, const Configuration& q, ThreadScratch& t, const FrictionBand* prev, FrictionBand& out,
             std::string& why) {
-  out.shapes.clear();
-  const Robot& robot = ctx.robot();
   const double thr = ctx.options().friction.snap_threshold;
-  Solution base = solve(ctx.frictionlessRobot(), q, t.ws, shapeOptions(ctx),
-                        prev && !prev->shapes.empty() ? &prev->shapes[0] : nullptr);
-  if (prev && !prev->shapes.empty() &&
-      (!base.converged() || (prev->shapes[0].summary.stable && !base.summary.stable) ||
-       jumped(prev->shapes[0], base, thr))) {
-    why = "frictionless branch snaps";
-    return false;
-  }
-  const ShapeCheck c0 = checkShape(ctx, base, t);
-  if (!c0.ok) {
-    why = "frictionless shape: " + c0.reason;
-    return false;
-  }
-  out.shapes.push_back(std::move(base));
-  out.sites = contactSites(robot, q);
-  const std::vector<ContactSite>& sites = out.sites;
-  if (robot.friction().boundary <= 0.0) return true;
-  if (sites.empty()) {
-    if (!releaseIsSmooth(prev, out, thr)) {
-      why = "a contact site vanishes and releases its friction torque (the band jumps)";
-      return false;
-    }
-    return true;
-  }
-  const std::size_t k = sites.size();
-  std::vector<ContactCondition> cond(k);
-  for (std::size_t code = 0; code < (std::size_t(1) << k); ++code) {
-    for (std::size_t c = 0; c < k; ++c) cond[c] = {ContactCondition::Law::Torque, (code >> c) & 1u ? 1.0 : -1.0};
-    // Followed from the same vertex of the previous step; when a site appears or disappears the band changes
-    // discontinuously (a new contact enters with its full bound): no branch to follow, warm start from the
-    // frictionless shape.
-    const long pv = prev ? alignedVertex(*prev, sites, code) : -1;
-    const Solution* warm = pv > 0 ? &prev->shapes[static_cast<std::size_t>(pv)] : &out.shapes[0];
-    Solution s = solveWithContacts(robot, q, cond, t.ws, shapeOptions(ctx), warm);
-    if (!s.converged()) {
-      why = "friction band vertex not converged: " + s.summary.message;
-      return false;
-    }
-    if (pv > 0 && ((warm->summary.stable && !s.summary.stable) || jumped(*warm, s, thr))) {
-      why = "a friction band branch snaps";
-      return false;
+  FrictionBandOptions o;
+  o.interior_samples = 0;
+  o.kinematics = shapeOptions(ctx);
+  o.follow = prev && !prev->shapes.empty() ? prev : nullptr;
+  o.check = [&](const FrictionBand& b) -> std::string {
+    const std::size_t i = b.shapes.size() - 1;
+    const Solution& s = b.shapes[i];
+    // Followed from the same shape of the previous step; when a site appears or disappears the band changes
+    // discontinuously (a new contact enters with its full bound): no branch to follow.
+    const long pv = o.follow ? (i == 0 ? 0 : alignedShape(*o.follow, b, i)) : -1;
+    if (pv >= 0) {
+      const Solution& from = o.follow->shapes[static_cast<std::size_t>(pv)];
+      if ((from.summary.stable && !s.summary.stable) || jumped(from, s, thr))
+        return i == 0 ? "frictionless branch snaps" : "a friction band branch snaps";
     }
     const ShapeCheck c = checkShape(ctx, s, t);
-    if (!c.ok) {
-      why = "friction band shape: " + c.reason;
-      return false;
-    }
-    out.shapes.push_back(std::move(s));
+    if (!c.ok) return (i == 0 ? "frictionless shape: " : "friction band shape: ") + c.reason;
+    return "";
+  };
+  out = frictionBand(ctx.robot(), q, t.ws, o);
+  if (!out.converged) {
+    if (out.shapes.empty() && o.follow)
+      why = "frictionless branch snaps";
+    else if (out.shapes.empty())
+      why = "frictionless shape: not converged";
+    else
+      why = out.message;
+    return false;
   }
   if (!releaseIsSmooth(prev, out, thr)) {
     why = "a contact site vanishes and releases its friction torque (the band jumps)";
@@ -165,7 +123,7 @@ ConfigurationCheck checkFrictionless(const Context& ctx, const Configuration& q,
 
 ConfigurationCheck checkRobust(const Context& ctx, const Configuration& q, ThreadScratch& t) {
   ConfigurationCheck r;
-  Band b;
+  FrictionBand b;
   r.ok = bandAt(ctx, q, t, nullptr, b, r.reason);
   if (!b.shapes.empty()) r.shape = std::move(b.shapes[0]);
   return r;
@@ -180,7 +138,7 @@ bool sameEquilibrium(const Solution& a, const Solution& b) {
          (a.tip_position - b.tip_position).norm() <= 1e-5;
 }
 
-bool sameBand(const Band& a, const Band& b) {
+bool sameBand(const FrictionBand& a, const FrictionBand& b) {
   if (a.shapes.size() != b.shapes.size() || !(a.sites == b.sites)) return false;
   for (std::size_t i = 0; i < a.shapes.size(); ++i)
     if (!sameEquilibrium(a.shapes[i], b.shapes[i])) return false;
@@ -197,13 +155,9 @@ bool sameBand(const Band& a, const Band& b) {
 // ends on the own equilibrium of the configuration it reaches; otherwise nothing of it is valid.
 double checkMotionForward(const Context& ctx, const Configuration& q0, const Configuration& q1, ThreadScratch& t,
                           std::string* reason) {
-  const Configuration d(q1.alpha - q0.alpha, q1.beta - q0.beta);
-  const int steps = stepsFor(ctx, d);
+  const int steps = subdivisions(q0, q1, ctx.options().rotation_resolution, ctx.options().translation_resolution);
   std::string why;
-  auto at = [&](int k) {
-    const double s = static_cast<double>(k) / steps;
-    return Configuration(q0.alpha + s * d.alpha, q0.beta + s * d.beta);
-  };
+  auto at = [&](int k) { return interpolate(q0, q1, static_cast<double>(k) / steps); };
   auto result = [&](int last, bool whole, bool own) {
     if (!own) why = "the motion arrives on another equilibrium than the configuration's own (several are stable there)";
     if ((!whole || !own) && reason) *reason = why;
@@ -211,7 +165,7 @@ double checkMotionForward(const Context& ctx, const Configuration& q0, const Con
     return whole ? 1.0 : static_cast<double>(last) / steps;
   };
   if (ctx.options().mode == Mode::Robust) {
-    Band cur, next;
+    FrictionBand cur, next;
     if (!bandAt(ctx, q0, t, nullptr, cur, why)) return result(0, false, true);
     int k = 1;
     for (; k <= steps; ++k) {
@@ -220,7 +174,7 @@ double checkMotionForward(const Context& ctx, const Configuration& q0, const Con
     }
     const int last = k - 1;
     if (last == 0) return result(0, false, true);  // cur is the cold band at q0
-    Band own;
+    FrictionBand own;
     std::string w;
     return result(last, last == steps, bandAt(ctx, at(last), t, nullptr, own, w) && sameBand(cur, own));
   }

@@ -5,6 +5,7 @@
 #include "common.hpp"
 #include "ctr/diagnosis/diagnose.hpp"
 #include "ctr/io/recording.hpp"
+#include "ctr/model/replay.hpp"
 
 namespace ctr::py {
 
@@ -133,7 +134,8 @@ void registerDiagnosis(pyb::module_& m) {
       },
       arg("robot"), arg("recording"), arg("frame") = "base", arg("folds") = 4, arg("threads") = 2,
       arg("max_effects") = 4, arg("bic_threshold") = 10.0, arg("candidates") = pyb::none(),
-      arg("progress") = pyb::none(), arg("with_report") = false, arg("noise") = pyb::none(), arg("branch") = "auto",
+      arg("progress") = pyb::none(), arg("with_report") = false, arg("noise") = pyb::none(),
+      arg("branch") = toString(BranchRule::Auto),
       "`ctr diagnose`: where the recording (a path or a ctr.Recording) and the nominal robot differ, and which "
       "left-out physics explains it. Returns the dict of the diagnosis JSON (formats.md; the same object as "
       "--json writes); with_report=True returns (dict, Markdown report). progress: a callable taking a str. "

@@ -143,7 +143,7 @@ void registerEnvironments(pyb::module_& m) {
           [](const env::Environment& e, const pyb::object& p) {
             const Eigen::VectorXd v = toVector(p, "point");
             if (v.size() != 3) throw pyb::value_error("point: expected 3 coordinates");
-            return std::string(env::occupancyName(e.occupancy(v)));
+            return std::string(env::toString(e.occupancy(v)));
           },
           arg("point"), "'free', 'occupied' or 'unknown' at a world point (m).")
       .def(

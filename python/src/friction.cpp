@@ -12,36 +12,24 @@ namespace {
 
 using pyb::arg;
 
-const char* contactModeName(ContactMode m) {
-  switch (m) {
-    case ContactMode::Stick:
-      return "stick";
-    case ContactMode::SlipPositive:
-      return "slip_positive";
-    case ContactMode::SlipNegative:
-      return "slip_negative";
-  }
-  return "unknown";
-}
-
 ContactMode parseContactMode(const std::string& s) {
-  if (s == "stick") return ContactMode::Stick;
-  if (s == "slip_positive") return ContactMode::SlipPositive;
-  if (s == "slip_negative") return ContactMode::SlipNegative;
+  for (ContactMode m : {ContactMode::Stick, ContactMode::SlipPositive, ContactMode::SlipNegative})
+    if (s == toString(m)) return m;
   throw pyb::value_error("contact mode '" + s + "': expected stick, slip_positive or slip_negative");
 }
 
 FrictionMode parseFrictionMode(const pyb::handle& h) {
   if (pyb::isinstance<FrictionMode>(h)) return h.cast<FrictionMode>();
   const std::string s = pyb::str(h).cast<std::string>();
-  if (s == "stick-slip" || s == "stick_slip") return FrictionMode::StickSlip;
-  if (s == "paper") return FrictionMode::Paper;
+  if (s == "stick_slip") return FrictionMode::StickSlip;  // the Python enum's spelling
+  for (FrictionMode m : {FrictionMode::StickSlip, FrictionMode::Paper})
+    if (s == toString(m)) return m;
   throw pyb::value_error("friction mode '" + s + "': expected 'stick-slip' or 'paper'");
 }
 
 MomentKind parseKind(const std::string& s) {
-  if (s == "tube_end") return MomentKind::TubeEnd;
-  if (s == "curvature_discontinuity") return MomentKind::CurvatureDiscontinuity;
+  for (MomentKind k : {MomentKind::TubeEnd, MomentKind::CurvatureDiscontinuity})
+    if (s == toString(k)) return k;
   throw pyb::value_error("contact kind '" + s + "': expected tube_end or curvature_discontinuity");
 }
 
@@ -49,7 +37,7 @@ pyb::list contactMemoryList(const HysteresisState& h) {
   pyb::list out;
   for (const ContactMemory& c : h.contacts) {
     pyb::dict d = siteDict(c.site);
-    d["mode"] = contactModeName(c.mode);
+    d["mode"] = toString(c.mode);
     d["relative_twist"] = c.relative_twist;
     d["torque"] = c.torque;
     d["bound"] = c.bound;
@@ -159,7 +147,7 @@ void registerFriction(pyb::module_& m) {
       .def("__repr__", [](const HysteresisState& h) {
         if (!h.valid) return std::string("<ctr.HysteresisState (not initialised)>");
         std::string modes;
-        for (const auto& c : h.contacts) modes += std::string(modes.empty() ? "" : ", ") + contactModeName(c.mode);
+        for (const auto& c : h.contacts) modes += std::string(modes.empty() ? "" : ", ") + toString(c.mode);
         return "<ctr.HysteresisState alpha=" + pyb::repr(pyb::cast(h.q.alpha)).cast<std::string>() + ", contacts [" +
                modes + "]>";
       });
@@ -260,7 +248,7 @@ void registerFriction(pyb::module_& m) {
         return d;
       },
       arg("robot"), arg("alpha"), arg("beta"), arg("options") = pyb::none(), arg("keep_states") = false,
-      arg("branch") = "auto",
+      arg("branch") = toString(BranchRule::Auto),
       "Replays K commands (alpha, beta: (K, n)) through the stateful friction model as `ctr simulate` (branch: "
       "'auto', 'path' or 'rest', docs/friction.md \"Replaying a sequence\"). Dict of arrays: alpha, beta, twist, "
       "tip_position, tip_tangent (NaN where not converged), stability, converged, stable, snapped, status, message "

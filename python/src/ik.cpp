@@ -17,9 +17,8 @@ namespace {
 using pyb::arg;
 
 Approach parseHistory(const std::string& h) {
-  if (h == "rest") return Approach::Rest;
-  if (h == "positive") return Approach::Positive;
-  if (h == "negative") return Approach::Negative;
+  for (Approach a : {Approach::Rest, Approach::Positive, Approach::Negative})
+    if (h == toString(a)) return a;
   throw pyb::value_error("history '" + h + "': expected 'rest', 'positive' or 'negative'");
 }
 

@@ -15,22 +15,6 @@ namespace {
 
 using pyb::arg;
 
-const char* kindName(MomentKind k) {
-  return k == MomentKind::TubeEnd ? "tube_end" : "curvature_discontinuity";
-}
-
-const char* lawName(ContactCondition::Law l) {
-  switch (l) {
-    case ContactCondition::Law::Free:
-      return "free";
-    case ContactCondition::Law::Stick:
-      return "stick";
-    case ContactCondition::Law::Torque:
-      return "torque";
-  }
-  return "unknown";
-}
-
 /// A tube as a dict with the keys of the robot YAML (the rule of robotToYaml for poisson_ratio vs
 /// torsional_stiffness, so that the dict round-trips through Robot(dict)).
 pyb::dict tubeDict(const Tube& t) {
@@ -156,7 +140,7 @@ pyb::list momentsList(const Solution& sol) {
   pyb::list out;
   for (const auto& m : sol.moments) {
     pyb::dict d;
-    d["kind"] = kindName(m.kind);
+    d["kind"] = toString(m.kind);
     d["tube"] = m.tube + 1;
     d["s"] = m.s;
     d["magnitude"] = m.magnitude;
@@ -231,7 +215,7 @@ pyb::dict solutionRows(const std::vector<const Solution*>& sols, int n) {
 
 pyb::dict siteDict(const ContactSite& c) {
   pyb::dict d;
-  d["kind"] = kindName(c.kind);
+  d["kind"] = toString(c.kind);
   d["tube"] = c.tube + 1;
   d["outer"] = c.outer + 1;
   d["inner"] = c.inner + 1;
@@ -461,7 +445,7 @@ void registerModel(pyb::module_& m) {
             pyb::list out;
             for (const auto& c : s.contacts) {
               pyb::dict d = siteDict(c.site);
-              d["law"] = lawName(c.condition.law);
+              d["law"] = toString(c.condition.law);
               d["value"] = c.condition.value;
               d["relative_twist"] = c.relative_twist;
               d["torque"] = c.torque;

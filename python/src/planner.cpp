@@ -24,20 +24,6 @@ struct Replay {
   const plan::ReplayReport& rep() const { return r->replay; }
 };
 
-const char* historyName(plan::StartHistory::Kind k) {
-  switch (k) {
-    case plan::StartHistory::Kind::Rest:
-      return "rest";
-    case plan::StartHistory::Kind::Positive:
-      return "positive";
-    case plan::StartHistory::Kind::Negative:
-      return "negative";
-    case plan::StartHistory::Kind::Path:
-      return "path";
-  }
-  return "unknown";
-}
-
 /// The `ctr plan --json` object (plan::resultJson, as the CLI writes it): same keys and values.
 pyb::object resultDict(const plan::Query& q, const plan::PlanResult& r) {
   return pyb::module_::import("json").attr("loads")(plan::resultJson(q, r, -1));
@@ -109,7 +95,7 @@ void registerPlanner(pyb::module_& m) {
           "history",
           [](const plan::Query& q) {
             pyb::dict d;
-            d["kind"] = historyName(q.history.kind);
+            d["kind"] = toString(q.history.kind);
             d["approach"] = q.history.approach;
             d["path"] = configurationArrays(q.history.path, q.start.size());
             return d;
@@ -208,7 +194,7 @@ void registerPlanner(pyb::module_& m) {
         arg("check_files") = true, "Parses query text; relative paths resolve against base_dir.");
   m.def(
       "planner_names", [](const std::string& mode) { return plan::plannerNames(plan::parseMode(mode)); },
-      arg("mode") = "exact", "Known planner names of a mode.");
+      arg("mode") = toString(plan::Mode::Exact), "Known planner names of a mode.");
 
   pyb::class_<Replay>(m, "ReplayReport",
                       "The planned path replayed at fine resolution through the stateful friction model: the summary "

@@ -1,7 +1,7 @@
 // Assembly of a self-contained HTML report from the embedded bundles.
 #include <stdexcept>
 
-#include "ctr/io/recording.hpp"
+#include "ctr/io/file.hpp"
 #include "ctr/reports/reports.hpp"
 
 namespace ctr::reports {
@@ -47,8 +47,10 @@ std::string scriptSafe(const std::string& json) {
   return o;
 }
 
-const char* kindName(ReportKind k) {
-  switch (k) {
+}  // namespace
+
+const char* toString(ReportKind kind) {
+  switch (kind) {
     case ReportKind::Diagnosis:
       return "diagnosis";
     case ReportKind::Planning:
@@ -60,10 +62,9 @@ const char* kindName(ReportKind k) {
   }
   return "diagnosis";
 }
-}  // namespace
 
 std::string renderHtml(ReportKind kind, const std::string& title, const std::string& data_json) {
-  const std::string name = kindName(kind);
+  const std::string name = toString(kind);
   const std::string& js = detail::bundle(name + ".js");
   if (js.empty()) throw std::runtime_error("the " + name + " report bundle is missing from this build");
   std::string h;

@@ -107,6 +107,9 @@ TEST(Cli, HelpOnEverySubcommand) {
     const Proc r = run(std::string(sub) + " --help");
     EXPECT_EQ(r.code, 0) << sub;
     EXPECT_NE(r.out.find("--help"), std::string::npos) << sub;
+    // The usage line names the program and the subcommand.
+    const std::string usage = std::string("Usage: ctr ") + (*sub ? std::string(sub) + " " : "") + "[OPTIONS]";
+    EXPECT_NE(r.out.find(usage), std::string::npos) << r.out;
   }
 }
 

@@ -64,13 +64,13 @@ TEST(Noise, TangentAndPositionEstimatesAreWithinTenPercentAtThreeLevels) {
     for (Quantity q : {Quantity::TipTangent, Quantity::TipPosition, Quantity::Twist}) {
       const double want = q == Quantity::TipPosition ? s.position_sd : s.tangent_sd;
       const NoiseEstimate& e = n.by_quantity.at(q);
-      EXPECT_NEAR(e.sigma / want, 1.0, 0.10) << quantityName(q) << " at " << level << ": " << e.note;
+      EXPECT_NEAR(e.sigma / want, 1.0, 0.10) << toString(q) << " at " << level << ": " << e.note;
       EXPECT_EQ(e.source, "neighbours");
       EXPECT_TRUE(e.supported) << e.note;
       EXPECT_LT(e.interval95[0], e.sigma);
       EXPECT_GT(e.interval95[1], e.sigma);
-      std::printf("%s at %.1f: %.4f of the truth, 95 %% [%.4f, %.4f], %.0f dof\n", quantityName(q), level,
-                  e.sigma / want, e.interval95[0] / want, e.interval95[1] / want, e.dof);
+      std::printf("%s at %.1f: %.4f of the truth, 95 %% [%.4f, %.4f], %.0f dof\n", toString(q), level, e.sigma / want,
+                  e.interval95[0] / want, e.interval95[1] / want, e.dof);
     }
   }
 }

@@ -33,7 +33,7 @@ TEST(Effect, ParseAndNames) {
   EXPECT_THROW(parseEffect("friction:mu=1"), std::invalid_argument);
   EXPECT_THROW(parseEffect("actuator_offset:offset=1"), std::invalid_argument);  // missing tube
   EXPECT_THROW(parseEffect("boundary_friction:nu=1"), std::invalid_argument);
-  for (EffectKind k : allEffectKinds()) EXPECT_EQ(parseEffectKind(effectName(k)), k);
+  for (EffectKind k : allEffectKinds()) EXPECT_EQ(parseEffectKind(toString(k)), k);
 }
 
 TEST(Effect, AppliesToRobot) {
@@ -251,7 +251,7 @@ TEST(ForwardModel, CoarsePassEqualsFineReplay) {
     fine.replay.coarse_rotation_step = 0.0;
     const Prediction a = predict(r, cmd, time, c.effects, ws, coarse);
     const Prediction b = predict(r, cmd, time, c.effects, ws, fine);
-    SCOPED_TRACE(c.robot + " " + effectName(c.effects[0].kind));
+    SCOPED_TRACE(c.robot + " " + toString(c.effects[0].kind));
     // Same rows evaluated (random-order 3-tube rows may be reached through a snap: excluded by both passes, never
     // failed for another reason), identical outputs on them, NaN (not another row's output) on the others.
     ASSERT_EQ(a.ok, b.ok);

@@ -10,6 +10,7 @@
 #include <string>
 #include <vector>
 
+#include "ctr/io/file.hpp"
 #include "ctr/io/recording.hpp"
 #include "ctr/io/robot_yaml.hpp"
 

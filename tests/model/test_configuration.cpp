@@ -1,9 +1,13 @@
 // Admissibility: projectAdmissible projects configurations read from files (rounded values) onto the admissible set
 // when they violate it by at most kAdmissibilityTolerance, and refuses larger violations naming the constraint.
+// Motion discretisation: subdivisions counts the sub-steps of a straight move, interpolate gives the configurations
+// along it.
 #include <gtest/gtest.h>
 
+#include <cmath>
 #include <cstring>
 #include <limits>
+#include <stdexcept>
 
 #include "ctr/model/configuration.hpp"
 #include "tube_factory.hpp"
@@ -178,4 +182,105 @@ TEST(Admissibility, WhatCannotBeProjectedIsReportedAsBefore) {
   a = projectAdmissible(r, q);
   ASSERT_FALSE(a);
   EXPECT_NE(a.message.find("does not leave the actuation unit"), std::string::npos) << a.message;
+}
+
+namespace {
+
+Configuration twoTubes(double a1, double a2, double b1, double b2) {
+  return Configuration(Eigen::Vector2d(a1, a2), Eigen::Vector2d(b1, b2));
+}
+
+}  // namespace
+
+TEST(Subdivisions, NoMoveIsOneStep) {
+  const Configuration q = twoTubes(0.3, -1.0, -0.01, -0.02);
+  EXPECT_EQ(subdivisions(q, q, 0.01, 1e-3), 1);
+  EXPECT_EQ(subdivisions(Configuration(), Configuration(), 0.01, 1e-3), 1);
+}
+
+TEST(Subdivisions, ExactMultiplesTakeThatManySteps) {
+  // Moves that are whole multiples of the step, also where the division rounds to just above the integer
+  // (3 * 0.1 / 0.1 = 3.0000000000000004, 15 * 0.0087 / 0.0087 = 15.000000000000002) or below it
+  // (0.7 / 0.1 = 6.999999999999999).
+  const Configuration o = twoTubes(0.0, 0.0, 0.0, 0.0);
+  EXPECT_EQ(subdivisions(o, twoTubes(3 * 0.1, 0.0, 0.0, 0.0), 0.1, 1.0), 3);
+  EXPECT_EQ(subdivisions(o, twoTubes(0.0, 15 * 0.0087, 0.0, 0.0), 0.0087, 1.0), 15);
+  EXPECT_EQ(subdivisions(o, twoTubes(0.0, 31 * 0.0175, 0.0, 0.0), 0.0175, 1e-3), 31);
+  EXPECT_EQ(subdivisions(o, twoTubes(0.0, 0.7, 0.0, 0.0), 0.1, 1.0), 7);
+  EXPECT_EQ(subdivisions(o, twoTubes(0.0, 0.0, -0.006, 0.0), 1.0, 1e-3), 6);
+  EXPECT_EQ(subdivisions(o, twoTubes(0.0, 0.0, 0.0, -0.0087 * 3), 1.0, 0.0087), 3);
+  // Commands that are sums of steps (as a propagation accumulates them) and the step itself.
+  double a = 0.0;
+  for (int k = 0; k < 10; ++k) a += 0.0087;
+  EXPECT_EQ(subdivisions(o, twoTubes(a, 0.0, 0.0, 0.0), 0.0087, 1.0), 10);
+  EXPECT_EQ(subdivisions(o, twoTubes(0.0175, 0.0, 0.0, 0.0), 0.0175, 1e-3), 1);
+}
+
+TEST(Subdivisions, RoundsUpBeyondTheSlack) {
+  const Configuration o = twoTubes(0.0, 0.0, 0.0, 0.0);
+  EXPECT_EQ(subdivisions(o, twoTubes(0.1000001, 0.0, 0.0, 0.0), 0.1, 1.0), 2);
+  EXPECT_EQ(subdivisions(o, twoTubes(0.25, 0.0, 0.0, 0.0), 0.1, 1.0), 3);
+  EXPECT_EQ(subdivisions(o, twoTubes(0.01, 0.0, 0.0, 0.0), 0.1, 1.0), 1);
+  // Within the slack of a whole number of steps: that number.
+  EXPECT_EQ(subdivisions(o, twoTubes(0.2 * (1 + 0.1 * kSubdivisionSlack), 0.0, 0.0, 0.0), 0.2, 1.0), 1);
+}
+
+TEST(Subdivisions, LargestChangeOfAnyTubeDecides) {
+  const Configuration from = twoTubes(1.0, -2.0, -0.010, -0.020);
+  // Rotation of tube 2 by -0.45 rad (5 steps of 0.1); translation of tube 1 by 3.5 mm (4 steps of 1 mm).
+  EXPECT_EQ(subdivisions(from, twoTubes(1.05, -2.45, -0.0135, -0.020), 0.1, 1e-3), 5);
+  EXPECT_EQ(subdivisions(from, twoTubes(1.05, -2.05, -0.0135, -0.020), 0.1, 1e-3), 4);
+  // Direction does not matter.
+  EXPECT_EQ(subdivisions(twoTubes(1.05, -2.45, -0.0135, -0.020), from, 0.1, 1e-3), 5);
+}
+
+TEST(Subdivisions, RotationsAreNotWrapped) {
+  // Commands are unwrapped: 2 pi is a full turn (friction and twist depend on it), not no move.
+  const Configuration o = twoTubes(0.0, 0.0, 0.0, 0.0);
+  EXPECT_EQ(subdivisions(o, twoTubes(2 * M_PI, 0.0, 0.0, 0.0), 0.0175, 1e-3), 360);
+  EXPECT_EQ(subdivisions(twoTubes(3.0, 0.0, 0.0, 0.0), twoTubes(-3.0, 0.0, 0.0, 0.0), 0.1, 1.0), 60);
+}
+
+TEST(Subdivisions, RejectsBadInput) {
+  const Configuration o = twoTubes(0.0, 0.0, 0.0, 0.0);
+  const double inf = std::numeric_limits<double>::infinity(), nan = std::numeric_limits<double>::quiet_NaN();
+  EXPECT_THROW(subdivisions(o, Configuration(Eigen::Vector3d::Zero(), Eigen::Vector3d::Zero()), 0.1, 1e-3),
+               std::invalid_argument);
+  EXPECT_THROW(subdivisions(o, o, 0.0, 1e-3), std::invalid_argument);
+  EXPECT_THROW(subdivisions(o, o, 0.1, -1e-3), std::invalid_argument);
+  EXPECT_THROW(subdivisions(o, twoTubes(inf, 0.0, 0.0, 0.0), 0.1, 1e-3), std::invalid_argument);
+  EXPECT_THROW(subdivisions(o, twoTubes(0.0, 0.0, nan, 0.0), 0.1, 1e-3), std::invalid_argument);
+  EXPECT_THROW(subdivisions(o, twoTubes(1e300, 0.0, 0.0, 0.0), 1e-300, 1e-3), std::invalid_argument);
+}
+
+TEST(Interpolate, EndpointsAreExact) {
+  // 0.1 + 1 * (0.7 - 0.1) is not 0.7 in floating point; interpolate returns the end itself.
+  const Configuration a = twoTubes(0.1, -1.3, -0.0123, -0.0456), b = twoTubes(0.7, 2.9, -0.0311, -0.0789);
+  EXPECT_TRUE(sameBits(interpolate(a, b, 0.0), a));
+  EXPECT_TRUE(sameBits(interpolate(a, b, 1.0), b));
+  const int n = subdivisions(a, b, 0.0175, 1e-3);
+  EXPECT_TRUE(sameBits(interpolate(a, b, static_cast<double>(n) / n), b));
+}
+
+TEST(Interpolate, StraightLineInUnwrappedCommands) {
+  const Configuration a = twoTubes(3.0, 0.0, -0.01, -0.02), b = twoTubes(-3.0, 1.0, -0.03, -0.02);
+  const Configuration m = interpolate(a, b, 0.25);
+  EXPECT_DOUBLE_EQ(m.alpha[0], 1.5);  // through 0, not the short way across pi
+  EXPECT_DOUBLE_EQ(m.alpha[1], 0.25);
+  EXPECT_DOUBLE_EQ(m.beta[0], -0.015);
+  EXPECT_DOUBLE_EQ(m.beta[1], -0.02);
+  // Consecutive sub-steps stay within the step sizes subdivisions was given.
+  const int n = subdivisions(a, b, 0.1, 1e-3);
+  for (int k = 1; k <= n; ++k) {
+    const Configuration p = interpolate(a, b, static_cast<double>(k - 1) / n), q = interpolate(a, b, double(k) / n);
+    EXPECT_LE((q.alpha - p.alpha).cwiseAbs().maxCoeff(), 0.1 * (1 + 1e-12));
+    EXPECT_LE((q.beta - p.beta).cwiseAbs().maxCoeff(), 1e-3 * (1 + 1e-12));
+  }
+}
+
+TEST(Configuration, ZerosIsAllZero) {
+  const Configuration q = Configuration::zeros(3);
+  EXPECT_EQ(q.size(), 3);
+  EXPECT_TRUE(q.alpha.isZero(0.0));
+  EXPECT_TRUE(q.beta.isZero(0.0));
 }

@@ -1,5 +1,5 @@
 // The replay's branch rule: continuation along small moves, from rest after unknown paths; never an unstable
-// equilibrium; the other stable equilibria listed; the failure rule.
+// equilibrium; the other stable equilibria listed; the failure rule; the observer.
 #include <gtest/gtest.h>
 
 #include <cmath>
@@ -136,5 +136,28 @@ TEST(Replay, FailedRowIsReportedAndTheNextComesFromTheLastState) {
   for (std::size_t k = 6; k < a.size(); ++k) {
     ASSERT_TRUE(a[k].ok) << a[k].reason;
     EXPECT_LT((a[k].result.solution.tip_position - b[k - 1].result.solution.tip_position).norm(), 1e-12);
+  }
+}
+
+TEST(Replay, ObserverSeesEveryRowInOrderAndCanEndTheReplay) {
+  const Robot r = bistablePair().withFriction({0.1, 0.0});
+  Workspace ws;
+  std::vector<Configuration> q;
+  for (int k = 0; k <= 6; ++k) q.push_back(pose(k * 10 * kDeg));
+  const std::vector<ReplayRow> all = replay(r, q, ws);
+  std::vector<std::size_t> seen;
+  std::vector<Eigen::Vector3d> tips;
+  const std::vector<ReplayRow> part = replay(r, q, ws, {}, {}, [&](std::size_t k, ReplayRow& row) {
+    seen.push_back(k);
+    tips.push_back(row.result.solution.tip_position);
+    row.result.solution.backbone.clear();  // the observer may take what it has checked
+    return k < 3;
+  });
+  EXPECT_EQ(seen, (std::vector<std::size_t>{0, 1, 2, 3}));
+  ASSERT_EQ(part.size(), 4u);
+  // The rows it saw are those of the whole replay, bit for bit.
+  for (std::size_t k = 0; k < part.size(); ++k) {
+    EXPECT_EQ(part[k].reached, all[k].reached);
+    EXPECT_EQ(tips[k], all[k].result.solution.tip_position);
   }
 }

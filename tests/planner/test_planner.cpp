@@ -485,6 +485,11 @@ namespace {
 void expectReplayRecomputesThePlannersStates(const CtrPlanner& p, const PlanResult& r) {
   const auto& states = p.controlSetup()->getSolutionPath().getStates();
   ASSERT_GE(states.size(), 2u);
+  // The start: the planner's start state (startCache, the replay of the start history) is the replay's first point.
+  const auto* s0 = states[0]->as<CtrStateSpace::StateType>();
+  ASSERT_TRUE(s0->cache && !r.replay.points.empty());
+  EXPECT_EQ(r.replay.points[0].solution.tip_position, s0->cache->solution.tip_position);
+  EXPECT_EQ(r.replay.points[0].hysteresis.base_twist_rate, s0->cache->hysteresis.base_twist_rate);
   std::size_t matched = 0, next = 0;
   for (std::size_t k = 1; k < states.size(); ++k) {
     const auto* st = states[k]->as<CtrStateSpace::StateType>();

@@ -62,7 +62,7 @@ const std::vector<EffectKind>& genericEffectKinds();
 /// @brief True for the generic models of physics outside the library.
 bool isGeneric(EffectKind k);
 /// @brief JSON name of a kind (e.g. "boundary_friction").
-const char* effectName(EffectKind k);
+const char* toString(EffectKind k);
 /// @brief Name of the kind's (first) continuous parameter (e.g. "mu", "poisson_ratio", "width"; "scale" for
 /// gravity, "force" for tip_load).
 const char* parameterName(EffectKind k);

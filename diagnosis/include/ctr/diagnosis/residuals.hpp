@@ -20,7 +20,7 @@ namespace ctr::diagnosis {
 enum class Quantity { Twist, TipPosition, TipTangent };
 
 /// @brief JSON name: "twist", "tip_position", "tip_tangent".
-const char* quantityName(Quantity q);
+const char* toString(Quantity q);
 /// @brief The quantities present in a recording.
 std::vector<Quantity> presentQuantities(const io::Recording& rec);
 
@@ -29,6 +29,9 @@ enum class FrameMode {
   Base,     ///< Already in the robot base frame.
   Unknown,  ///< Unknown sensor frame: a rigid registration (+ tip offset) is estimated in every model.
 };
+
+/// @brief "base" / "unknown".
+const char* toString(FrameMode mode);
 
 /// @brief Noise standard deviation of each quantity: per scalar component for twist (rad) and tip position (m), per
 /// direction normal to the measured tangent for the tip tangent (its residual has 2 degrees of freedom per row).

@@ -21,6 +21,9 @@ enum class ActuationPattern {
   RandomWalk,  ///< Smooth random trajectory with direction reversals (like a teleoperated robot).
 };
 
+/// @brief "sweep" / "random" / "random-walk".
+const char* toString(ActuationPattern pattern);
+
 /// @brief Options of makeActuation().
 struct ActuationOptions {
   ActuationPattern pattern = ActuationPattern::Sweep;

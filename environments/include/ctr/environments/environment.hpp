@@ -33,6 +33,9 @@ UnknownSpace parseUnknownSpace(const std::string& text);
 /// @brief Occupancy of one point of the map.
 enum class Occupancy { Free, Occupied, Unknown };
 
+/// @brief "free" / "occupied" / "unknown".
+const char* toString(Occupancy o);
+
 /// @brief A named rigid pose world_T_base (the robot base frame: origin where the tubes leave the actuation
 /// unit, +z the insertion direction; formats.md).
 struct NamedPose {

@@ -8,9 +8,6 @@
 
 namespace ctr::env {
 
-/// @brief "free", "occupied" or "unknown".
-const char* occupancyName(Occupancy o);
-
 /// @brief The environment as the JSON text of `ctr env info --json` (keys in docs/environments.md): name,
 /// resolution, bounds {min, max, size}, octree statistics, build_seconds, base_pose {position, direction, matrix,
 /// source, occupancy}, starts, targets {name, position, occupancy, distance_from_base, source}, sources and the

@@ -24,6 +24,9 @@ enum class NiftiAffine {
   Qform,  ///< The qform (quaternion + offsets + qfac); an error if qform_code == 0.
 };
 
+/// @brief "auto" / "sform" / "qform" (the environment YAML's `affine`).
+const char* toString(NiftiAffine affine);
+
 /// @brief A 3-D scalar volume and its affine.
 class NiftiVolume {
 public:
@@ -73,6 +76,9 @@ enum class NiftiSampling {
   Conservative,  ///< A cell is set if any selected voxel's box overlaps it (never thins a structure; default).
   Centre,        ///< A cell is set if its centre falls in a selected voxel (nearest-neighbour resampling).
 };
+
+/// @brief "conservative" / "centre" (the environment YAML's `sampling`).
+const char* toString(NiftiSampling sampling);
 
 /// @brief Sets to `value` every grid cell covered by a selected voxel.
 void rasterizeNifti(const NiftiVolume& vol, const std::vector<std::uint8_t>& mask, VoxelGrid& grid,

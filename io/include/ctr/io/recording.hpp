@@ -41,9 +41,4 @@ std::string recordingToCsv(const Recording& rec);
 /// @brief Writes atomically (temporary file + rename): no partial file on failure.
 void saveRecording(const Recording& rec, const std::string& path);
 
-/// @brief Writes a whole file atomically (temporary file in the same folder + rename). Throws InputError.
-void writeFileAtomic(const std::string& path, const std::string& content);
-/// @brief Reads a whole file. Throws InputError if it cannot be read.
-std::string readFile(const std::string& path);
-
 }  // namespace ctr::io

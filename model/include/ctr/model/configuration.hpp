@@ -16,8 +16,8 @@ struct Configuration {
 
   Configuration() = default;
   Configuration(Eigen::VectorXd a, Eigen::VectorXd b) : alpha(std::move(a)), beta(std::move(b)) {}
-  /// @brief All rotations zero and every tube's proximal end at its most retracted admissible position
-  /// that keeps the straight parts in the actuation unit (beta_i = -straight_length_i when admissible).
+  /// @brief n tubes with every rotation and every translation zero (all proximal ends at s = 0). Not admissible in
+  /// general (checkAdmissible); defaultConfiguration(robot) gives the admissible default of a robot.
   static Configuration zeros(int n);
   int size() const { return static_cast<int>(alpha.size()); }
 };
@@ -53,6 +53,25 @@ Admissibility projectAdmissible(const Robot& robot, Configuration& q, double tol
 /// @brief The default configuration of the command line and the Python module: rotations 0, each tube's straight
 /// part retracted (beta_i = -straight length), then made admissible (beta_{i+1} <= beta_i, ordered distal ends).
 Configuration defaultConfiguration(const Robot& robot);
+
+/// @brief Number of equal sub-steps of the straight move from `from` to `to` (both with the same number of tubes)
+/// in which no rotation changes by more than max_rotation_step (rad) and no translation by more than
+/// max_translation_step (m): ceil(max(max_i |d alpha_i| / max_rotation_step, max_i |d beta_i| / max_translation_step)),
+/// at least 1 (also for no move). Rotations are the unwrapped commands: a move by 2 pi is a full turn, not none.
+/// A move within kSubdivisionSlack of a step above a whole number of steps (the rounding of a move that is an exact
+/// multiple of the step) takes that whole number. Every motion discretisation of the library uses this count with
+/// interpolate(): the friction sub-steps of step(), continueTo(), the planner's motion checks and replay.
+/// Throws std::invalid_argument for different sizes, a step size that is not positive, or a move that is not finite.
+int subdivisions(const Configuration& from, const Configuration& to, double max_rotation_step,
+                 double max_translation_step);
+
+/// @brief Rounding allowance of subdivisions() (in steps).
+inline constexpr double kSubdivisionSlack = 1e-9;
+
+/// @brief The configuration a fraction t of the way along the straight move from `from` to `to`:
+/// from + t (to - from) in every rotation and translation (unwrapped). t = 0 gives `from` and t = 1 gives `to`
+/// exactly (bit for bit); sub-step k of n is interpolate(from, to, double(k) / n).
+Configuration interpolate(const Configuration& from, const Configuration& to, double t);
 
 /// @brief Distal end s_i = beta_i + L_i of tube i (0-based).
 inline double distalEnd(const Robot& robot, const Configuration& q, int i) {

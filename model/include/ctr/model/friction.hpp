@@ -3,6 +3,7 @@
 /// an explicit hysteresis state carried along a path, a quasi-static stepping function and the friction band.
 #pragma once
 
+#include <functional>
 #include <string>
 #include <vector>
 
@@ -17,8 +18,14 @@ enum class FrictionMode {
   Paper,      ///< Always slipping, sign from the commanded direction of relative rotation (paper eq. 34-35).
 };
 
+/// @brief "stick-slip" / "paper".
+const char* toString(FrictionMode mode);
+
 /// @brief State of one contact: stuck, or slipping with the torque at the bound.
 enum class ContactMode { Stick, SlipPositive, SlipNegative };
+
+/// @brief "stick" / "slip_positive" / "slip_negative".
+const char* toString(ContactMode mode);
 
 /// @brief Memory of one contact site.
 struct ContactMemory {
@@ -90,22 +97,43 @@ StepResult initialState(const Robot& robot, const Configuration& q, Workspace& w
 StepResult step(const Robot& robot, const HysteresisState& from, const Configuration& q, Workspace& ws,
                 const FrictionOptions& options = {});
 
+struct FrictionBand;
+
 /// @brief Options of the friction band query.
 struct FrictionBandOptions {
   int interior_samples = 1;  ///< Extra samples per contact between the extremes (0 = vertices only).
   KinematicsOptions kinematics;
+  /// A band at a configuration just before q on a path to it: each shape is continued from the shape of `follow` with
+  /// the same torque fractions at the same sites (matched by identity, FrictionBand::sites), the frictionless one
+  /// from follow's frictionless one; shapes without such a counterpart start from the frictionless shape at q.
+  /// Null: every shape starts from the frictionless one, solved cold.
+  const FrictionBand* follow = nullptr;
+  /// Called after each converged shape is added (band.shapes.back()): an empty string goes on, any other ends the
+  /// band there with that message (converged false). With a check the band also ends at the first shape that does not
+  /// converge.
+  std::function<std::string(const FrictionBand& band)> check;
 };
 
 /// @brief The set of equilibria at one configuration reachable under some history: every combination of contact
 /// torques within their bounds. Extreme shapes are the vertices of the torque box.
+/// Order: shapes[0] is frictionless; then every combination of the levels -1, +1 and the interior samples
+/// -1 + 2 i / (interior_samples + 1) per contact (all zero skipped), the level of contact c being digit c of the
+/// combination's index in base (number of levels). Vertices only (interior_samples = 0): shapes[1 + v] is vertex v,
+/// with torque fraction +1 at sites[c] when bit c of v is set and -1 otherwise.
 struct FrictionBand {
   bool converged = false;
+  std::vector<ContactSite> sites;                     ///< The contact sites at q (order of the torque fractions).
   std::vector<Solution> shapes;                       ///< Vertex (and interior) shapes; [0] = frictionless.
   std::vector<std::vector<double>> torque_fractions;  ///< Per shape, torque / bound per contact.
   Eigen::VectorXd twist_min, twist_max;               ///< Extremes of each twist over the shapes (rad).
   double tip_spread = 0.0;                            ///< Largest tip distance from the frictionless tip (m).
   std::string message;
 };
+
+/// @brief Index in `band` of the shape with torque fraction fractions[c] at sites[c] for every c (sites matched by
+/// identity, in any order), or -1 when `band` has other sites or no such shape.
+long bandShapeWith(const FrictionBand& band, const std::vector<ContactSite>& sites,
+                   const std::vector<double>& fractions);
 
 /// @brief Computes the friction band at q.
 FrictionBand frictionBand(const Robot& robot, const Configuration& q, Workspace& ws,

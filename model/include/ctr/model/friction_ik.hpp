@@ -78,6 +78,9 @@ enum class Approach {
   Negative,  ///< Every tube turned negatively relative to its outer neighbour.
 };
 
+/// @brief "rest" / "positive" / "negative".
+const char* toString(Approach approach);
+
 /// @brief Where the approach to q starts: alpha_k - s (k - 1) angle for tube k = 1..n (s = +1 for Positive, -1 for
 /// Negative; clamped to the rotation limits), the same translations; q itself for Rest. Throws std::invalid_argument
 /// for a non-finite angle.

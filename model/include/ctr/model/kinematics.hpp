@@ -19,6 +19,11 @@ enum class MomentKind {
   CurvatureDiscontinuity,  ///< Start of a tube's precurved part (outside the actuation unit).
 };
 
+/// @brief "tube_end" / "curvature_discontinuity".
+inline const char* toString(MomentKind k) {
+  return k == MomentKind::TubeEnd ? "tube_end" : "curvature_discontinuity";
+}
+
 /// @brief A place where a concentrated bending moment acts between two neighbouring tubes, and so where
 /// the lumped friction torque of §II.D acts. Identified by (kind, tube) along a path.
 struct ContactSite {
@@ -40,6 +45,19 @@ struct ContactCondition {
   Law law = Law::Free;
   double value = 0.0;
 };
+
+/// @brief "free" / "stick" / "torque".
+inline const char* toString(ContactCondition::Law law) {
+  switch (law) {
+    case ContactCondition::Law::Free:
+      return "free";
+    case ContactCondition::Law::Stick:
+      return "stick";
+    case ContactCondition::Law::Torque:
+      return "torque";
+  }
+  return "?";
+}
 
 /// @brief Options of the kinematics solver.
 struct KinematicsOptions {

@@ -15,6 +15,7 @@
 /// the way (a jump to another branch) is a prediction of the model, reported as such and not given an output.
 #pragma once
 
+#include <functional>
 #include <string>
 #include <vector>
 
@@ -107,11 +108,18 @@ struct ReplayPath {
   std::vector<char> dense;
 };
 
+/// @brief Called with each row's index and the row as soon as it is replayed. It may take or change the row's
+/// contents (the replay no longer needs them), e.g. check a shape and drop its backbone; returning false ends the
+/// replay after that row.
+using ReplayObserver = std::function<bool(std::size_t index, ReplayRow& row)>;
+
 /// @brief Replays the commands in order (see the file comment for the branch rule). Failure rule: a failed row
 /// (inadmissible, not converged, no consistent stick/slip set, unstable, snapped) is reported and the replay goes on
 /// from the last evaluated state; when that move fails too, the row is reached from rest (Reached::Restart). A snap
-/// is followed: the replay continues from the branch it landed on.
+/// is followed: the replay continues from the branch it landed on. Each move is one step() (sub-stepped by
+/// subdivisions() of the friction options). With an observer that stops the replay, the rows replayed so far.
 std::vector<ReplayRow> replay(const Robot& robot, const std::vector<Configuration>& commands, Workspace& ws,
-                              const ReplayOptions& options = {}, const ReplayPath& path = {});
+                              const ReplayOptions& options = {}, const ReplayPath& path = {},
+                              const ReplayObserver& observer = {});
 
 }  // namespace ctr

@@ -7,6 +7,7 @@
 #include <ompl/control/SpaceInformation.h>
 #include <ompl/control/StatePropagator.h>
 
+#include "ctr/model/replay.hpp"
 #include "ctr/planner/state_space.hpp"
 
 namespace ctr::plan {
@@ -14,7 +15,7 @@ namespace ctr::plan {
 /// @brief How the robot arrived at the start configuration.
 struct StartHistory {
   enum class Kind {
-    Rest,      ///< Torque-free contacts (e.g. just assembled / relaxed): frictionless start.
+    Rest,      ///< At rest (ctr::restAt: the branch reached from the aligned tubes, contacts torque-free).
     Positive,  ///< Arrived by rotating every tube positively (by `approach` rad).
     Negative,  ///< Arrived by rotating every tube negatively.
     Path,      ///< Arrived along the given configurations (in order), ending at the start.
@@ -24,10 +25,30 @@ struct StartHistory {
   std::vector<Configuration> path;       ///< For Path.
 };
 
-/// @brief The physics of the start state given its history.
+/// @brief "rest" / "positive" / "negative" / "path" (the query file's `history`).
+const char* toString(StartHistory::Kind kind);
+
+/// @brief The commands of a start history, ending with the start q: Rest: q alone; Positive / Negative: q with every
+/// rotation reduced / increased by `approach`, then q; Path: the path, then q.
+std::vector<Configuration> startCommands(const Configuration& q, const StartHistory& history);
+
+/// @brief Options of every replay of the planner (ctr::replay): the context's friction stepping with backbones (for
+/// the shape checks), every command reached by continuation from the one before (BranchRule::Path: the path is
+/// known), no coarse sub-steps.
+ReplayOptions replayOptions(const Context& ctx);
+
+/// @brief Why row `index` of the replay of a start history leaves the start unknown (inadmissible, not converged, or
+/// reached from rest again), "" when it does not.
+std::string historyFailure(std::size_t index, const ReplayRow& row);
+
+/// @brief The physics of the start state given its history: the last row of ctr::replay of startCommands() with
+/// replayOptions() (the robot at rest at the history's first command, then moved along it). A history row that
+/// fails (historyFailure) gives a start without a solution, saying why.
 std::shared_ptr<const StateCache> startCache(const Context& ctx, const Configuration& q, const StartHistory& history);
 
-/// @brief Propagates one stick-slip step (sub-stepped) from a state's cached memory; result gets a new cache.
+/// @brief Propagates a motion from a state's cached memory to `to`: step() to each of the subdivisions() of the
+/// motion at the context's resolutions (interpolate()), every intermediate state checked (converged, stable, no snap,
+/// collision-free); the result gets a new cache.
 std::shared_ptr<const StateCache> propagateCache(const Context& ctx, const StateCache& from, const Configuration& to);
 
 /// @brief OMPL state propagator through the friction model.

@@ -1,6 +1,8 @@
 /// @file replay.hpp
 /// @brief Replays a planned path from the start state at fine resolution through the stateful friction model
 /// (the robot's true friction, whatever the planning mode) and reports collisions, snaps, clearance and goal error.
+/// The replay is ctr::replay (model/replay.hpp, as `ctr simulate`) of the start history and the path's sub-steps,
+/// every command reached by continuation (replayOptions()); the planner's checks come on top of it.
 #pragma once
 
 #include <functional>
@@ -37,7 +39,15 @@ struct ReplayReport {
 /// @brief Goal test at the end of a replay: (tip error m, direction error rad, reached).
 using GoalTest = std::function<std::tuple<double, double, bool>(const Solution&)>;
 
-/// @brief Replays `waypoints` (unwrapped configurations, first = start) from the start history.
+/// @brief The commands of a replay of `waypoints`: the first, then every motion between consecutive waypoints in its
+/// subdivisions() at the given steps (interpolate(); each motion ends exactly at its waypoint).
+std::vector<Configuration> replayCommands(const std::vector<Configuration>& waypoints, double rotation_step,
+                                          double translation_step);
+
+/// @brief Replays `waypoints` (unwrapped configurations, first = start) from the start history: ctr::replay of
+/// startCommands() and then replayCommands() with replayOptions(). Every state from the start on is checked
+/// (converged, stable, no snap, collision-free; ReplayPoint::valid); the replay ends at the first move that does not
+/// converge (completed false). The goal is tested at the last state.
 ReplayReport replayPath(const Context& ctx, const std::vector<Configuration>& waypoints, const StartHistory& history,
                         const GoalTest& goal, double rotation_step, double translation_step);
 

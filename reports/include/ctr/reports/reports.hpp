@@ -28,6 +28,9 @@ namespace ctr::reports {
 /// @brief Report kinds (each has its own bundled script).
 enum class ReportKind { Diagnosis, Planning, Sweep, Bench };
 
+/// @brief "diagnosis" / "planning" / "sweep" / "bench" (the name of the report's script bundle).
+const char* toString(ReportKind kind);
+
 /// @brief The complete HTML page of a report: `data_json` (a JSON document) is embedded in a
 /// `<script type="application/json" id="ctr-data">`; `title` is HTML-escaped.
 std::string renderHtml(ReportKind kind, const std::string& title, const std::string& data_json);

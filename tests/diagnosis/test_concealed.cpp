@@ -153,8 +153,12 @@ TEST(Concealed, TwoWeakEffectsTogether) {
   auto v = res.rep.verdict;
   std::sort(v.begin(), v.end());
   EXPECT_EQ(v, (std::vector<std::string>{"boundary_friction", "torsional_stiffness"})) << res.rep.summary;
-  if (const Effect* e = find(res.rep, EffectKind::BoundaryFriction)) EXPECT_NEAR(e->value, 0.06, 0.012);
-  if (const Effect* e = find(res.rep, EffectKind::TorsionalStiffness)) EXPECT_NEAR(e->value, 0.3, 0.06);
+  if (const Effect* e = find(res.rep, EffectKind::BoundaryFriction)) {
+    EXPECT_NEAR(e->value, 0.06, 0.012);
+  }
+  if (const Effect* e = find(res.rep, EffectKind::TorsionalStiffness)) {
+    EXPECT_NEAR(e->value, 0.3, 0.06);
+  }
   expectHeldOutDown(res.rep);
 }
 
@@ -175,7 +179,9 @@ TEST(Concealed, StageOffsetDoesNotStandInForATipLoad) {
   auto v = res.rep.verdict;
   std::sort(v.begin(), v.end());
   EXPECT_EQ(v, (std::vector<std::string>{"actuator_offset", "tip_load"})) << res.rep.summary;
-  if (const Effect* e = find(res.rep, EffectKind::ActuatorOffset)) EXPECT_NEAR(e->value, 0.1, 0.02);
+  if (const Effect* e = find(res.rep, EffectKind::ActuatorOffset)) {
+    EXPECT_NEAR(e->value, 0.1, 0.02);
+  }
   if (const Effect* e = find(res.rep, EffectKind::TipLoad)) {
     EXPECT_NEAR(e->vec.x(), -0.02, 0.006);
     EXPECT_NEAR(e->vec.y(), 0.02, 0.006);

@@ -66,6 +66,8 @@ json evaluationJson(const DesignSpace& space, const Evaluation& e) {
     qs.push_back({{"stage", toString(q.stage)},
                   {"closest", num(q.closest)},
                   {"goal_clearance", num(q.goal_clearance)},
+                  {"goal_collision_length", num(q.goal_collision_length)},
+                  {"goal_collision_tubes", q.goal_collision_tubes},
                   {"ik_tried", q.ik_tried},
                   {"ik_on_target", q.ik_on_target},
                   {"valid_goals", q.valid_goals},

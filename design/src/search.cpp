@@ -94,7 +94,8 @@ Score scoreOf(const std::vector<QueryOutcome>& queries, const Candidate& c) {
         f = 3.0 + std::min(q.closest / 0.1, 0.999);
         break;
       case St::NoValidGoal:
-        f = 2.0 + 0.5 * (1.0 - std::tanh(q.goal_clearance / 0.002));
+        // The least robot length in collision among the goal shapes (0.1 m saturates), else none was stable.
+        f = 2.0 + (std::isfinite(q.goal_collision_length) ? std::min(q.goal_collision_length / 0.1, 0.998) : 0.999);
         break;
       case St::NoPath:
         f = 1.0 + (q.ik_on_target > 0 ? 1.0 - static_cast<double>(q.valid_goals) / q.ik_on_target : 1.0) * 0.5 +
@@ -319,6 +320,25 @@ Evaluation Designer::evaluate(const Candidate& c, std::uint64_t seed, const Desi
         const double cl = chk.ok ? std::max(cr.clearance, 0.0) : std::min(cr.clearance, 0.0);
         out.goal_clearance = std::max(out.goal_clearance, cl);
       }
+      if (chk.shape.summary.stable) {
+        // How much of the shape collides: the progress measure of a design whose goal shapes all collide (the
+        // distance field's clearance saturates at contact).
+        double len = 0.0;
+        std::vector<int> tubes;
+        if (!chk.ok) {
+          ctx.checker().check(chk.shape, t.query);
+          const std::vector<env::Capsule> caps = t.query.capsules();
+          for (const env::Capsule& cap : caps)
+            if (ctx.checker().capsuleCollidesFcl(cap, t.query)) {
+              len += (cap.b - cap.a).norm();
+              if (std::find(tubes.begin(), tubes.end(), cap.tube + 1) == tubes.end()) tubes.push_back(cap.tube + 1);
+            }
+        }
+        if (len < out.goal_collision_length) {
+          out.goal_collision_length = len;
+          out.goal_collision_tubes = tubes;
+        }
+      }
     }
     if (out.ik_on_target == 0) {
       out.stage = St::Unreachable;
@@ -327,9 +347,14 @@ Evaluation Designer::evaluate(const Candidate& c, std::uint64_t seed, const Desi
       all_goals = false;
     } else if (out.valid_goals == 0) {
       out.stage = St::NoValidGoal;
+      std::string tubes;
+      for (int tb : out.goal_collision_tubes) tubes += (tubes.empty() ? "" : ", ") + std::to_string(tb);
       out.message = std::to_string(out.ik_on_target) +
-                    " inverse-kinematics solutions put the tip on the target, none is valid (best clearance " +
-                    mm(out.goal_clearance) + ")";
+                    " inverse-kinematics solutions put the tip on the target, none is valid (" +
+                    (std::isfinite(out.goal_collision_length)
+                         ? "least length in collision " + mm(out.goal_collision_length) + ", tube(s) " + tubes
+                         : std::string("none stable")) +
+                    ")";
       all_goals = false;
     } else {
       out.stage = St::NoPath;

@@ -55,6 +55,10 @@ struct QueryOutcome {
   double closest = std::numeric_limits<double>::infinity();  ///< Closest tip distance to the target reached (m).
   /// Largest clearance (m; <= 0 in contact) of a frictionless shape with the tip on the target.
   double goal_clearance = -std::numeric_limits<double>::infinity();
+  /// Smallest length of robot in collision (m; sum of the colliding capsules' lengths) of a stable frictionless shape
+  /// with the tip on the target, and the tubes (1-based, the outermost of each colliding section) it collides with.
+  double goal_collision_length = std::numeric_limits<double>::infinity();
+  std::vector<int> goal_collision_tubes;
   int ik_tried = 0, ik_on_target = 0, valid_goals = 0;  ///< Of the goal probe.
   int plans = 0, plans_solved = 0;                      ///< Plans made (first + confirmations), clean replays.
   double min_clearance = -std::numeric_limits<double>::infinity();  ///< Smallest replay clearance of the plans (m).

@@ -24,7 +24,7 @@ struct DesignOpts {
   std::vector<std::string> queries;
   std::string out, space, shard, planner;
   long seed = 1;
-  int starts = 1, evaluations = 40, population = 8, threads = 0, probe_goals = 3, confirm = 1;
+  int starts = 1, evaluations = 40, population = 8, threads = 0, probe_goals = 3, probe_candidates = 400, confirm = 1;
   double time = 0.0, probe_time = 2.0, plan_time = 0.0, strain_limit = 0.06;
   bool quiet = false;
   // merge
@@ -61,6 +61,7 @@ int runDesign(const DesignOpts& o, const CLI::App* sub) {
   d.threads = o.threads;
   d.probe_time = o.probe_time;
   d.probe_goals = o.probe_goals;
+  d.probe_candidates = o.probe_candidates;
   d.plan_time = o.plan_time;
   d.planner = o.planner;
   d.confirm_seeds = o.confirm;
@@ -175,6 +176,9 @@ void registerDesign(CLI::App& app, Action& action) {
       ->check(finitePositive());
   sub->add_option("--probe-goals", o->probe_goals, "The probe stops after this many valid goals (default 3)")
       ->check(CLI::Range(1, 100000));
+  sub->add_option("--probe-candidates", o->probe_candidates,
+                  "Inverse-kinematics attempts of the probe at most (default 400)")
+      ->check(CLI::Range(1, 10000000));
   sub->add_option("--plan-time", o->plan_time, "Planning time limit per query, s (default: the query's)")
       ->check(finitePositive());
   sub->add_option("--planner", o->planner, "Override the queries' planner");

@@ -64,7 +64,9 @@ void expectSpaceError(const std::string& text, const std::string& key_part, cons
     const std::string m = e.what();
     EXPECT_NE(m.find("space.yaml"), std::string::npos) << m;
     EXPECT_NE(m.find(key_part), std::string::npos) << m;
-    if (!what.empty()) EXPECT_NE(m.find(what), std::string::npos) << m;
+    if (!what.empty()) {
+      EXPECT_NE(m.find(what), std::string::npos) << m;
+    }
   }
 }
 
@@ -172,7 +174,11 @@ TEST(DesignSampler, NeverProducesACandidateThatViolatesStrainOrNesting) {
         }
       }
       // Every candidate is a loadable robot with admissible translations.
-      const Robot r = makeRobot(s, c, Robot("base", {c.tubes.size(), Tube{"t", 0.1, 0, 0, 1e-3, 1e-3}}), "d");
+      Tube bt;
+      bt.name = "t";
+      bt.straight_length = 0.1;
+      bt.bending_stiffness = bt.torsional_stiffness = 1e-3;
+      const Robot r = makeRobot(s, c, Robot("base", {c.tubes.size(), bt}), "d");
       EXPECT_EQ(io::parseRobot(io::robotToYaml(r), "r.yaml").size(), 3);
     }
     // Re-fit to a random ranking (the sampler must stay within the constraints whatever the objective says).
@@ -270,5 +276,48 @@ TEST(DesignSearch, ASmallRunSolvesAnEasyQueryAndWritesALoadableRobot) {
   // Merging the run as a single shard reproduces its design.
   const std::string merged = mergeDesigns({out.string()}, (dir / "merged").string(), false);
   EXPECT_EQ(io::readFile((dir / "merged" / "robot.yaml").string()), io::readFile((out / "robot.yaml").string()));
+  fs::remove_all(dir);
+}
+
+TEST(DesignSearch, ShardsOfARunMergeIntoTheBestDesignAndAMissingShardIsAnError) {
+  const fs::path dir = tempDir("shards");
+  writeEasyProblem(dir);
+  const std::string qf = writeQuery(dir, "easy", "near");
+  Designer d({plan::loadQuery(qf)}, std::nullopt);
+  DesignOptions o;
+  o.starts = 2;
+  o.evaluations = 2;
+  o.population = 2;
+  o.threads = 2;
+  o.probe_time = 0.3;
+  o.plan_time = 1.0;
+  o.confirm_seeds = 0;
+  std::vector<DesignResult> parts;
+  for (int s = 0; s < 2; ++s) {
+    DesignOptions os = o;
+    os.start_indices = {s};
+    parts.push_back(d.run(os));
+    writeDesign(d, parts.back(), os, std::to_string(s) + "/2",
+                (dir / "run" / "shards" / ("shard-" + std::to_string(s) + "-of-2")).string());
+  }
+  // One shard alone: an error naming the missing one, and nothing written.
+  fs::rename(dir / "run" / "shards" / "shard-1-of-2", dir / "aside");
+  try {
+    mergeDesigns({(dir / "run").string()}, (dir / "merged").string(), false);
+    FAIL() << "expected an InputError for the missing shard";
+  } catch (const io::InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("1/2"), std::string::npos) << e.what();
+  }
+  EXPECT_FALSE(fs::exists(dir / "merged"));
+  fs::rename(dir / "aside", dir / "run" / "shards" / "shard-1-of-2");
+  const nlohmann::json m =
+      nlohmann::json::parse(mergeDesigns({(dir / "run").string()}, (dir / "merged").string(), false));
+  EXPECT_EQ(m["evaluations"].size(), 4u);
+  EXPECT_EQ(m["shards"].size(), 2u);
+  // The merged design is the better of the two shards' bests.
+  const Evaluation& b =
+      parts[0].best->score.better(parts[1].best->score) || !parts[1].best ? *parts[0].best : *parts[1].best;
+  EXPECT_NEAR(m["design"]["score"]["badness"].get<double>(), b.score.badness, 1e-12);
+  EXPECT_TRUE(fs::exists(dir / "merged" / "result.json"));
   fs::remove_all(dir);
 }

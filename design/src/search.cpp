@@ -520,7 +520,8 @@ std::string verdict(const std::vector<Evaluation>& evals, const std::optional<Ev
     } else if (q.stage == St::StartInvalid) {
       m = n + ": the start is invalid for the best design (" + q.message + ")";
     } else {
-      m = n + ": goal configurations exist but no plan replayed clean (" + q.message + ")";
+      m = q.plans == 0 ? n + ": valid goals found, not planned (another query has none)"
+                       : n + ": goal configurations exist but no plan replayed clean (" + q.message + ")";
     }
     msg += (msg.empty() ? "" : "; ") + m;
   }

@@ -496,6 +496,12 @@ DesignResult Designer::run(const DesignOptions& o) const {
   return res;
 }
 
+DesignResult designRobot(std::vector<plan::Query> queries, std::optional<DesignSpace> space,
+                         const DesignOptions& options) {
+  const Designer d(std::move(queries), std::move(space));
+  return d.run(options);
+}
+
 std::string verdict(const std::vector<Evaluation>& evals, const std::optional<Evaluation>& best,
                     const std::vector<std::string>& names) {
   if (!best) return "no candidate evaluated (time limit)";

@@ -5,8 +5,8 @@
 /// whose replay must be clean.
 /// @code
 ///   std::vector<ctr::plan::Query> qs{ctr::plan::loadQuery("examples/queries/medmpd_lung_patient1.yaml")};
-///   ctr::design::Designer d(qs, std::nullopt);   // the default space of the query's robot
-///   ctr::design::DesignResult r = d.run({});     // r.solved, r.best->robot, r.best->queries[k].plan
+///   ctr::design::DesignResult r = ctr::design::designRobot(qs, std::nullopt, {});  // default space of the robot
+///   // r.solved, r.message, r.best->robot_yaml, r.best->queries[k].plan_json
 /// @endcode
 #pragma once
 
@@ -156,6 +156,11 @@ class Designer {
   mutable std::mutex keep_mutex_;
   mutable std::vector<std::shared_ptr<const plan::Context>> keep_;
 };
+
+/// @brief Loads the queries' problems and runs the search: Designer(queries, space).run(options). Throws
+/// ctr::io::InputError for bad input; an unsolved design is a result (`solved` false, `message` why), not an error.
+DesignResult designRobot(std::vector<plan::Query> queries, std::optional<DesignSpace> space,
+                         const DesignOptions& options);
 
 /// @brief The score of the queries' outcomes for a candidate.
 Score scoreOf(const std::vector<QueryOutcome>& queries, const Candidate& c);

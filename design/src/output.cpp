@@ -199,7 +199,7 @@ void writeDesign(const Designer& d, const DesignResult& r, const DesignOptions& 
                  const std::string& dir) {
   fs::create_directories(dir);
   const std::string robot_path = (fs::path(dir) / "robot.yaml").string();
-  if (r.best) {
+  if (r.best && !r.best->robot_yaml.empty()) {
     io::writeFileAtomic(robot_path, r.best->robot_yaml);
     fs::create_directories(fs::path(dir) / "queries");
     for (std::size_t k = 0; k < d.queries().size(); ++k) {

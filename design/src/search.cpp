@@ -441,7 +441,17 @@ DesignResult Designer::run(const DesignOptions& o) const {
         for (std::size_t i = next++; i < cands.size(); i = next++) {
           if (out_of_time()) break;
           const std::size_t index = evals.size() + i;
-          Evaluation ev = evaluate(cands[i], mix(mix(o.seed, static_cast<std::uint64_t>(s)), index), o);
+          Evaluation ev;
+          try {
+            ev = evaluate(cands[i], mix(mix(o.seed, static_cast<std::uint64_t>(s)), index), o);
+          } catch (const std::exception& e) {
+            // A failure inside the model or the planner for this candidate: recorded as its outcome (never thrown
+            // out of a worker thread).
+            ev.candidate = cands[i];
+            ev.queries.resize(queries_.size());
+            for (QueryOutcome& q : ev.queries) q.message = std::string("evaluation failed: ") + e.what();
+            ev.score = scoreOf(ev.queries, cands[i]);
+          }
           ev.index = index;
           ev.start = s;
           ev.generation = gen;

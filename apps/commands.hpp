@@ -21,6 +21,9 @@ void registerRecording(CLI::App& app, Action& action);
 void registerPlan(CLI::App& app, Action& action);
 void registerBench(CLI::App& app, Action& action);
 #endif
+#ifdef CTR_WITH_DESIGN
+void registerDesign(CLI::App& app, Action& action);
+#endif
 #ifdef CTR_WITH_VIEW
 void registerView(CLI::App& app, Action& action);
 #endif

@@ -26,6 +26,9 @@ int main(int argc, char** argv) {
   registerPlan(app, action);
   registerBench(app, action);
 #endif
+#ifdef CTR_WITH_DESIGN
+  registerDesign(app, action);
+#endif
 #ifdef CTR_WITH_VIEW
   registerView(app, action);
 #endif

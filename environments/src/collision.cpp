@@ -12,7 +12,9 @@
 
 #include <algorithm>
 #include <cmath>
+#include <mutex>
 #include <stdexcept>
+#include <vector>
 
 #include "ctr/environments/voxel_grid.hpp"
 
@@ -49,6 +51,38 @@ struct CollisionChecker::Query::Impl {
     request.enable_cost = false;
   }
 };
+
+namespace {
+// Distance fields shared by the checkers built on the same octree with the same region and options (a design search
+// builds one checker per candidate robot; the field, by far their most expensive part, depends on the robot only
+// through the region). Entries hold weak references: a field lives as long as some checker uses it.
+struct FieldEntry {
+  std::weak_ptr<const octomap::OcTree> tree;
+  Aabb region;
+  double max_distance;
+  UnknownSpace unknown;
+  std::size_t max_cells;
+  std::weak_ptr<const DistanceField> field;
+};
+std::mutex g_fields_mutex;
+std::vector<FieldEntry> g_fields;
+
+std::shared_ptr<const DistanceField> sharedField(const std::shared_ptr<const octomap::OcTree>& tree, const Aabb& region,
+                                                 const DistanceFieldOptions& fo) {
+  std::lock_guard<std::mutex> lock(g_fields_mutex);
+  g_fields.erase(std::remove_if(g_fields.begin(), g_fields.end(),
+                                [](const FieldEntry& e) { return e.field.expired() || e.tree.expired(); }),
+                 g_fields.end());
+  for (const FieldEntry& e : g_fields)
+    if (e.tree.lock() == tree && e.region.min == region.min && e.region.max == region.max &&
+        e.max_distance == fo.max_distance && e.unknown == fo.unknown_space && e.max_cells == fo.max_cells)
+      if (auto f = e.field.lock()) return f;
+  // Built under the lock: concurrent checkers of the same map wait for one build instead of doing several.
+  auto f = std::make_shared<const DistanceField>(*tree, region, fo);
+  g_fields.push_back({tree, region, fo.max_distance, fo.unknown_space, fo.max_cells, f});
+  return f;
+}
+}  // namespace
 
 CollisionChecker::Query::Query() : impl_(std::make_unique<Impl>()) {}
 CollisionChecker::Query::~Query() = default;
@@ -94,7 +128,7 @@ CollisionChecker::CollisionChecker(std::shared_ptr<const Environment> env, Robot
       fo.max_distance = options_.max_distance;
       fo.unknown_space = options_.unknown_space;
       fo.max_cells = options_.max_field_cells;
-      field_ = std::make_unique<DistanceField>(*tree_, region, fo);
+      field_ = sharedField(tree_, region, fo);
     }
   }
 }

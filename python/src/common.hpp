@@ -98,5 +98,8 @@ void registerPlanner(pyb::module_& m);
 #ifdef CTR_PY_WITH_DIAGNOSIS
 void registerDiagnosis(pyb::module_& m);
 #endif
+#ifdef CTR_PY_WITH_DESIGN
+void registerDesign(pyb::module_& m);
+#endif
 
 }  // namespace ctr::py

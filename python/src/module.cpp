@@ -22,4 +22,7 @@ PYBIND11_MODULE(ctr, m) {
 #ifdef CTR_PY_WITH_DIAGNOSIS
   ctr::py::registerDiagnosis(m);
 #endif
+#ifdef CTR_PY_WITH_DESIGN
+  ctr::py::registerDesign(m);
+#endif
 }

@@ -135,7 +135,7 @@ private:
   CollisionOptions options_;
   std::shared_ptr<const octomap::OcTree> tree_;
   std::unique_ptr<Fcl> fcl_;
-  std::unique_ptr<DistanceField> field_;
+  std::shared_ptr<const DistanceField> field_;  ///< Shared by checkers of the same octree, region and options.
   double reach_ = 0.0;
 };
 

@@ -1,0 +1,213 @@
+// `ctr design`: patient-specific robot design for one or several planning queries (docs/design.md); `ctr design
+// merge` joins the shards of a run (--shard I/N, for Slurm job arrays and GNU parallel).
+#include <algorithm>
+#include <filesystem>
+#include <iomanip>
+#include <iostream>
+#include <nlohmann/json.hpp>
+#include <set>
+#include <sstream>
+
+#include "campaign.hpp"
+#include "commands.hpp"
+#include "ctr/design/output.hpp"
+#include "ctr/design/search.hpp"
+#include "ctr/io/robot_yaml.hpp"
+#include "progress.hpp"
+
+namespace fs = std::filesystem;
+
+namespace ctr::cli {
+namespace {
+
+struct DesignOpts {
+  std::vector<std::string> queries;
+  std::string out, space, shard, planner;
+  long seed = 1;
+  int starts = 1, evaluations = 40, population = 8, threads = 0, probe_goals = 3, probe_candidates = 400, confirm = 1;
+  double time = 0.0, probe_time = 2.0, plan_time = 0.0, strain_limit = 0.06;
+  bool quiet = false;
+  // merge
+  std::vector<std::string> dirs;
+  std::string merge_out;
+  bool allow_incomplete = false;
+};
+
+std::string mm(double v) {
+  std::ostringstream o;
+  o << std::fixed << std::setprecision(2) << v * 1e3 << " mm";
+  return o.str();
+}
+
+int runDesign(const DesignOpts& o, const CLI::App* sub) {
+  if (o.queries.empty()) throw UsageError("design: one or more query files are required (or `ctr design merge`)");
+  if (o.out.empty()) throw UsageError("--out is required");
+  {
+    std::error_code ec;
+    if (fs::exists(o.out, ec) && !fs::is_directory(o.out, ec))
+      throw UsageError("--out: '" + o.out + "' exists and is not a folder");
+    for (const std::string& q : o.queries)
+      if (fs::exists(o.out, ec) && fs::equivalent(q, o.out, ec)) throw UsageError("--out: is the query " + q);
+  }
+  if (sub->count("--strain-limit") && !o.space.empty())
+    throw UsageError("--strain-limit: set strain_limit in the design space file (" + o.space + ")");
+  if (o.strain_limit > 0.2) throw UsageError("--strain-limit: must be a fraction (0.06 is 6 %)");
+  design::DesignOptions d;
+  d.seed = static_cast<std::uint64_t>(o.seed);
+  d.starts = o.starts;
+  d.evaluations = o.evaluations;
+  d.population = o.population;
+  d.time_limit = o.time;
+  d.threads = o.threads;
+  d.probe_time = o.probe_time;
+  d.probe_goals = o.probe_goals;
+  d.probe_candidates = o.probe_candidates;
+  d.plan_time = o.plan_time;
+  d.planner = o.planner;
+  d.confirm_seeds = o.confirm;
+  std::size_t index = 0, count = 1;
+  if (!o.shard.empty()) {
+    std::tie(index, count) = parseShard(o.shard);
+    for (int s = static_cast<int>(index); s < o.starts; s += static_cast<int>(count)) d.start_indices.push_back(s);
+    if (d.start_indices.empty())
+      throw UsageError("--shard " + o.shard + ": no start for this shard (--starts " + std::to_string(o.starts) +
+                       " < shard count)");
+  }
+  const std::string shard_label = std::to_string(index) + "/" + std::to_string(count);
+  // Every input is checked before any work or output.
+  std::vector<plan::Query> queries;
+  std::set<std::string> names;
+  for (const std::string& f : o.queries) {
+    plan::Query q = plan::loadQuery(f);
+    if (!names.insert(q.name).second)
+      throw io::InputError(f, q.lineOf("name"), "name", "two queries are named '" + q.name + "'");
+    if (!o.planner.empty()) {
+      const auto known = plan::plannerNames(q.mode);
+      if (o.planner != "default" && std::find(known.begin(), known.end(), o.planner) == known.end())
+        throw UsageError("--planner: unknown planner '" + o.planner + "' for mode " + plan::toString(q.mode) + " of " +
+                         f);
+    }
+    queries.push_back(std::move(q));
+  }
+  std::optional<design::DesignSpace> space;
+  if (!o.space.empty()) space = design::loadSpace(o.space);
+  std::cerr << "design: loading " << queries.size() << " quer" << (queries.size() > 1 ? "ies" : "y") << "...\n";
+  std::optional<design::Designer> designer;
+  if (space) {
+    designer.emplace(queries, space);
+  } else {
+    const Robot base = io::loadRobot(queries.front().robot);
+    try {
+      designer.emplace(queries, design::defaultSpace(base, o.strain_limit));
+    } catch (const std::invalid_argument& e) {
+      throw io::InputError(queries.front().robot, 0, "", e.what());
+    }
+  }
+  const auto& sp = designer->space();
+  std::cerr << "design: space '" << sp.name << "': " << sp.tubes.size() << " tubes, " << sp.size_combinations().size()
+            << " size combination(s), strain limit " << sp.strain_limit * 100 << " %; "
+            << d.start_indices.size() + (d.start_indices.empty() ? static_cast<std::size_t>(o.starts) : 0)
+            << " start(s) x " << o.evaluations << " candidates, " << o.population << " per generation"
+            << (o.time > 0 ? ", time limit " + Progress::duration(o.time) : std::string()) << "\n";
+  const std::size_t nstarts = d.start_indices.empty() ? static_cast<std::size_t>(o.starts) : d.start_indices.size();
+  Progress progress("design" + (count > 1 ? " shard " + shard_label : std::string()),
+                    nstarts * static_cast<std::size_t>(o.evaluations), "candidates", o.quiet);
+  d.progress = [&progress](std::size_t done, std::size_t, const std::string& detail) {
+    progress.setDetail(detail);
+    progress.set(done);
+  };
+  const design::DesignResult r = designer->run(d);
+  progress.finish();
+  const std::string dir =
+      count > 1
+          ? (fs::path(o.out) / "shards" / ("shard-" + std::to_string(index) + "-of-" + std::to_string(count))).string()
+          : o.out;
+  design::writeDesign(*designer, r, d, shard_label, dir);
+  // Summary on stdout.
+  std::cout << (r.solved ? "solved" : "not solved") << ": " << r.message << "\n";
+  std::cout << r.evaluations.size() << " candidates evaluated in " << Progress::duration(r.wall_time)
+            << (r.budget_exhausted ? " (time limit reached)" : "") << "\n";
+  if (r.best) {
+    for (std::size_t i = 0; i < r.best->candidate.tubes.size(); ++i) {
+      const auto& t = r.best->candidate.tubes[i];
+      std::cout << "  tube '" << sp.tubes[i].name << "': straight " << mm(t.straight_length) << ", curved "
+                << mm(t.curved_length) << ", curvature " << t.curvature << " 1/m, size "
+                << sp.catalogue[static_cast<std::size_t>(t.size)].name << ", strain " << std::setprecision(3)
+                << design::strain(sp, r.best->candidate, static_cast<int>(i)) * 100 << " %\n";
+    }
+    for (std::size_t k = 0; k < r.best->queries.size(); ++k) {
+      const auto& q = r.best->queries[k];
+      std::cout << "  query '" << designer->queries()[k].name << "': " << design::toString(q.stage);
+      if (q.stage == design::QueryOutcome::Stage::Solved)
+        std::cout << " (" << q.plans_solved << "/" << q.plans << " plans clean, min clearance " << mm(q.min_clearance)
+                  << ")";
+      else
+        std::cout << " (" << q.message << ")";
+      std::cout << "\n";
+    }
+  }
+  std::cout << "wrote " << dir << "/result.json" << (r.best ? ", robot.yaml, queries/, paths/" : "") << "\n";
+  return r.solved ? kOk : kRuntimeFailure;
+}
+
+}  // namespace
+
+void registerDesign(CLI::App& app, Action& action) {
+  auto o = std::make_shared<DesignOpts>();
+  CLI::App* sub = app.add_subcommand(
+      "design",
+      "Design a robot for one or several queries (docs/design.md): search a design space, scoring each candidate by "
+      "a goal probe and a friction-aware plan whose replay must be clean; `ctr design merge` joins --shard outputs");
+  sub->add_option("queries", o->queries, "Query YAML files (one design for all)");
+  sub->add_option("--out", o->out, "Output folder: robot.yaml, result.json, queries/, paths/, space.yaml");
+  sub->add_option("--space", o->space, "Design space YAML (default: derived from the first query's robot)");
+  sub->add_option("--strain-limit", o->strain_limit, "Default space: largest precurvature x outer radius (0.06)")
+      ->check(finitePositive());
+  sub->add_option("--seed", o->seed, "Seed of the search (default 1)")->check(finiteNonNegative());
+  sub->add_option("--starts", o->starts, "Independent searches (restarts); --shard splits them (default 1)")
+      ->check(CLI::Range(1, 100000));
+  sub->add_option("--evaluations", o->evaluations, "Candidates per start (default 40)")->check(CLI::Range(1, 1000000));
+  sub->add_option("--population", o->population, "Candidates per generation, evaluated in parallel (default 8)")
+      ->check(CLI::Range(1, 10000));
+  sub->add_option("--time", o->time, "Wall-clock budget of the run in s (default: none)")->check(finitePositive());
+  sub->add_option("--threads", o->threads, "Candidates evaluated at once (default: the machine's cores)")
+      ->check(CLI::Range(1, 1024));
+  sub->add_option("--probe-time", o->probe_time, "Goal probe per query and candidate, s (default 2)")
+      ->check(finitePositive());
+  sub->add_option("--probe-goals", o->probe_goals, "The probe stops after this many valid goals (default 3)")
+      ->check(CLI::Range(1, 100000));
+  sub->add_option("--probe-candidates", o->probe_candidates,
+                  "Inverse-kinematics attempts of the probe at most (default 400)")
+      ->check(CLI::Range(1, 10000000));
+  sub->add_option("--plan-time", o->plan_time, "Planning time limit per query, s (default: the query's)")
+      ->check(finitePositive());
+  sub->add_option("--planner", o->planner, "Override the queries' planner");
+  sub->add_option("--confirm", o->confirm, "Further plans (other seeds) a solved candidate must pass (default 1)")
+      ->check(CLI::Range(0, 100));
+  sub->add_option("--shard", o->shard, "Run starts I, I+N, ... of --starts (0 <= I < N) into OUT/shards/");
+  sub->add_flag("--quiet", o->quiet, "No progress on stderr");
+  CLI::App* ms = sub->add_subcommand(
+      "merge", "Join the shards of a design run: the best design over every shard, with its robot, plans and paths");
+  ms->add_option("dirs", o->dirs, "Output folders of `ctr design ... --shard I/N --out DIR`")->required();
+  ms->add_option("--out", o->merge_out, "Folder for robot.yaml, result.json, queries/, paths/")->required();
+  ms->add_flag("--allow-incomplete", o->allow_incomplete, "Merge the shards that are there (missing ones listed)");
+  ms->callback([o, &action]() {
+    action = [o]() {
+      std::error_code ec;
+      if (fs::exists(o->merge_out, ec) && !fs::is_directory(o->merge_out, ec))
+        throw UsageError("--out: '" + o->merge_out + "' exists and is not a folder");
+      const std::string text = design::mergeDesigns(o->dirs, o->merge_out, o->allow_incomplete);
+      const auto j = nlohmann::json::parse(text);
+      std::cout << (j.value("solved", false) ? "solved" : "not solved") << ": " << j.value("message", "") << "\n";
+      std::cout << j["evaluations"].size() << " candidates from " << j["shards"].size() << " shard(s); wrote "
+                << o->merge_out << "/result.json\n";
+      return j.value("solved", false) ? static_cast<int>(kOk) : static_cast<int>(kRuntimeFailure);
+    };
+  });
+  sub->callback([o, sub, ms, &action]() {
+    if (ms->parsed()) return;
+    action = [o, sub]() { return runDesign(*o, sub); };
+  });
+}
+
+}  // namespace ctr::cli

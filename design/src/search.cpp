@@ -1,0 +1,547 @@
+#include "ctr/design/search.hpp"
+
+#include <algorithm>
+#include <atomic>
+#include <chrono>
+#include <cmath>
+#include <iomanip>
+#include <mutex>
+#include <numeric>
+#include <sstream>
+#include <thread>
+
+#include "ctr/environments/environment_yaml.hpp"
+#include "ctr/io/input_error.hpp"
+#include "ctr/io/robot_yaml.hpp"
+#include "ctr/model/sampling.hpp"
+#include "ctr/planner/result_json.hpp"
+#include "ctr/planner/validity.hpp"
+
+namespace ctr::design {
+namespace {
+
+using Clock = std::chrono::steady_clock;
+
+double since(Clock::time_point t0) {
+  return std::chrono::duration<double>(Clock::now() - t0).count();
+}
+
+std::string mm(double v) {
+  std::ostringstream o;
+  o << std::fixed << std::setprecision(2) << v * 1e3 << " mm";
+  return o.str();
+}
+
+// SplitMix64: independent seeds for (run seed, start, candidate).
+std::uint64_t mix(std::uint64_t a, std::uint64_t b) {
+  std::uint64_t z = a * 0x9E3779B97F4A7C15ULL + b + 0x632BE59BD9B4E019ULL;
+  z = (z ^ (z >> 30)) * 0xBF58476D1CE4E5B9ULL;
+  z = (z ^ (z >> 27)) * 0x94D049BB133111EBULL;
+  return z ^ (z >> 31);
+}
+
+double reflect(double x) {
+  // Into [0, 1] by reflection at the faces.
+  x = std::fmod(std::abs(x), 2.0);
+  return x > 1.0 ? 2.0 - x : x;
+}
+
+double longestTube(const Candidate& c) {
+  double l = 0.0;
+  for (const auto& t : c.tubes) l = std::max(l, t.straight_length + t.curved_length);
+  return l;
+}
+
+}  // namespace
+
+const char* toString(QueryOutcome::Stage s) {
+  switch (s) {
+    case QueryOutcome::Stage::StartInvalid:
+      return "start_invalid";
+    case QueryOutcome::Stage::Unreachable:
+      return "unreachable";
+    case QueryOutcome::Stage::NoValidGoal:
+      return "no_valid_goal";
+    case QueryOutcome::Stage::NoPath:
+      return "no_path";
+    case QueryOutcome::Stage::Solved:
+      return "solved";
+  }
+  return "?";
+}
+
+bool Score::better(const Score& o) const {
+  if (std::abs(badness - o.badness) > 1e-9) return badness < o.badness;
+  // Clearance in 0.1 mm bins: a shorter robot wins over a few micrometres of clearance.
+  const double a = std::floor(clearance * 1e4), b = std::floor(o.clearance * 1e4);
+  if (a != b) return a > b;
+  return length < o.length - 1e-9;
+}
+
+Score scoreOf(const std::vector<QueryOutcome>& queries, const Candidate& c) {
+  Score s;
+  s.badness = 0.0;
+  s.clearance = std::numeric_limits<double>::infinity();
+  for (const QueryOutcome& q : queries) {
+    using St = QueryOutcome::Stage;
+    // Stage penalty (4 for an invalid start ... 0 solved) plus a progress in [0, 1) within the stage.
+    double f = 0.0;
+    switch (q.stage) {
+      case St::StartInvalid:
+        f = 4.0;
+        break;
+      case St::Unreachable:
+        f = 3.0 + std::min(q.closest / 0.1, 0.999);
+        break;
+      case St::NoValidGoal:
+        // The least robot length in collision among the goal shapes (0.1 m saturates), else none was stable.
+        f = 2.0 + (std::isfinite(q.goal_collision_length) ? std::min(q.goal_collision_length / 0.1, 0.998) : 0.999);
+        break;
+      case St::NoPath:
+        f = 1.0 + (q.ik_on_target > 0 ? 1.0 - static_cast<double>(q.valid_goals) / q.ik_on_target : 1.0) * 0.5 +
+            (q.plans > 0 ? 0.5 * (1.0 - static_cast<double>(q.plans_solved) / q.plans) : 0.5) * 0.999;
+        f = std::min(f, 1.999);
+        break;
+      case St::Solved:
+        f = 0.0;
+        break;
+    }
+    s.badness += f;
+    s.clearance =
+        std::min(s.clearance, q.stage == St::Solved ? q.min_clearance : -std::numeric_limits<double>::infinity());
+  }
+  if (!(s.badness == 0.0)) s.clearance = -std::numeric_limits<double>::infinity();
+  s.length = longestTube(c);
+  return s;
+}
+
+std::optional<Evaluation> bestOf(const std::vector<Evaluation>& evaluations) {
+  std::optional<Evaluation> best;
+  for (const Evaluation& e : evaluations)
+    if (!best || e.score.better(best->score)) best = e;
+  return best;
+}
+
+// ---------------------------------------------------------------------------------------------------------------
+// Sampler
+
+Sampler::Sampler(const DesignSpace& space, std::uint64_t seed)
+    : space_(space), combos_(space.size_combinations()), rng_(seed) {
+  const int d = continuousDimension(space);
+  mean_.assign(static_cast<std::size_t>(d), 0.5);
+  sigma_.assign(static_cast<std::size_t>(d), 0.3);
+  combo_p_.assign(combos_.size(), 1.0 / static_cast<double>(combos_.size()));
+}
+
+std::optional<Candidate> Sampler::draw(bool uniform) {
+  std::uniform_real_distribution<double> u01(0.0, 1.0);
+  std::normal_distribution<double> n01(0.0, 1.0);
+  for (int attempt = 0; attempt < 400; ++attempt) {
+    const bool uni = uniform || attempt >= 200;  // a distribution stuck on infeasible repairs: fall back to uniform
+    std::size_t combo = 0;
+    if (uni) {
+      combo = std::uniform_int_distribution<std::size_t>(0, combos_.size() - 1)(rng_);
+    } else {
+      combo = std::discrete_distribution<std::size_t>(combo_p_.begin(), combo_p_.end())(rng_);
+    }
+    std::vector<double> x(mean_.size());
+    for (std::size_t j = 0; j < x.size(); ++j) x[j] = uni ? u01(rng_) : reflect(mean_[j] + sigma_[j] * n01(rng_));
+    if (auto c = candidateAt(space_, x, combo)) return c;
+  }
+  return std::nullopt;
+}
+
+std::vector<Candidate> Sampler::generation(int n, const std::optional<Candidate>& seed_candidate) {
+  std::vector<Candidate> out;
+  if (!fitted_ && seed_candidate && violation(space_, *seed_candidate).empty()) out.push_back(*seed_candidate);
+  while (static_cast<int>(out.size()) < n) {
+    std::optional<Candidate> c = draw(!fitted_);
+    if (!c) throw std::runtime_error("design space: the sampler found no candidate within the constraints");
+    out.push_back(std::move(*c));
+  }
+  return out;
+}
+
+void Sampler::update(const std::vector<Candidate>& ranked) {
+  if (ranked.empty()) return;
+  const std::size_t mu = std::min(ranked.size(), std::max<std::size_t>(2, ranked.size() / 4));
+  std::vector<double> w(mu);
+  for (std::size_t i = 0; i < mu; ++i) w[i] = std::log(mu + 0.5) - std::log(static_cast<double>(i) + 1.0);
+  const double ws = std::accumulate(w.begin(), w.end(), 0.0);
+  for (double& v : w) v /= ws;
+  const std::size_t d = mean_.size();
+  std::vector<double> m(d, 0.0), var(d, 0.0);
+  std::vector<std::vector<double>> xs;
+  for (std::size_t i = 0; i < mu; ++i) xs.push_back(unitPoint(space_, ranked[i]));
+  for (std::size_t i = 0; i < mu; ++i)
+    for (std::size_t j = 0; j < d; ++j) m[j] += w[i] * xs[i][j];
+  for (std::size_t i = 0; i < mu; ++i)
+    for (std::size_t j = 0; j < d; ++j) var[j] += w[i] * (xs[i][j] - m[j]) * (xs[i][j] - m[j]);
+  for (std::size_t j = 0; j < d; ++j) {
+    mean_[j] = m[j];
+    sigma_[j] = std::clamp(0.3 * sigma_[j] + 0.7 * std::sqrt(var[j]), 0.03, 0.35);
+  }
+  // Size combinations: the elites' weighted frequencies, smoothed, never zero.
+  std::vector<double> freq(combos_.size(), 0.0);
+  for (std::size_t i = 0; i < mu; ++i) {
+    std::vector<int> sizes;
+    for (const auto& t : ranked[i].tubes) sizes.push_back(t.size);
+    const auto it = std::find(combos_.begin(), combos_.end(), sizes);
+    if (it != combos_.end()) freq[static_cast<std::size_t>(it - combos_.begin())] += w[i];
+  }
+  double total = 0.0;
+  for (std::size_t k = 0; k < combos_.size(); ++k) {
+    combo_p_[k] = 0.5 * combo_p_[k] + 0.5 * freq[k] + 0.05 / static_cast<double>(combos_.size());
+    total += combo_p_[k];
+  }
+  for (double& p : combo_p_) p /= total;
+  fitted_ = true;
+}
+
+// ---------------------------------------------------------------------------------------------------------------
+// Designer
+
+Designer::Designer(std::vector<plan::Query> queries, std::optional<DesignSpace> space) : queries_(std::move(queries)) {
+  if (queries_.empty()) throw std::invalid_argument("design: no query");
+  for (const plan::Query& q : queries_) {
+    if (!q.tip_goal)
+      throw io::InputError(q.file, q.lineOf("goal"), "goal",
+                           "a design needs a tip goal (target or position), not a goal configuration");
+    bases_.push_back(io::loadRobot(q.robot));
+    env::BuildOptions bo;
+    if (q.env_resolution > 0) bo.resolution = q.env_resolution;
+    env::Environment e = env::loadEnvironment(q.environment, bo);
+    if (!q.base_start.empty()) {
+      try {
+        e.useStart(q.base_start);
+      } catch (const std::invalid_argument& ex) {
+        throw io::InputError(q.file, q.lineOf("base_start"), "base_start", ex.what());
+      }
+    }
+    envs_.push_back(std::make_shared<const env::Environment>(std::move(e)));
+  }
+  if (space) {
+    space_ = std::move(*space);
+  } else {
+    try {
+      space_ = defaultSpace(bases_.front());
+    } catch (const std::invalid_argument& e) {
+      throw io::InputError(queries_.front().robot, 0, "", e.what());
+    }
+  }
+  keep_.resize(queries_.size());
+  for (std::size_t k = 0; k < queries_.size(); ++k)
+    if (bases_[k].size() != static_cast<int>(space_.tubes.size()))
+      throw io::InputError(queries_[k].file, queries_[k].lineOf("robot"), "robot",
+                           "robot '" + bases_[k].name() + "' has " + std::to_string(bases_[k].size()) +
+                               " tubes, the design space " + std::to_string(space_.tubes.size()));
+}
+
+std::optional<Candidate> Designer::baseCandidate() const {
+  return candidateOf(space_, bases_.front());
+}
+
+Robot Designer::robotOf(const Candidate& c) const {
+  return makeRobot(space_, c, bases_.front(), bases_.front().name() + "_design");
+}
+
+Evaluation Designer::evaluate(const Candidate& c, std::uint64_t seed, const DesignOptions& o) const {
+  const auto t0 = Clock::now();
+  Evaluation ev;
+  ev.candidate = c;
+  const Robot robot = robotOf(c);
+  ev.robot_yaml = io::robotToYaml(robot);
+  using St = QueryOutcome::Stage;
+  std::vector<std::unique_ptr<plan::CtrPlanner>> planners(queries_.size());
+  std::vector<plan::Query> qs(queries_.size());
+  ev.queries.resize(queries_.size());
+  bool all_goals = true;
+  for (std::size_t k = 0; k < queries_.size(); ++k) {
+    const auto tq = Clock::now();
+    QueryOutcome& out = ev.queries[k];
+    plan::Query q = queries_[k];
+    q.base_start.clear();  // the environment is already at its base pose
+    q.seed = mix(seed, k);
+    if (o.plan_time > 0) q.time_limit = o.plan_time;
+    if (!o.planner.empty()) q.planner = o.planner;
+    Configuration start;
+    if (!adaptStart(bases_[k], queries_[k].start, robot, start)) {
+      out.stage = St::StartInvalid;
+      out.message = "the query's start (distal ends kept) is not admissible for this design";
+      all_goals = false;
+      continue;
+    }
+    q.start = start;
+    out.start = start;
+    try {
+      planners[k] = std::make_unique<plan::CtrPlanner>(q, robot, *envs_[k]);
+      {
+        std::lock_guard<std::mutex> lock(keep_mutex_);
+        keep_[k] = planners[k]->context();
+      }
+      planners[k]->checkStart();
+    } catch (const std::exception& e) {
+      out.stage = St::StartInvalid;
+      const auto* ie = dynamic_cast<const io::InputError*>(&e);
+      out.message = ie ? ie->message() : e.what();
+      planners[k].reset();
+      all_goals = false;
+      continue;
+    }
+    qs[k] = planners[k]->query();
+    // Goal probe: inverse kinematics from random configurations, as the planner's goal pool does, keeping what the
+    // score needs (closest tip distance, best clearance on the target).
+    const plan::Context& ctx = *planners[k]->context();
+    const plan::TipGoalSpec& goal = *qs[k].tip_goal;
+    std::mt19937_64 gen(mix(seed, 1000 + k));
+    plan::ThreadScratch& t = plan::scratch();
+    const auto tp = Clock::now();
+    while (out.ik_tried < o.probe_candidates && out.valid_goals < o.probe_goals && since(tp) < o.probe_time) {
+      Configuration cq = sampleConfiguration(ctx.robot(), ctx.translationSampler(), gen);
+      const double err = plan::inverseKinematics(ctx, goal.position, cq);
+      ++out.ik_tried;
+      if (std::isfinite(err)) out.closest = std::min(out.closest, err);
+      if (!(err < 0.5 * goal.tolerance)) continue;
+      const plan::ConfigurationCheck chk = plan::checkFrictionless(ctx, cq, t);
+      if (!chk.shape.converged()) continue;
+      const Eigen::Vector3d tip = ctx.basePose() * chk.shape.tip_position;
+      bool on = (tip - goal.position).norm() <= goal.tolerance;
+      if (goal.direction) {
+        const Eigen::Vector3d tg = ctx.basePose().linear() * chk.shape.tipTangent();
+        on = on && std::acos(std::clamp(tg.dot(goal.direction->normalized()), -1.0, 1.0)) <= goal.cone_angle;
+      }
+      if (!on) continue;
+      ++out.ik_on_target;
+      bool ok = chk.ok;
+      if (ok && qs[k].mode == plan::Mode::Robust) ok = plan::checkRobust(ctx, cq, t).ok;
+      if (ok) ++out.valid_goals;
+      if (chk.shape.summary.stable && ctx.checker().distanceField()) {
+        const env::ClearanceResult cr = ctx.checker().clearance(chk.shape, t.query);
+        const double cl = chk.ok ? std::max(cr.clearance, 0.0) : std::min(cr.clearance, 0.0);
+        out.goal_clearance = std::max(out.goal_clearance, cl);
+      }
+      if (chk.shape.summary.stable) {
+        // How much of the shape collides: the progress measure of a design whose goal shapes all collide (the
+        // distance field's clearance saturates at contact).
+        double len = 0.0;
+        std::vector<int> tubes;
+        if (!chk.ok) {
+          ctx.checker().check(chk.shape, t.query);
+          const std::vector<env::Capsule> caps = t.query.capsules();
+          for (const env::Capsule& cap : caps)
+            if (ctx.checker().capsuleCollidesFcl(cap, t.query)) {
+              len += (cap.b - cap.a).norm();
+              if (std::find(tubes.begin(), tubes.end(), cap.tube + 1) == tubes.end()) tubes.push_back(cap.tube + 1);
+            }
+        }
+        if (len < out.goal_collision_length) {
+          out.goal_collision_length = len;
+          out.goal_collision_tubes = tubes;
+        }
+      }
+    }
+    if (out.ik_on_target == 0) {
+      out.stage = St::Unreachable;
+      out.message = "no inverse-kinematics solution puts the tip on the target (closest " + mm(out.closest) + ", " +
+                    std::to_string(out.ik_tried) + " tried)";
+      all_goals = false;
+    } else if (out.valid_goals == 0) {
+      out.stage = St::NoValidGoal;
+      std::string tubes;
+      for (int tb : out.goal_collision_tubes) tubes += (tubes.empty() ? "" : ", ") + std::to_string(tb);
+      out.message = std::to_string(out.ik_on_target) +
+                    " inverse-kinematics solutions put the tip on the target, none is valid (" +
+                    (std::isfinite(out.goal_collision_length)
+                         ? "least length in collision " + mm(out.goal_collision_length) + ", tube(s) " + tubes
+                         : std::string("none stable")) +
+                    ")";
+      all_goals = false;
+    } else {
+      out.stage = St::NoPath;
+      out.message = "not planned (another query has no valid goal)";
+    }
+    out.seconds = since(tq);
+  }
+  // Plans only when every query has a goal (the cheap filter first).
+  if (all_goals) {
+    bool all_solved = true;
+    for (std::size_t k = 0; k < queries_.size(); ++k) {
+      const auto tq = Clock::now();
+      QueryOutcome& out = ev.queries[k];
+      const plan::PlanResult r = planners[k]->solve();
+      ++out.plans;
+      out.plan_json = plan::resultJson(qs[k], r);
+      if (!r.replay.points.empty()) out.path_csv = plan::replayCsv(planners[k]->context()->robot(), r.replay);
+      if (r.solved) {
+        ++out.plans_solved;
+        out.min_clearance = r.replay.min_clearance;
+        out.stage = St::Solved;
+        out.message.clear();
+      } else {
+        out.message = r.message;
+        all_solved = false;
+      }
+      out.seconds += since(tq);
+    }
+    // Confirmation plans with other seeds (fresh goal pools): a design counts as solved only if they replay clean.
+    for (int s = 1; all_solved && s <= o.confirm_seeds; ++s) {
+      for (std::size_t k = 0; k < queries_.size() && all_solved; ++k) {
+        const auto tq = Clock::now();
+        QueryOutcome& out = ev.queries[k];
+        plan::Query q = qs[k];
+        q.seed = mix(seed, 7919 * static_cast<std::uint64_t>(s) + k);
+        plan::CtrPlanner p(q, robot, *envs_[k]);
+        const plan::PlanResult r = p.solve();
+        ++out.plans;
+        if (r.solved) {
+          ++out.plans_solved;
+          out.min_clearance = std::min(out.min_clearance, r.replay.min_clearance);
+        } else {
+          out.stage = St::NoPath;
+          out.message = "confirmation plan " + std::to_string(s) + " (seed " + std::to_string(q.seed) +
+                        ") not solved: " + r.message;
+          all_solved = false;
+        }
+        out.seconds += since(tq);
+      }
+    }
+  }
+  ev.score = scoreOf(ev.queries, c);
+  ev.seconds = since(t0);
+  return ev;
+}
+
+DesignResult Designer::run(const DesignOptions& o) const {
+  if (o.evaluations < 1) throw std::invalid_argument("design: evaluations must be >= 1");
+  if (o.population < 1) throw std::invalid_argument("design: population must be >= 1");
+  if (o.starts < 1) throw std::invalid_argument("design: starts must be >= 1");
+  const auto t0 = Clock::now();
+  DesignResult res;
+  std::vector<int> starts = o.start_indices;
+  if (starts.empty())
+    for (int s = 0; s < o.starts; ++s) starts.push_back(s);
+  const int threads = o.threads > 0 ? o.threads : std::max(1, static_cast<int>(std::thread::hardware_concurrency()));
+  const std::size_t total = starts.size() * static_cast<std::size_t>(o.evaluations);
+  std::mutex mutex;
+  std::size_t done = 0;
+  auto out_of_time = [&] { return o.time_limit > 0 && since(t0) >= o.time_limit; };
+  std::optional<Score> best_score;
+  for (int s : starts) {
+    Sampler sampler(space_, mix(o.seed, 0x5eed0000ULL + static_cast<std::uint64_t>(s)));
+    std::vector<Evaluation> evals;
+    int gen = 0;
+    while (static_cast<int>(evals.size()) < o.evaluations && !out_of_time()) {
+      const int n = std::min(o.population, o.evaluations - static_cast<int>(evals.size()));
+      // The query's own robot (when in the space) is the first candidate of start 0.
+      const std::vector<Candidate> cands =
+          sampler.generation(n, gen == 0 && s == starts.front() ? baseCandidate() : std::nullopt);
+      std::vector<std::optional<Evaluation>> results(cands.size());
+      std::atomic<std::size_t> next{0};
+      auto worker = [&] {
+        for (std::size_t i = next++; i < cands.size(); i = next++) {
+          if (out_of_time()) break;
+          const std::size_t index = evals.size() + i;
+          Evaluation ev;
+          try {
+            ev = evaluate(cands[i], mix(mix(o.seed, static_cast<std::uint64_t>(s)), index), o);
+          } catch (const std::exception& e) {
+            // A failure inside the model or the planner for this candidate: recorded as its outcome (never thrown
+            // out of a worker thread).
+            ev.candidate = cands[i];
+            ev.queries.resize(queries_.size());
+            for (QueryOutcome& q : ev.queries) q.message = std::string("evaluation failed: ") + e.what();
+            ev.score = scoreOf(ev.queries, cands[i]);
+          }
+          ev.index = index;
+          ev.start = s;
+          ev.generation = gen;
+          std::lock_guard<std::mutex> lock(mutex);
+          ++done;
+          if (!best_score || ev.score.better(*best_score)) best_score = ev.score;
+          if (o.progress) {
+            std::ostringstream d;
+            d << "start " << s << " generation " << gen << ": ";
+            if (best_score->solved())
+              d << "best solves every query, clearance " << mm(best_score->clearance) << ", longest tube "
+                << mm(best_score->length);
+            else
+              d << "best badness " << std::setprecision(3) << best_score->badness;
+            o.progress(done, total, d.str());
+          }
+          results[i] = std::move(ev);
+        }
+      };
+      std::vector<std::thread> pool;
+      const int nt = std::min<int>(threads, static_cast<int>(cands.size()));
+      for (int k = 1; k < nt; ++k) pool.emplace_back(worker);
+      worker();
+      for (auto& th : pool) th.join();
+      for (auto& r : results)
+        if (r) evals.push_back(std::move(*r));
+      // Only the best keeps its path (the rest would only fill memory).
+      std::vector<std::size_t> order(evals.size());
+      std::iota(order.begin(), order.end(), 0);
+      std::stable_sort(order.begin(), order.end(),
+                       [&](std::size_t a, std::size_t b) { return evals[a].score.better(evals[b].score); });
+      for (std::size_t i = 1; i < order.size(); ++i)
+        for (auto& q : evals[order[i]].queries) q.path_csv.clear();
+      std::vector<Candidate> ranked;
+      for (std::size_t i : order) ranked.push_back(evals[i].candidate);
+      sampler.update(ranked);
+      ++gen;
+    }
+    for (auto& e : evals) res.evaluations.push_back(std::move(e));
+  }
+  res.budget_exhausted = out_of_time();
+  res.best = bestOf(res.evaluations);
+  // Keep only the best's path among every start's.
+  for (auto& e : res.evaluations)
+    if (!res.best || e.start != res.best->start || e.index != res.best->index)
+      for (auto& q : e.queries) q.path_csv.clear();
+  res.solved = res.best && res.best->score.solved();
+  std::vector<std::string> names;
+  for (const auto& q : queries_) names.push_back(q.name);
+  res.message = verdict(res.evaluations, res.best, names);
+  res.wall_time = since(t0);
+  return res;
+}
+
+DesignResult designRobot(std::vector<plan::Query> queries, std::optional<DesignSpace> space,
+                         const DesignOptions& options) {
+  const Designer d(std::move(queries), std::move(space));
+  return d.run(options);
+}
+
+std::string verdict(const std::vector<Evaluation>& evals, const std::optional<Evaluation>& best,
+                    const std::vector<std::string>& names) {
+  if (!best) return "no candidate evaluated (time limit)";
+  if (best->score.solved())
+    return "every query solved with a clean replay; smallest clearance along the paths " + mm(best->score.clearance);
+  using St = QueryOutcome::Stage;
+  std::string msg;
+  for (std::size_t k = 0; k < best->queries.size(); ++k) {
+    const QueryOutcome& q = best->queries[k];
+    if (q.stage == St::Solved) continue;
+    std::string m;
+    const std::string n = "'" + (k < names.size() ? names[k] : std::to_string(k)) + "'";
+    if (q.stage == St::Unreachable) {
+      double closest = std::numeric_limits<double>::infinity();
+      for (const Evaluation& e : evals)
+        if (k < e.queries.size()) closest = std::min(closest, e.queries[k].closest);
+      m = "no design of the " + std::to_string(evals.size()) + " evaluated puts the tip on the target of " + n +
+          " (closest tip distance reached " + mm(closest) + ")";
+    } else if (q.stage == St::NoValidGoal) {
+      m = "no design of the " + std::to_string(evals.size()) + " evaluated has a valid goal configuration for " + n +
+          " (best: " + q.message + ")";
+    } else if (q.stage == St::StartInvalid) {
+      m = n + ": the start is invalid for the best design (" + q.message + ")";
+    } else {
+      m = q.plans == 0 ? n + ": valid goals found, not planned (another query has none)"
+                       : n + ": goal configurations exist but no plan replayed clean (" + q.message + ")";
+    }
+    msg += (msg.empty() ? "" : "; ") + m;
+  }
+  return msg;
+}
+
+}  // namespace ctr::design

@@ -10,6 +10,7 @@
 #include <sstream>
 #include <stdexcept>
 
+#include "contact_events.hpp"
 #include "se3_step.hpp"
 #include "workspace_impl.hpp"
 
@@ -21,9 +22,9 @@ using detail::Segment;
 
 struct Model {
   const Problem* P = nullptr;
-  double mu = 0, fric = 0;        // mu, mu / sqrt(1 + mu^2)
-  Eigen::VectorXd radius;         // contact radius of interface j
-  std::vector<int> dir;           // sign of (theta_{j+1} - theta_j)' per interface
+  double mu = 0, fric = 0;  // mu, mu / sqrt(1 + mu^2)
+  Eigen::VectorXd radius;   // contact radius of interface j
+  std::vector<int> dir;     // sign of (theta_{j+1} - theta_j)' per interface
   int max_iter = 60;
   double tol = 1e-12;
   int worst_iter = 0;
@@ -33,10 +34,12 @@ struct Model {
 inline Eigen::Vector2d rotT(double c, double s, const Eigen::Vector2d& a) {  // R_z(theta)^T a
   return Eigen::Vector2d(c * a.x() + s * a.y(), -s * a.x() + c * a.y());
 }
-inline Eigen::Vector2d Jm(const Eigen::Vector2d& a) { return Eigen::Vector2d(a.y(), -a.x()); }  // J = [[0,1],[-1,0]]
+inline Eigen::Vector2d Jm(const Eigen::Vector2d& a) {
+  return Eigen::Vector2d(a.y(), -a.x());
+}  // J = [[0,1],[-1,0]]
 
 struct StageOut {
-  Eigen::VectorXd uzp, nzp;   // u_z', n_z'
+  Eigen::VectorXd uzp, nzp;  // u_z', n_z'
   Eigen::Vector2d u0;
   std::vector<double> iface_force, iface_torque;  // per interface j
 };
@@ -89,7 +92,7 @@ void forces(const Model& M, const Segment& sg, const Eigen::VectorXd& th, const 
     const double fx = npx + (u.y() * nz[i] - u.z() * ny);
     const double fy = npy + (u.z() * nx - u.x() * nz[i]);
     F[static_cast<std::size_t>(i)] = Eigen::Vector2d(c[i] * fx - s[i] * fy, s[i] * fx + c[i] * fy);  // to F0
-    nzp[i] = u.x() * ny - u.y() * nx;  // eq. 24
+    nzp[i] = u.x() * ny - u.y() * nx;                                                                // eq. 24
   }
   // Interface forces from the innermost present tube outwards: F_i = G_{i-1} - G_i.
   tau.setZero(n);
@@ -109,8 +112,8 @@ void forces(const Model& M, const Segment& sg, const Eigen::VectorXd& th, const 
 }
 
 // u_z' solving u_z' = frictionless(theta) + tau(u_z')/k_t by fixed-point iteration.
-bool stage(Model& M, const Segment& sg, const Eigen::VectorXd& th, const Eigen::VectorXd& uz,
-           const Eigen::VectorXd& nz, StageOut& out, bool want_iface) {
+bool stage(Model& M, const Segment& sg, const Eigen::VectorXd& th, const Eigen::VectorXd& uz, const Eigen::VectorXd& nz,
+           StageOut& out, bool want_iface) {
   const Problem& P = *M.P;
   const int n = P.n;
   Eigen::VectorXd base(n);
@@ -121,8 +124,7 @@ bool stage(Model& M, const Segment& sg, const Eigen::VectorXd& th, const Eigen::
       A += sg.w[j] * std::cos(th[j]);
       B += sg.w[j] * std::sin(th[j]);
     }
-  for (int i = 0; i < n; ++i)
-    base[i] = sg.a[i] != 0.0 ? sg.a[i] * (std::sin(th[i]) * A - std::cos(th[i]) * B) : 0.0;
+  for (int i = 0; i < n; ++i) base[i] = sg.a[i] != 0.0 ? sg.a[i] * (std::sin(th[i]) * A - std::cos(th[i]) * B) : 0.0;
   Eigen::VectorXd uzp = base, tau(n), nzp(n);
   Eigen::Vector2d u0;
   bool ok = false;
@@ -232,8 +234,8 @@ void integrate(Model& M, const Eigen::VectorXd& z, bool record, Pass& out) {
       stage(M, sg, th + h * d3t, uz + h * d3u, nz + h * d3n, k4, true);
       const Eigen::VectorXd d4t = dth(uz + h * d3u), d4u = mask(k4.uzp), d4n = mask(k4.nzp);
       for (std::size_t j = 0; j < out.integrated.size(); ++j)
-        out.integrated[j] += h / 6 * (k1.iface_torque[j] + 2 * k2.iface_torque[j] + 2 * k3.iface_torque[j] +
-                                      k4.iface_torque[j]);
+        out.integrated[j] +=
+            h / 6 * (k1.iface_torque[j] + 2 * k2.iface_torque[j] + 2 * k3.iface_torque[j] + k4.iface_torque[j]);
       th += h / 6 * (d1t + 2 * d2t + 2 * d3t + d4t);
       uz += h / 6 * (d1u + 2 * d2u + 2 * d3u + d4u);
       nz += h / 6 * (d1n + 2 * d2n + 2 * d3n + d4n);
@@ -254,12 +256,16 @@ void integrate(Model& M, const Eigen::VectorXd& z, bool record, Pass& out) {
       const detail::ActiveContact& ac = P.contacts[static_cast<std::size_t>(c)];
       const int a = ac.site.outer, b = ac.site.inner, row = 2 * n + c;
       const double tau = z[2 * n + c];
-      const double mom = detail::siteMoment(P, si, th.data(), ac.site, nullptr);
+      const double mom = detail::siteMoment<double>(P, si, th.data(), ac.site, 0.0, 0.0);
       out.contact_twist[static_cast<std::size_t>(c)] = th[b] - th[a];
       out.contact_moment[static_cast<std::size_t>(c)] = mom;
       switch (ac.condition.law) {
-        case ContactCondition::Law::Free: out.r[row] = tau; break;
-        case ContactCondition::Law::Stick: out.r[row] = th[b] - th[a] - ac.condition.value; break;
+        case ContactCondition::Law::Free:
+          out.r[row] = tau;
+          break;
+        case ContactCondition::Law::Stick:
+          out.r[row] = th[b] - th[a] - ac.condition.value;
+          break;
         case ContactCondition::Law::Torque:
           out.r[row] = tau - ac.condition.value * P.mu_boundary / P.kt[b] * mom;
           break;
@@ -340,7 +346,8 @@ DistributedFrictionSolution solveDistributedFriction(const Robot& robot, const C
   Workspace ws;
   KinematicsOptions ko = opt.kinematics;
   ko.record_backbone = false;
-  const Solution base = conditions ? solveWithContacts(robot, q, *conditions, ws, ko, warm) : solve(robot, q, ws, ko, warm);
+  const Solution base =
+      conditions ? solveWithContacts(robot, q, *conditions, ws, ko, warm) : solve(robot, q, ws, ko, warm);
   Eigen::VectorXd z = Eigen::VectorXd::Zero(2 * n + nc);
   if (base.converged()) {
     z.head(n) = base.base_twist_rate;

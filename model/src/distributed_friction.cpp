@@ -1,16 +1,18 @@
-// Distributed-contact Coulomb friction (Lock & Dupont 2011 §II.B-C). Not a hot path: the shooting Jacobian is
-// formed by finite differences here; the implicit equation for u_z' is solved by fixed-point iteration (a
-// contraction: the friction torque depends on u_z' only through the small term r K u'').
+// Distributed-contact Coulomb friction (Lock & Dupont 2011 §II.B-C). Not a hot path: the shooting problem is solved
+// by the Newton core (newton.hpp) with a Jacobian by finite differences; the implicit equation for u_z' is solved by
+// fixed-point iteration (a contraction: the friction torque depends on u_z' only through the small term r K u'').
 #include "ctr/model/distributed_friction.hpp"
 
 #include <Eigen/Geometry>
 #include <Eigen/LU>
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <sstream>
 #include <stdexcept>
 
 #include "contact_events.hpp"
+#include "newton.hpp"
 #include "se3_step.hpp"
 #include "workspace_impl.hpp"
 
@@ -249,38 +251,19 @@ void integrate(Model& M, const Eigen::VectorXd& z, bool record, Pass& out) {
       out.r[i] = uz[i];
       out.r[n + i] = nz[i];
     }
-    // Lumped friction at concentrated moments (§II.D), as in the kinematics solver: unknown scaled torque tau_c
-    // (T = kt_inner tau_c on the inner tube, -T on the outer); its law gives the residual row; the torque is a
-    // point torque, i.e. a jump of u_z (or a term of the distal condition of a tube ending here).
+    // Lumped friction at concentrated moments (§II.D), as in the other integrators: unknown scaled torque tau_c, its
+    // law's residual row, and its point torque.
     for (int c : bp.contacts) {
       const detail::ActiveContact& ac = P.contacts[static_cast<std::size_t>(c)];
-      const int a = ac.site.outer, b = ac.site.inner, row = 2 * n + c;
-      const double tau = z[2 * n + c];
+      const double relative_twist = th[ac.site.inner] - th[ac.site.outer];
       const double mom = detail::siteMoment<double>(P, si, th.data(), ac.site, 0.0, 0.0);
-      out.contact_twist[static_cast<std::size_t>(c)] = th[b] - th[a];
+      out.contact_twist[static_cast<std::size_t>(c)] = relative_twist;
       out.contact_moment[static_cast<std::size_t>(c)] = mom;
-      switch (ac.condition.law) {
-        case ContactCondition::Law::Free:
-          out.r[row] = tau;
-          break;
-        case ContactCondition::Law::Stick:
-          out.r[row] = th[b] - th[a] - ac.condition.value;
-          break;
-        case ContactCondition::Law::Torque:
-          out.r[row] = tau - ac.condition.value * P.mu_boundary / P.kt[b] * mom;
-          break;
-      }
+      out.r[2 * n + c] = detail::contactLawResidual(P, ac, z[2 * n + c], relative_twist, mom);
     }
-    for (int c : bp.contacts) {
-      const detail::ActiveContact& ac = P.contacts[static_cast<std::size_t>(c)];
-      const int a = ac.site.outer, b = ac.site.inner;
-      const double tau = z[2 * n + c];
-      const double pa = -P.kt[b] / P.kt[a];
-      const bool a_ends = std::find(bp.ending.begin(), bp.ending.end(), a) != bp.ending.end();
-      const bool b_ends = std::find(bp.ending.begin(), bp.ending.end(), b) != bp.ending.end();
-      (a_ends ? out.r[a] : uz[a]) -= pa * tau;
-      (b_ends ? out.r[b] : uz[b]) -= tau;
-    }
+    for (int c : bp.contacts)
+      detail::applyContactJump(detail::contactJump(P, bp, P.contacts[static_cast<std::size_t>(c)]), z[2 * n + c],
+                               out.r.data(), uz.data());
     if (record && si + 1 == P.segments.size()) {
       StageOut last;
       stage(M, sg, th, uz, nz, last, true);
@@ -288,6 +271,36 @@ void integrate(Model& M, const Eigen::VectorXd& z, bool record, Pass& out) {
     }
   }
 }
+
+// The distributed-friction map as a system of the Newton core, its Jacobian by forward differences (the implicit
+// equation for u_z' at every stage keeps it from the exact derivatives of the other maps).
+class DistributedSystem final : public detail::NewtonSystem {
+ public:
+  explicit DistributedSystem(Model& M) : M_(M) {}
+  void evaluate(const Eigen::VectorXd& z, bool jacobian) override {
+    integrate(M_, z, false, pass_);
+    if (!jacobian) return;
+    const Eigen::Index m = z.size();
+    J_.resize(m, m);
+    for (Eigen::Index c = 0; c < m; ++c) {
+      const double hstep = 1e-7 * (1.0 + std::abs(z[c]));
+      probe_z_ = z;
+      probe_z_[c] += hstep;
+      integrate(M_, probe_z_, false, probe_);
+      J_.col(c) = (probe_.r - pass_.r) / hstep;
+    }
+  }
+  const Eigen::VectorXd& residual() const override { return pass_.r; }
+  Eigen::MatrixXd& jacobian() override { return J_; }
+  // The reported stability is the branch's without distributed friction: no Jacobian is needed at the solution.
+  double stability() const override { return std::numeric_limits<double>::infinity(); }
+
+ private:
+  Model& M_;
+  Pass pass_, probe_;
+  Eigen::VectorXd probe_z_;
+  Eigen::MatrixXd J_;
+};
 
 }  // namespace
 
@@ -353,42 +366,18 @@ DistributedFrictionSolution solveDistributedFriction(const Robot& robot, const C
     z.head(n) = base.base_twist_rate;
     if (base.contact_unknowns.size() == nc) z.tail(nc) = base.contact_unknowns;
   }
-  Pass pass;
-  integrate(M, z, false, pass);
-  double nr = pass.r.cwiseAbs().maxCoeff();
+  DistributedSystem S(M);
+  detail::NewtonSettings settings =
+      detail::newtonSettings(opt.kinematics, P.s_tip, n, detail::JacobianReuse::Chord);  // cap on u_z(0)
+  detail::NewtonScratch scratch;
+  detail::NewtonJacobian jac;
   int iters = 0;
+  double nr = 0.0;
+  std::string why;
+  detail::newton(S, z, settings, scratch, jac, iters, nr, why);
   const double tol = opt.kinematics.tolerance;
-  for (; iters < opt.kinematics.max_iterations && nr >= tol; ++iters) {
-    // Finite-difference Jacobian.
-    Eigen::MatrixXd J(2 * n + nc, 2 * n + nc);
-    Pass pp;
-    for (int c = 0; c < 2 * n + nc; ++c) {
-      const double hstep = 1e-7 * (1.0 + std::abs(z[c]));
-      Eigen::VectorXd zc = z;
-      zc[c] += hstep;
-      integrate(M, zc, false, pp);
-      J.col(c) = (pp.r - pass.r) / hstep;
-    }
-    Eigen::VectorXd dz = J.fullPivLu().solve(-pass.r);
-    if (!dz.allFinite()) break;
-    double t = 1.0;
-    bool acc = false;
-    for (int ls = 0; ls < 10; ++ls) {
-      Eigen::VectorXd zt = z + t * dz;
-      integrate(M, zt, false, pp);
-      const double nt = pp.r.cwiseAbs().maxCoeff();
-      if (std::isfinite(nt) && nt < nr) {
-        z = zt;
-        pass = pp;
-        nr = nt;
-        acc = true;
-        break;
-      }
-      t *= 0.5;
-    }
-    if (!acc) break;
-  }
   const bool ok = nr < std::max(tol, 1e-9) && !M.root_failed;
+  Pass pass;
   integrate(M, z, opt.kinematics.record_backbone, pass);
   Solution& s = res.solution;
   s.summary.status = ok ? SolveStatus::Converged : SolveStatus::NotConverged;
@@ -398,7 +387,8 @@ DistributedFrictionSolution solveDistributedFriction(const Robot& robot, const C
   s.summary.stable = ok && base.summary.stable;
   if (!ok) {
     std::ostringstream os;
-    os << "distributed-friction shooting did not converge (residual " << nr << ")";
+    os << "distributed-friction shooting did not converge";
+    if (!why.empty()) os << ": " << why;
     if (M.root_failed) os << "; the implicit equation for u_z' did not converge at some stage";
     s.summary.message = os.str();
   } else if (res.used_default_radius) {
@@ -412,16 +402,7 @@ DistributedFrictionSolution solveDistributedFriction(const Robot& robot, const C
   s.tip_frame = pass.R;
   s.moments = base.moments;
   s.contact_unknowns = z.tail(nc);
-  for (int c = 0; c < nc; ++c) {
-    const detail::ActiveContact& ac = P.contacts[static_cast<std::size_t>(c)];
-    ContactResult cr;
-    cr.site = ac.site;
-    cr.condition = ac.condition;
-    cr.relative_twist = pass.contact_twist[static_cast<std::size_t>(c)];
-    cr.moment = pass.contact_moment[static_cast<std::size_t>(c)];
-    cr.torque = z[2 * n + c] * P.kt[ac.site.inner];
-    s.contacts.push_back(cr);
-  }
+  s.contacts = detail::contactResults(P, pass.contact_twist, pass.contact_moment, z, 2 * n);
   s.backbone = std::move(pass.backbone);
   res.samples = std::move(pass.samples);
   for (double v : pass.integrated) res.integrated_friction_torque = std::max(res.integrated_friction_torque, v);

@@ -1,4 +1,4 @@
-// Packaging of the contact results (contact_events.hpp).
+// The contact results of a solve and the contact unknowns of a warm start (contact_events.hpp).
 #include "contact_events.hpp"
 
 namespace ctr::detail {
@@ -18,6 +18,12 @@ std::vector<ContactResult> contactResults(const Problem& P, const std::vector<do
     results.push_back(cr);
   }
   return results;
+}
+
+void contactUnknownsFrom(const Problem& P, const std::vector<ContactResult>& contacts, Eigen::VectorXd& z, int first) {
+  for (std::size_t c = 0; c < P.contacts.size(); ++c)
+    for (const ContactResult& w : contacts)
+      if (w.site == P.contacts[c].site) z[first + static_cast<int>(c)] = w.torque / P.kt[P.contacts[c].site.inner];
 }
 
 }  // namespace ctr::detail

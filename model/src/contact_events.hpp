@@ -143,6 +143,10 @@ void applyContactJump(const ContactJump& j, const T& tau, T* r, T* uz) {
     uz[j.b] -= tau;
 }
 
+/// The contact unknowns z[first + c] from the contact results of a solution (warm start), matched by site: torque /
+/// k_t,inner. Contacts without a match keep their value.
+void contactUnknownsFrom(const Problem& P, const std::vector<ContactResult>& contacts, Eigen::VectorXd& z, int first);
+
 /// The contact results of a solve: relative twist and moment per active contact, torque = k_t,inner x the unknown
 /// z[first + c].
 std::vector<ContactResult> contactResults(const Problem& P, const std::vector<double>& relative_twist,

@@ -570,9 +570,7 @@ Eigen::VectorXd unknownsFrom(const LoadedProblem& L, const Solution& s) {
   Eigen::Vector3d m0 = s.base_moment;
   if (!s.loaded || !m0.allFinite()) m0 = Eigen::Vector3d(0.0, 0.0, P.kt.dot(s.base_twist_rate));
   z.segment(n - 1, 3) = m0 / L.K0;
-  for (std::size_t c = 0; c < P.contacts.size(); ++c)
-    for (const ContactResult& w : s.contacts)
-      if (w.site == P.contacts[c].site) z[n + 2 + static_cast<int>(c)] = w.torque / P.kt[P.contacts[c].site.inner];
+  contactUnknownsFrom(P, s.contacts, z, n + 2);
   return z;
 }
 

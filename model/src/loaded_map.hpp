@@ -10,7 +10,7 @@
 
 namespace ctr::detail {
 
-/// The loaded (Cosserat-rod) problem: the segments of a Problem plus the loads (loaded_kinematics.cpp).
+/// The loaded (Cosserat-rod) problem: the segments of a Problem plus the loads.
 struct LoadedProblem {
   Problem P;
   Eigen::VectorXd rho;                          // linear density per tube (kg/m)

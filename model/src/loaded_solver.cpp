@@ -14,10 +14,6 @@
 namespace ctr::detail {
 namespace {
 
-double maxAbs(const Eigen::VectorXd& v) {
-  return v.size() ? v.cwiseAbs().maxCoeff() : 0.0;
-}
-
 // The loaded map as a system of the Newton core. Value evaluations record the outputs when `record` (Jacobian
 // evaluations do not); recordedAt(z) tells whether W.out belongs to z.
 class LoadedSystem final : public NewtonSystem {
@@ -103,8 +99,7 @@ bool newtonLoaded(LoadedWork& W, Eigen::VectorXd& z, const KinematicsOptions& op
   const Problem& P = L.P;
   LoadedSystem S(W, opt, record);
   NewtonJacobian jac;
-  W.q_key.resize(2 * P.n);
-  W.q_key << P.alpha, kHistoryBetaScale * P.beta;
+  historyKey(P.alpha, P.beta, W.q_key);
   modelKey(L, W.model_key);
   // Solves under contact laws (stick-slip steps) never start from the workspace's Jacobian: a step stays a function of
   // its state and command alone, bit for bit (the planner's exact-mode replay recomputes its checked states).

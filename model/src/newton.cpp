@@ -8,14 +8,6 @@
 
 namespace ctr::detail {
 
-namespace {
-
-double maxAbs(const Eigen::VectorXd& v) {
-  return v.size() ? v.cwiseAbs().maxCoeff() : 0.0;
-}
-
-}  // namespace
-
 double exactStabilityBelow(const KinematicsOptions& opt) {
   return std::max(0.25, 2.0 * opt.refine_below_stability);
 }

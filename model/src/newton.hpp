@@ -18,6 +18,11 @@
 
 namespace ctr::detail {
 
+/// Max-norm of a vector (0 when empty).
+inline double maxAbs(const Eigen::VectorXd& v) {
+  return v.size() ? v.cwiseAbs().maxCoeff() : 0.0;
+}
+
 /// A square system r(z) = 0 as the Newton core sees it.
 class NewtonSystem {
  public:

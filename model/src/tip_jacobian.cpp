@@ -47,7 +47,7 @@ TipJacobian tipJacobian(const Robot& robot, const Solution& solution, Workspace&
   bool differentiated = false;
   if (polish && solution.loaded) {
     detail::evalDerivatives(W, z, dirs, true);
-    rn = W.r.cwiseAbs().maxCoeff();
+    rn = detail::maxAbs(W.r);
     differentiated = rn < options.tolerance;
   }
   if (polish && !differentiated) {

@@ -87,11 +87,7 @@ Eigen::VectorXd initialGuess(const Problem& P, const Solution* warm) {
   Eigen::VectorXd z = Eigen::VectorXd::Zero(P.m);
   if (warm && warm->base_twist_rate.size() == P.n && warm->base_twist_rate.allFinite()) {
     z.head(P.n) = warm->base_twist_rate;
-    // Contact unknowns: match by site.
-    for (std::size_t c = 0; c < P.contacts.size(); ++c)
-      for (std::size_t w = 0; w < warm->contacts.size(); ++w)
-        if (warm->contacts[w].site == P.contacts[c].site)
-          z[P.n + static_cast<int>(c)] = warm->contacts[w].torque / P.kt[P.contacts[c].site.inner];
+    contactUnknownsFrom(P, warm->contacts, z, P.n);
   }
   return z;
 }
@@ -240,7 +236,7 @@ Solution solveImpl(const Robot& robot, const Configuration& q, const std::vector
       P.setup(robot, q, conditions, opt);
       if (!ok) why += "; homotopy from zero precurvature: " + hwhy;
       W.eval.evaluate(P, z, true, rec, W.out);  // outputs of the returned point
-      rn = W.eval.r.size() ? W.eval.r.cwiseAbs().maxCoeff() : 0.0;
+      rn = maxAbs(W.eval.r);
     }
   }
   if (ok && opt.refine_below_stability > 0.0 && std::abs(W.out.stability) < opt.refine_below_stability) {

@@ -14,8 +14,12 @@ Eigen::VectorXd historyKey(const Configuration& q) {
 }
 
 void historyKey(const Configuration& q, Eigen::VectorXd& v) {
-  v.resize(2 * q.size());
-  v << q.alpha, kHistoryBetaScale * q.beta;
+  historyKey(q.alpha, q.beta, v);
+}
+
+void historyKey(const Eigen::VectorXd& alpha, const Eigen::VectorXd& beta, Eigen::VectorXd& v) {
+  v.resize(alpha.size() + beta.size());
+  v << alpha, kHistoryBetaScale * beta;
 }
 
 // Continuation predictor: when q continues the straight line through the last solves of the chain (each step

@@ -26,6 +26,8 @@ constexpr double kHistoryBetaScale = 50.0;
 Eigen::VectorXd historyKey(const Configuration& q);
 /// The same into v (its storage reused).
 void historyKey(const Configuration& q, Eigen::VectorXd& v);
+/// The same from the rotations and translations.
+void historyKey(const Eigen::VectorXd& alpha, const Eigen::VectorXd& beta, Eigen::VectorXd& v);
 
 /// Continuation predictor: when q continues the straight line through the chain's last solves, z <- the extrapolation
 /// of their unknowns along it; false when it does not apply.

@@ -29,6 +29,8 @@ T endMoment(const Problem& P, const Segment& sg, const T* th, int i, const std::
     return ending && j < i && std::find(ending->begin(), ending->end(), j) != ending->end();
   };
   T A = 0.0, B = 0.0;
+  T si = 0.0, ci = 0.0;  // sin, cos of th[i]
+  bool have_i = false;
   double K = sg.K;
   for (int j = 0; j < n; ++j) {
     if (excluded(j)) {
@@ -40,11 +42,15 @@ T endMoment(const Problem& P, const Segment& sg, const T* th, int i, const std::
       sinCos(th[j], sj, cj);
       A += sg.w[j] * cj;
       B += sg.w[j] * sj;
+      if (j == i) {
+        si = sj;
+        ci = cj;
+        have_i = true;
+      }
     }
   }
   const double chi_kappa = sg.w[i] != 0.0 ? P.kappa[i] : 0.0;
-  T si, ci;
-  sinCos(th[i], si, ci);
+  if (!have_i) sinCos(th[i], si, ci);
   // v = u_xy of tube i's curvature less its precurvature: u0 - chi kappa_i d(theta_i), d = (-sin, cos).
   const T vx = (mbx - B) / K + chi_kappa * si;
   const T vy = (A + mby) / K - chi_kappa * ci;

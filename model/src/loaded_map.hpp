@@ -45,6 +45,7 @@ struct LoadedWork {
   JacobianCache cache;
   NewtonScratch newton;
   Eigen::VectorXd q_key, model_key;  ///< scratch of the cache look-ups
+  Eigen::VectorXd recorded_z;        ///< unknowns of the last recorded value evaluation
   WarmHistory history;               ///< loaded solves following a path (KinematicsOptions::extrapolate_warm_start)
 };
 

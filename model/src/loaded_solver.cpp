@@ -3,6 +3,7 @@
 // cold start from the load-free equilibrium by continuation in the load.
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <string>
 
 #include "contact_events.hpp"
@@ -15,7 +16,8 @@ namespace ctr::detail {
 namespace {
 
 // The loaded map as a system of the Newton core. Value evaluations record the outputs when `record` (Jacobian
-// evaluations do not); recordedAt(z) tells whether W.out belongs to z.
+// evaluations do not); recordedAt(z) tells whether W.out belongs to z (the point of the last recording is kept in
+// W.recorded_z).
 class LoadedSystem final : public NewtonSystem {
  public:
   LoadedSystem(LoadedWork& W, const KinematicsOptions& opt, bool record)
@@ -27,20 +29,19 @@ class LoadedSystem final : public NewtonSystem {
     }
     evalValue(W_, z, record_ ? &W_.out : nullptr, nodes_, tubes_);
     if (record_) {
-      recorded_z_ = z;
+      W_.recorded_z = z;
       recorded_ = true;
     }
   }
   const Eigen::VectorXd& residual() const override { return W_.r; }
   Eigen::MatrixXd& jacobian() override { return W_.J; }
   double stability() const override { return loadedStability(W_.L, W_.J); }
-  bool recordedAt(const Eigen::VectorXd& z) const { return recorded_ && recorded_z_ == z; }
+  bool recordedAt(const Eigen::VectorXd& z) const { return recorded_ && W_.recorded_z == z; }
 
  private:
   LoadedWork& W_;
   bool record_, nodes_, tubes_;
   bool recorded_ = false;
-  Eigen::VectorXd recorded_z_;
 };
 
 // The model key of the Jacobian cache: the robot's kb, kt, kappa, densities and the (scaled) loads.
@@ -110,7 +111,7 @@ bool newtonLoaded(LoadedWork& W, Eigen::VectorXd& z, const KinematicsOptions& op
   }
   const bool ok =
       newton(S, z, newtonSettings(opt, P.s_tip, L.m, JacobianReuse::Broyden), W.newton, jac, iterations, res_norm, why);
-  if (ok) C.store(W.J, W.q_key, W.model_key, z, S.stability(), jac.updates);
+  if (ok) C.store(W.J, W.q_key, W.model_key, z, std::numeric_limits<double>::quiet_NaN(), jac.updates);
   if (recorded) *recorded = S.recordedAt(z);
   return ok;
 }

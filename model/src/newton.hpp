@@ -96,8 +96,8 @@ bool newton(NewtonSystem& S, Eigen::VectorXd& z, const NewtonSettings& s, Newton
 void broydenUpdate(Eigen::MatrixXd& J, const Eigen::VectorXd& step, const Eigen::VectorXd& dr, Eigen::VectorXd& tmp);
 
 /// A Jacobian kept from a recent solve for the quasi-Newton steps of the next nearby ones: where it was taken
-/// (history key of the actuation, unknowns), of which model (its parameters), its stability and its Broyden updates
-/// since it was exact.
+/// (history key of the actuation, unknowns), of which model (its parameters), its stability (NaN when not kept: then
+/// chordSolve evaluates the exact Jacobian at its solution) and its Broyden updates since it was exact.
 struct JacobianCache {
   bool valid = false;
   Eigen::MatrixXd J;

@@ -62,7 +62,7 @@ Solution package(const Configuration& q, const Problem& P, const Outputs& out, c
   sol.tip_frame = out.tip_frame;
   sol.moments = out.moments;
   if (opt.record_backbone) {
-    // The last evaluation was at (P, z) with recording on (see solveImpl).
+    // The last evaluation was at (P, z) with recording on (see solveTorsionOnly).
     if (opt.record_tube_states) {
       sol.backbone = out.backbone;
     } else {
@@ -127,12 +127,17 @@ bool continuation(const std::function<void(double)>& setAt, const Problem& P, Wo
 
 // The model key of the chord cache: the robot's kb, kt, kappa.
 void modelKey(const Problem& P, Eigen::VectorXd& k) {
-  k.resize(3 * P.n);
-  k << P.kb, P.kt, P.kappa;
+  const int n = P.n;
+  k.resize(3 * n);
+  k.head(n) = P.kb;
+  k.segment(n, n) = P.kt;
+  k.tail(n) = P.kappa;
 }
 
-Solution solveImpl(const Robot& robot, const Configuration& q, const std::vector<ContactCondition>* conditions,
-                   Workspace& ws, const KinematicsOptions& opt, const Solution* warm) {
+}  // namespace
+
+Solution solveTorsionOnly(const Robot& robot, const Configuration& q, const std::vector<ContactCondition>* conditions,
+                          Workspace& ws, const KinematicsOptions& opt, const Solution* warm) {
   const Admissibility adm = checkAdmissible(robot, q);
   if (!adm) return inadmissibleSolution(q, adm.message, robot.size(), false);
   Workspace::Impl& W = ws.impl();
@@ -153,10 +158,10 @@ Solution solveImpl(const Robot& robot, const Configuration& q, const std::vector
   JacobianCache& CC = W.chain_chord;
   Eigen::VectorXd& qv = W.key;  // the workspace's scratch vectors: no allocation per solve
   historyKey(q, qv);
-  modelKey(P, W.model_key);
   // Quasi-Newton steps from the cached Jacobian; its stability is the solution's unless small (then evaluated).
   TorsionSystem chord_system(P, W.eval, W.out, rec);
   auto chord = [&](Eigen::VectorXd& zc, int max_steps, int& iterations) {
+    modelKey(P, W.model_key);
     if (!CC.usable(qv, W.model_key, zc)) return false;
     W.out.stability = CC.stability;
     return chordSolve(chord_system, zc, CC, max_steps, opt.tolerance, exactStabilityBelow(opt), W.newton, iterations,
@@ -173,8 +178,9 @@ Solution solveImpl(const Robot& robot, const Configuration& q, const std::vector
       Eigen::VectorXd& zc = W.z_chord;
       zc = zp;
       ok = chord(zc, 2, it_p);
-      if (ok) z = zc;
-      if (!ok) {
+      if (ok) {
+        z = zc;
+      } else {
         ok = newtonTorsion(P, W, zp, opt, it_p, rn, why, rec);
         if (ok) z = zp;
       }
@@ -265,16 +271,10 @@ Solution solveImpl(const Robot& robot, const Configuration& q, const std::vector
     H.count = 0;
   if (frictionless && plain && W.eval.jacobian_evaluations > jacobians_before && W.eval.J.rows() == P.m) {
     // An exact Jacobian of this solve (at its last Newton iterate): the chord matrix of the next nearby solves.
+    modelKey(P, W.model_key);
     CC.store(W.eval.J, qv, W.model_key, z, W.out.stability, 0);
   }
   return sol;
-}
-
-}  // namespace
-
-Solution solveTorsionOnly(const Robot& robot, const Configuration& q, const std::vector<ContactCondition>* conditions,
-                          Workspace& ws, const KinematicsOptions& opt, const Solution* warm) {
-  return solveImpl(robot, q, conditions, ws, opt, warm);
 }
 
 }  // namespace ctr::detail

@@ -109,6 +109,34 @@ __attribute__((always_inline)) inline void rk4Update(T* __restrict y, const T& h
   }
 }
 
+// The contact residual rows at the distal boundary of segment si (before the point-torque jumps; theta is
+// continuous), and the point torques of the contact unknowns after the distal conditions. Out of line: only solves
+// under contact laws have them, and the integrator's loop stays small for the compiler.
+template <class T>
+__attribute__((noinline)) void contactRows(const LoadedProblem& L, std::size_t si, const T* z, const T* th,
+                                           const T& mbx, const T& mby, T* r, LoadedOutputs* rec) {
+  const Problem& P = L.P;
+  const int n = P.n;
+  for (int c : P.breakpoints[si].contacts) {
+    const ActiveContact& ac = P.contacts[static_cast<std::size_t>(c)];
+    const int row = n + 2 + c;
+    const T relative_twist = th[ac.site.inner] - th[ac.site.outer];
+    const T mom = siteMoment<T>(P, si, th, ac.site, mbx, mby);
+    if (rec) {
+      rec->contacts_relative_twist[static_cast<std::size_t>(c)] = value(relative_twist);
+      rec->contacts_moment[static_cast<std::size_t>(c)] = value(mom);
+    }
+    r[row] = contactLawResidual(P, ac, z[row], relative_twist, mom);
+  }
+}
+
+template <class T>
+__attribute__((noinline)) void contactJumps(const LoadedProblem& L, const Breakpoint& bp, const T* z, T* r, T* uz) {
+  const Problem& P = L.P;
+  for (int c : bp.contacts)
+    applyContactJump(contactJump(P, bp, P.contacts[static_cast<std::size_t>(c)]), z[P.n + 2 + c], r, uz);
+}
+
 /// The discrete loaded map. Inputs z (m unknowns), alpha, beta (n), F, M (3). Outputs the residual r (m), the tip
 /// position p (3) and frame R (9, row-major). With `rec` (double only) also twist, moments, contacts, backbone.
 /// NT > 0: the tube count as a compile-time constant (P.n must equal it), so that the loops over the state unroll.
@@ -398,18 +426,7 @@ void runLoaded(const LoadedProblem& L, const T* z, const T* alpha, const T* beta
           rec->moments.push_back(
               {MomentKind::CurvatureDiscontinuity, j, bp.s, discontinuityMoment(P, P.segments[si + 1], j)});
     }
-    // Contact residual rows (before the point-torque jumps; theta is continuous).
-    for (int c : bp.contacts) {
-      const ActiveContact& ac = P.contacts[static_cast<std::size_t>(c)];
-      const int row = n + 2 + c;
-      const T relative_twist = th[ac.site.inner] - th[ac.site.outer];
-      const T mom = siteMoment<T>(P, si, th, ac.site, mbx, mby);
-      if (rec) {
-        rec->contacts_relative_twist[static_cast<std::size_t>(c)] = value(relative_twist);
-        rec->contacts_moment[static_cast<std::size_t>(c)] = value(mom);
-      }
-      r[row] = contactLawResidual(P, ac, z[row], relative_twist, mom);
-    }
+    if (!bp.contacts.empty()) contactRows<T>(L, si, z, th, mbx, mby, r, rec);
     // Distal conditions: k_i u_iz(s-) = point torque; the innermost tube carries the tip moment's tangent part.
     for (int i : bp.ending) {
       r[i] = uz[i];
@@ -419,8 +436,7 @@ void runLoaded(const LoadedProblem& L, const T* z, const T* alpha, const T* beta
         r[i] -= Mloc[2] / P.kt[n - 1];
       }
     }
-    for (int c : bp.contacts)
-      applyContactJump(contactJump(P, bp, P.contacts[static_cast<std::size_t>(c)]), z[n + 2 + c], r, uz);
+    if (!bp.contacts.empty()) contactJumps<T>(L, bp, z, r, uz);
   }
   // Bending part of the tip moment condition (tip frame): (R^T (m - M))_xy = 0, scaled by the tip stiffness.
   const double Ktip = P.segments.empty() ? L.K0 : P.segments.back().K;

@@ -154,10 +154,9 @@ bool JacobianCache::usable(const Eigen::VectorXd& q_key, const Eigen::VectorXd& 
          (z - z_now).cwiseAbs().maxCoeff() <= 0.1 * (1.0 + z.cwiseAbs().maxCoeff());
 }
 
-void JacobianCache::store(const Eigen::MatrixXd& J_exact, const Eigen::VectorXd& q_key,
-                          const Eigen::VectorXd& model_key, const Eigen::VectorXd& z_now, double stab,
-                          int broyden_updates) {
-  J = J_exact;
+void JacobianCache::store(const Eigen::MatrixXd& J_kept, const Eigen::VectorXd& q_key, const Eigen::VectorXd& model_key,
+                          const Eigen::VectorXd& z_now, double stab, int broyden_updates) {
+  J = J_kept;
   q = q_key;
   model = model_key;
   z = z_now;

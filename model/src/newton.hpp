@@ -2,7 +2,7 @@
 // with a step cap and a backtracking line search, quasi-Newton reuse of Jacobians (chord or Broyden), the quasi-Newton
 // solve from a cached Jacobian, and the cache with its reuse rule.
 //
-// Failure messages (SolveSummary::message of a failed solve starts with one of them):
+// Failure messages (the SolveSummary::message of a failed solve names one of them, after what was being solved):
 //   "non-finite residual"                          the residual at the current iterate is NaN or infinite;
 //   "singular Jacobian"                            neither the Newton step nor the regularised one is finite;
 //   "line search failed (no descent direction)"    12 halvings of the step found no decrease of |r|^2;
@@ -107,7 +107,7 @@ struct JacobianCache {
   /// The reuse rule: the same model and number of unknowns, the actuation within 0.1 in history-key units (0.1 rad,
   /// 2 mm) and the unknowns within 0.1 (1 + |z|) of where it was taken.
   bool usable(const Eigen::VectorXd& q_key, const Eigen::VectorXd& model_key, const Eigen::VectorXd& z_now) const;
-  void store(const Eigen::MatrixXd& J_exact, const Eigen::VectorXd& q_key, const Eigen::VectorXd& model_key,
+  void store(const Eigen::MatrixXd& J_kept, const Eigen::VectorXd& q_key, const Eigen::VectorXd& model_key,
              const Eigen::VectorXd& z_now, double stab, int broyden_updates);
 };
 

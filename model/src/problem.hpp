@@ -33,12 +33,15 @@ struct Breakpoint {
   bool twist_point = false;          // s = distal end of tube 1 (where twist is measured)
 };
 
+/// A contact site with its law and its index among the configuration's contact sites.
 struct ActiveContact {
   ContactSite site;
   ContactCondition condition;
   int site_index = 0;
 };
 
+/// The shooting problem of a configuration: stiffnesses and precurvatures, segments, breakpoints, active contacts;
+/// n tubes, m unknowns (n twist rates and one per contact).
 struct Problem {
   int n = 0, m = 0;
   double mu_boundary = 0, s_tip = 0, s_twist = 0;

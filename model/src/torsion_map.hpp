@@ -10,6 +10,8 @@
 
 namespace ctr::detail {
 
+/// Outputs of an evaluation: twist, tip pose, moments and contacts, the backbone when recorded, and the stability
+/// (det of the twist-rate block of J) of the last evaluation with the Jacobian.
 struct Outputs {
   Eigen::VectorXd twist;
   Eigen::Vector3d tip_position = Eigen::Vector3d::Zero();
@@ -20,6 +22,8 @@ struct Outputs {
   double stability = 0;
 };
 
+/// The torsion-only shooting map r(z) and its exact Jacobian (the sensitivities integrated with the state), with
+/// its buffers.
 class Evaluator {
  public:
   /// Integrates from s = 0 to the tip for unknowns z; fills r (and J when jac). Without `record` the backbone pose

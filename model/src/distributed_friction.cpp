@@ -1,15 +1,18 @@
-// Distributed-contact Coulomb friction (Lock & Dupont 2011 §II.B-C). Not a hot path: the shooting Jacobian is
-// formed by finite differences here; the implicit equation for u_z' is solved by fixed-point iteration (a
-// contraction: the friction torque depends on u_z' only through the small term r K u'').
+// Distributed-contact Coulomb friction (Lock & Dupont 2011 §II.B-C). Not a hot path: the shooting problem is solved
+// by the Newton core (newton.hpp) with a Jacobian by finite differences; the implicit equation for u_z' is solved by
+// fixed-point iteration (a contraction: the friction torque depends on u_z' only through the small term r K u'').
 #include "ctr/model/distributed_friction.hpp"
 
 #include <Eigen/Geometry>
 #include <Eigen/LU>
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <sstream>
 #include <stdexcept>
 
+#include "contact_events.hpp"
+#include "newton.hpp"
 #include "se3_step.hpp"
 #include "workspace_impl.hpp"
 
@@ -21,9 +24,9 @@ using detail::Segment;
 
 struct Model {
   const Problem* P = nullptr;
-  double mu = 0, fric = 0;        // mu, mu / sqrt(1 + mu^2)
-  Eigen::VectorXd radius;         // contact radius of interface j
-  std::vector<int> dir;           // sign of (theta_{j+1} - theta_j)' per interface
+  double mu = 0, fric = 0;  // mu, mu / sqrt(1 + mu^2)
+  Eigen::VectorXd radius;   // contact radius of interface j
+  std::vector<int> dir;     // sign of (theta_{j+1} - theta_j)' per interface
   int max_iter = 60;
   double tol = 1e-12;
   int worst_iter = 0;
@@ -33,10 +36,12 @@ struct Model {
 inline Eigen::Vector2d rotT(double c, double s, const Eigen::Vector2d& a) {  // R_z(theta)^T a
   return Eigen::Vector2d(c * a.x() + s * a.y(), -s * a.x() + c * a.y());
 }
-inline Eigen::Vector2d Jm(const Eigen::Vector2d& a) { return Eigen::Vector2d(a.y(), -a.x()); }  // J = [[0,1],[-1,0]]
+inline Eigen::Vector2d Jm(const Eigen::Vector2d& a) {
+  return Eigen::Vector2d(a.y(), -a.x());
+}  // J = [[0,1],[-1,0]]
 
 struct StageOut {
-  Eigen::VectorXd uzp, nzp;   // u_z', n_z'
+  Eigen::VectorXd uzp, nzp;  // u_z', n_z'
   Eigen::Vector2d u0;
   std::vector<double> iface_force, iface_torque;  // per interface j
 };
@@ -89,7 +94,7 @@ void forces(const Model& M, const Segment& sg, const Eigen::VectorXd& th, const 
     const double fx = npx + (u.y() * nz[i] - u.z() * ny);
     const double fy = npy + (u.z() * nx - u.x() * nz[i]);
     F[static_cast<std::size_t>(i)] = Eigen::Vector2d(c[i] * fx - s[i] * fy, s[i] * fx + c[i] * fy);  // to F0
-    nzp[i] = u.x() * ny - u.y() * nx;  // eq. 24
+    nzp[i] = u.x() * ny - u.y() * nx;                                                                // eq. 24
   }
   // Interface forces from the innermost present tube outwards: F_i = G_{i-1} - G_i.
   tau.setZero(n);
@@ -109,8 +114,8 @@ void forces(const Model& M, const Segment& sg, const Eigen::VectorXd& th, const 
 }
 
 // u_z' solving u_z' = frictionless(theta) + tau(u_z')/k_t by fixed-point iteration.
-bool stage(Model& M, const Segment& sg, const Eigen::VectorXd& th, const Eigen::VectorXd& uz,
-           const Eigen::VectorXd& nz, StageOut& out, bool want_iface) {
+bool stage(Model& M, const Segment& sg, const Eigen::VectorXd& th, const Eigen::VectorXd& uz, const Eigen::VectorXd& nz,
+           StageOut& out, bool want_iface) {
   const Problem& P = *M.P;
   const int n = P.n;
   Eigen::VectorXd base(n);
@@ -121,8 +126,7 @@ bool stage(Model& M, const Segment& sg, const Eigen::VectorXd& th, const Eigen::
       A += sg.w[j] * std::cos(th[j]);
       B += sg.w[j] * std::sin(th[j]);
     }
-  for (int i = 0; i < n; ++i)
-    base[i] = sg.a[i] != 0.0 ? sg.a[i] * (std::sin(th[i]) * A - std::cos(th[i]) * B) : 0.0;
+  for (int i = 0; i < n; ++i) base[i] = sg.a[i] != 0.0 ? sg.a[i] * (std::sin(th[i]) * A - std::cos(th[i]) * B) : 0.0;
   Eigen::VectorXd uzp = base, tau(n), nzp(n);
   Eigen::Vector2d u0;
   bool ok = false;
@@ -232,8 +236,8 @@ void integrate(Model& M, const Eigen::VectorXd& z, bool record, Pass& out) {
       stage(M, sg, th + h * d3t, uz + h * d3u, nz + h * d3n, k4, true);
       const Eigen::VectorXd d4t = dth(uz + h * d3u), d4u = mask(k4.uzp), d4n = mask(k4.nzp);
       for (std::size_t j = 0; j < out.integrated.size(); ++j)
-        out.integrated[j] += h / 6 * (k1.iface_torque[j] + 2 * k2.iface_torque[j] + 2 * k3.iface_torque[j] +
-                                      k4.iface_torque[j]);
+        out.integrated[j] +=
+            h / 6 * (k1.iface_torque[j] + 2 * k2.iface_torque[j] + 2 * k3.iface_torque[j] + k4.iface_torque[j]);
       th += h / 6 * (d1t + 2 * d2t + 2 * d3t + d4t);
       uz += h / 6 * (d1u + 2 * d2u + 2 * d3u + d4u);
       nz += h / 6 * (d1n + 2 * d2n + 2 * d3n + d4n);
@@ -247,34 +251,19 @@ void integrate(Model& M, const Eigen::VectorXd& z, bool record, Pass& out) {
       out.r[i] = uz[i];
       out.r[n + i] = nz[i];
     }
-    // Lumped friction at concentrated moments (§II.D), as in the kinematics solver: unknown scaled torque tau_c
-    // (T = kt_inner tau_c on the inner tube, -T on the outer); its law gives the residual row; the torque is a
-    // point torque, i.e. a jump of u_z (or a term of the distal condition of a tube ending here).
+    // Lumped friction at concentrated moments (§II.D), as in the other integrators: unknown scaled torque tau_c, its
+    // law's residual row, and its point torque.
     for (int c : bp.contacts) {
       const detail::ActiveContact& ac = P.contacts[static_cast<std::size_t>(c)];
-      const int a = ac.site.outer, b = ac.site.inner, row = 2 * n + c;
-      const double tau = z[2 * n + c];
-      const double mom = detail::siteMoment(P, si, th.data(), ac.site, nullptr);
-      out.contact_twist[static_cast<std::size_t>(c)] = th[b] - th[a];
+      const double relative_twist = th[ac.site.inner] - th[ac.site.outer];
+      const double mom = detail::siteMoment<double>(P, si, th.data(), ac.site, 0.0, 0.0);
+      out.contact_twist[static_cast<std::size_t>(c)] = relative_twist;
       out.contact_moment[static_cast<std::size_t>(c)] = mom;
-      switch (ac.condition.law) {
-        case ContactCondition::Law::Free: out.r[row] = tau; break;
-        case ContactCondition::Law::Stick: out.r[row] = th[b] - th[a] - ac.condition.value; break;
-        case ContactCondition::Law::Torque:
-          out.r[row] = tau - ac.condition.value * P.mu_boundary / P.kt[b] * mom;
-          break;
-      }
+      out.r[2 * n + c] = detail::contactLawResidual(P, ac, z[2 * n + c], relative_twist, mom);
     }
-    for (int c : bp.contacts) {
-      const detail::ActiveContact& ac = P.contacts[static_cast<std::size_t>(c)];
-      const int a = ac.site.outer, b = ac.site.inner;
-      const double tau = z[2 * n + c];
-      const double pa = -P.kt[b] / P.kt[a];
-      const bool a_ends = std::find(bp.ending.begin(), bp.ending.end(), a) != bp.ending.end();
-      const bool b_ends = std::find(bp.ending.begin(), bp.ending.end(), b) != bp.ending.end();
-      (a_ends ? out.r[a] : uz[a]) -= pa * tau;
-      (b_ends ? out.r[b] : uz[b]) -= tau;
-    }
+    for (int c : bp.contacts)
+      detail::applyContactJump(detail::contactJump(P, bp, P.contacts[static_cast<std::size_t>(c)]), z[2 * n + c],
+                               out.r.data(), uz.data());
     if (record && si + 1 == P.segments.size()) {
       StageOut last;
       stage(M, sg, th, uz, nz, last, true);
@@ -282,6 +271,36 @@ void integrate(Model& M, const Eigen::VectorXd& z, bool record, Pass& out) {
     }
   }
 }
+
+// The distributed-friction map as a system of the Newton core, its Jacobian by forward differences (the implicit
+// equation for u_z' at every stage keeps it from the exact derivatives of the other maps).
+class DistributedSystem final : public detail::NewtonSystem {
+ public:
+  explicit DistributedSystem(Model& M) : M_(M) {}
+  void evaluate(const Eigen::VectorXd& z, bool jacobian) override {
+    integrate(M_, z, false, pass_);
+    if (!jacobian) return;
+    const Eigen::Index m = z.size();
+    J_.resize(m, m);
+    for (Eigen::Index c = 0; c < m; ++c) {
+      const double hstep = 1e-7 * (1.0 + std::abs(z[c]));
+      probe_z_ = z;
+      probe_z_[c] += hstep;
+      integrate(M_, probe_z_, false, probe_);
+      J_.col(c) = (probe_.r - pass_.r) / hstep;
+    }
+  }
+  const Eigen::VectorXd& residual() const override { return pass_.r; }
+  Eigen::MatrixXd& jacobian() override { return J_; }
+  // The reported stability is the branch's without distributed friction: no Jacobian is needed at the solution.
+  double stability() const override { return std::numeric_limits<double>::infinity(); }
+
+ private:
+  Model& M_;
+  Pass pass_, probe_;
+  Eigen::VectorXd probe_z_;
+  Eigen::MatrixXd J_;
+};
 
 }  // namespace
 
@@ -340,48 +359,25 @@ DistributedFrictionSolution solveDistributedFriction(const Robot& robot, const C
   Workspace ws;
   KinematicsOptions ko = opt.kinematics;
   ko.record_backbone = false;
-  const Solution base = conditions ? solveWithContacts(robot, q, *conditions, ws, ko, warm) : solve(robot, q, ws, ko, warm);
+  const Solution base =
+      conditions ? solveWithContacts(robot, q, *conditions, ws, ko, warm) : solve(robot, q, ws, ko, warm);
   Eigen::VectorXd z = Eigen::VectorXd::Zero(2 * n + nc);
   if (base.converged()) {
     z.head(n) = base.base_twist_rate;
     if (base.contact_unknowns.size() == nc) z.tail(nc) = base.contact_unknowns;
   }
-  Pass pass;
-  integrate(M, z, false, pass);
-  double nr = pass.r.cwiseAbs().maxCoeff();
+  DistributedSystem S(M);
+  detail::NewtonSettings settings =
+      detail::newtonSettings(opt.kinematics, P.s_tip, n, detail::JacobianReuse::Chord);  // cap on u_z(0)
+  detail::NewtonScratch scratch;
+  detail::NewtonJacobian jac;
   int iters = 0;
+  double nr = 0.0;
+  std::string why;
+  detail::newton(S, z, settings, scratch, jac, iters, nr, why);
   const double tol = opt.kinematics.tolerance;
-  for (; iters < opt.kinematics.max_iterations && nr >= tol; ++iters) {
-    // Finite-difference Jacobian.
-    Eigen::MatrixXd J(2 * n + nc, 2 * n + nc);
-    Pass pp;
-    for (int c = 0; c < 2 * n + nc; ++c) {
-      const double hstep = 1e-7 * (1.0 + std::abs(z[c]));
-      Eigen::VectorXd zc = z;
-      zc[c] += hstep;
-      integrate(M, zc, false, pp);
-      J.col(c) = (pp.r - pass.r) / hstep;
-    }
-    Eigen::VectorXd dz = J.fullPivLu().solve(-pass.r);
-    if (!dz.allFinite()) break;
-    double t = 1.0;
-    bool acc = false;
-    for (int ls = 0; ls < 10; ++ls) {
-      Eigen::VectorXd zt = z + t * dz;
-      integrate(M, zt, false, pp);
-      const double nt = pp.r.cwiseAbs().maxCoeff();
-      if (std::isfinite(nt) && nt < nr) {
-        z = zt;
-        pass = pp;
-        nr = nt;
-        acc = true;
-        break;
-      }
-      t *= 0.5;
-    }
-    if (!acc) break;
-  }
   const bool ok = nr < std::max(tol, 1e-9) && !M.root_failed;
+  Pass pass;
   integrate(M, z, opt.kinematics.record_backbone, pass);
   Solution& s = res.solution;
   s.summary.status = ok ? SolveStatus::Converged : SolveStatus::NotConverged;
@@ -391,7 +387,8 @@ DistributedFrictionSolution solveDistributedFriction(const Robot& robot, const C
   s.summary.stable = ok && base.summary.stable;
   if (!ok) {
     std::ostringstream os;
-    os << "distributed-friction shooting did not converge (residual " << nr << ")";
+    os << "distributed-friction shooting did not converge";
+    if (!why.empty()) os << ": " << why;
     if (M.root_failed) os << "; the implicit equation for u_z' did not converge at some stage";
     s.summary.message = os.str();
   } else if (res.used_default_radius) {
@@ -405,16 +402,7 @@ DistributedFrictionSolution solveDistributedFriction(const Robot& robot, const C
   s.tip_frame = pass.R;
   s.moments = base.moments;
   s.contact_unknowns = z.tail(nc);
-  for (int c = 0; c < nc; ++c) {
-    const detail::ActiveContact& ac = P.contacts[static_cast<std::size_t>(c)];
-    ContactResult cr;
-    cr.site = ac.site;
-    cr.condition = ac.condition;
-    cr.relative_twist = pass.contact_twist[static_cast<std::size_t>(c)];
-    cr.moment = pass.contact_moment[static_cast<std::size_t>(c)];
-    cr.torque = z[2 * n + c] * P.kt[ac.site.inner];
-    s.contacts.push_back(cr);
-  }
+  s.contacts = detail::contactResults(P, pass.contact_twist, pass.contact_moment, z, 2 * n);
   s.backbone = std::move(pass.backbone);
   res.samples = std::move(pass.samples);
   for (double v : pass.integrated) res.integrated_friction_torque = std::max(res.integrated_friction_torque, v);

@@ -1,4 +1,4 @@
-// Internal: the backbone frame of the loaded integrator (loaded_kinematics.cpp) and its rotation steps, for a plain
+// Internal: the backbone frame of the loaded integrator (loaded_map.cpp) and its rotation steps, for a plain
 // double and for forward-mode duals.
 //
 // Frame<double> is the rotation matrix R (row-major). Frame<Dual<N>> keeps the value R and, per derivative

@@ -8,35 +8,25 @@
 //   R' = R [u0]x,  p' = R e3,  m' = -p' x n,  n(s) = F + g sum_i rho_i max(0, end_i - s)  (closed form: n' = -rho g)
 // The Euclidean states (theta, u_z, m) are integrated by classical RK4 and the pose by the matching 4th-order
 // commutator-free Lie-group method (CF4) whose stages are evaluated at the stage rotations; with m = 0 it reduces
-// exactly to the load-free integrator of kinematics.cpp (same stages, same pose update).
+// exactly to the load-free integrator of torsion_map.cpp (same stages, same pose update).
 //
 // Derivatives: the integrator is templated on its scalar. With Dual<N> it carries N directional derivatives through
 // every stage and every segment boundary (the boundaries are functions of beta with a fixed number of steps per
 // segment), so Jacobians are the exact derivatives of the discrete map (no finite differences).
+#include "loaded_map.hpp"
+
 #include <Eigen/Geometry>
-#include <Eigen/LU>
 #include <algorithm>
 #include <cmath>
-#include <sstream>
-#include <stdexcept>
 #include <type_traits>
 
-#include "ctr/model/jacobian.hpp"
+#include "contact_events.hpp"
 #include "dual.hpp"
 #include "loaded_frame.hpp"
-#include "loaded_impl.hpp"
 #include "sincos_shift.hpp"
-#include "workspace_impl.hpp"
 
-namespace ctr {
-namespace detail {
-namespace {
+namespace ctr::detail {
 
-constexpr double kSameS = 1e-12;  // as kinematics.cpp
-
-// ---------------------------------------------------------------------------------------------------------------
-// Set-up
-// ---------------------------------------------------------------------------------------------------------------
 void setLoadScale(LoadedProblem& L, const Robot& robot, double scale) {
   L.g = scale * robot.loads().gravity;
   L.F = scale * robot.loads().tip_force;
@@ -79,41 +69,7 @@ void setupLoaded(LoadedProblem& L, const Robot& robot, const Configuration& q,
       if (P.segments[si].present[static_cast<std::size_t>(i)]) L.seg_rho[si] += L.rho[i];
 }
 
-// ---------------------------------------------------------------------------------------------------------------
-// Templated pieces of the integrator
-// ---------------------------------------------------------------------------------------------------------------
-// Bending moment magnitude of tube i just before the end of segment sg (loaded curvature), nesting-order rule for
-// coincident ends as in kinematics.cpp (endMoment).
-template <class T>
-T loadedEndMoment(const Problem& P, const Segment& sg, const T* th, const T& mbx, const T& mby, int i,
-                  const std::vector<int>* ending) {
-  auto excluded = [&](int j) {
-    return ending && j < i && std::find(ending->begin(), ending->end(), j) != ending->end();
-  };
-  T A = 0.0, B = 0.0;
-  double K = sg.K;
-  for (int j = 0; j < P.n; ++j) {
-    if (excluded(j)) {
-      if (sg.present[static_cast<std::size_t>(j)]) K -= P.kb[j];
-      continue;
-    }
-    if (sg.w[j] != 0.0) {
-      T sn, cs;
-      sinCos(th[j], sn, cs);
-      A += sg.w[j] * cs;
-      B += sg.w[j] * sn;
-    }
-  }
-  const double chi_kappa = sg.w[i] != 0.0 ? P.kappa[i] : 0.0;
-  T si, ci;
-  sinCos(th[i], si, ci);
-  const T vx = (mbx - B) / K + chi_kappa * si;
-  const T vy = (A + mby) / K - chi_kappa * ci;
-  const T nv2 = vx * vx + vy * vy;
-  if (!(value(nv2) > 0.0)) return T(0.0);
-  using std::sqrt;
-  return P.kb[i] * sqrt(nv2);
-}
+namespace {
 
 // ys = y + c k over dim entries (c's derivative nonzero only in the directions cidx[0 .. cnt)); sh = the value of c k
 // over the n angles (the stage's angle increments).
@@ -153,6 +109,34 @@ __attribute__((always_inline)) inline void rk4Update(T* __restrict y, const T& h
   }
 }
 
+// The contact residual rows at the distal boundary of segment si (before the point-torque jumps; theta is
+// continuous), and the point torques of the contact unknowns after the distal conditions. Out of line: only solves
+// under contact laws have them, and the integrator's loop stays small for the compiler.
+template <class T>
+__attribute__((noinline)) void contactRows(const LoadedProblem& L, std::size_t si, const T* z, const T* th,
+                                           const T& mbx, const T& mby, T* r, LoadedOutputs* rec) {
+  const Problem& P = L.P;
+  const int n = P.n;
+  for (int c : P.breakpoints[si].contacts) {
+    const ActiveContact& ac = P.contacts[static_cast<std::size_t>(c)];
+    const int row = n + 2 + c;
+    const T relative_twist = th[ac.site.inner] - th[ac.site.outer];
+    const T mom = siteMoment<T>(P, si, th, ac.site, mbx, mby);
+    if (rec) {
+      rec->contacts_relative_twist[static_cast<std::size_t>(c)] = value(relative_twist);
+      rec->contacts_moment[static_cast<std::size_t>(c)] = value(mom);
+    }
+    r[row] = contactLawResidual(P, ac, z[row], relative_twist, mom);
+  }
+}
+
+template <class T>
+__attribute__((noinline)) void contactJumps(const LoadedProblem& L, const Breakpoint& bp, const T* z, T* r, T* uz) {
+  const Problem& P = L.P;
+  for (int c : bp.contacts)
+    applyContactJump(contactJump(P, bp, P.contacts[static_cast<std::size_t>(c)]), z[P.n + 2 + c], r, uz);
+}
+
 /// The discrete loaded map. Inputs z (m unknowns), alpha, beta (n), F, M (3). Outputs the residual r (m), the tip
 /// position p (3) and frame R (9, row-major). With `rec` (double only) also twist, moments, contacts, backbone.
 /// NT > 0: the tube count as a compile-time constant (P.n must equal it), so that the loops over the state unroll.
@@ -170,7 +154,7 @@ void runLoaded(const LoadedProblem& L, const T* z, const T* alpha, const T* beta
   T* k[4] = {yt + dim, yt + 2 * dim, yt + 3 * dim, yt + 4 * dim};
   T* sn = yt + 5 * dim;
   T* cs = sn + n;
-  T* sn0 = cs + n;  // the base of the angle additions (duals: values only; as kinematics.cpp's Evaluator::deriv)
+  T* sn0 = cs + n;  // the base of the angle additions (duals: values only; as torsion_map.cpp's Evaluator::deriv)
   T* cs0 = sn0 + n;
   T* shift = cs0 + n;
   T* step_shift = shift + n;
@@ -260,7 +244,7 @@ void runLoaded(const LoadedProblem& L, const T* z, const T* alpha, const T* beta
   // force n(s) = F + g (C - rho s). (Curved tubes are present: their theta' is u_z too.)
   // The angles' values are the base's plus `sh` (when given), their sines and cosines by angle addition (for duals
   // the values so, the derivatives by the chain rule); `base`: this evaluation is the new base (a step's first
-  // stage). A segment's first step calls libm (as kinematics.cpp).
+  // stage). A segment's first step calls libm (as torsion_map.cpp).
   auto derivCore = [&](double rho, const T& C, const T& s, const T* ys, const T* mb, const T* t, T* dy, T& u0x, T& u0y,
                        const T* sh, bool base) __attribute__((always_inline)) {
     const T* ths = ys;
@@ -436,36 +420,13 @@ void runLoaded(const LoadedProblem& L, const T* z, const T* alpha, const T* beta
       if (bp.twist_point)
         for (int kk = 1; kk < n; ++kk) rec->twist[kk - 1] = value(th[kk]) - value(th[0]);
       for (int i : bp.ending)
-        rec->moments.push_back(
-            {MomentKind::TubeEnd, i, bp.s, value(loadedEndMoment<T>(P, sg, th, mbx, mby, i, &bp.ending))});
+        rec->moments.push_back({MomentKind::TubeEnd, i, bp.s, value(endMoment<T>(P, sg, th, i, &bp.ending, mbx, mby))});
       if (si + 1 < P.segments.size())
         for (int j : bp.discontinuities)
           rec->moments.push_back(
               {MomentKind::CurvatureDiscontinuity, j, bp.s, discontinuityMoment(P, P.segments[si + 1], j)});
     }
-    // Contact residual rows (before the point-torque jumps; theta is continuous).
-    for (int c : bp.contacts) {
-      const ActiveContact& ac = P.contacts[static_cast<std::size_t>(c)];
-      const int row = n + 2 + c;
-      const int a = ac.site.outer, b = ac.site.inner;
-      T mom = 0.0;
-      if (ac.site.kind == MomentKind::TubeEnd)
-        mom = loadedEndMoment<T>(P, sg, th, mbx, mby, ac.site.tube, &bp.ending);
-      else
-        mom = discontinuityMoment(P, P.segments[si + 1], ac.site.tube);
-      if (rec) {
-        rec->contacts_relative_twist[static_cast<std::size_t>(c)] = value(th[b]) - value(th[a]);
-        rec->contacts_moment[static_cast<std::size_t>(c)] = value(mom);
-      }
-      if (ac.condition.law == ContactCondition::Law::Free) {
-        r[row] = z[row];
-      } else if (ac.condition.law == ContactCondition::Law::Stick) {
-        r[row] = th[b] - th[a] - ac.condition.value;
-      } else {
-        const double f = ac.condition.value * P.mu_boundary / P.kt[b];
-        r[row] = z[row] - f * mom;
-      }
-    }
+    if (!bp.contacts.empty()) contactRows<T>(L, si, z, th, mbx, mby, r, rec);
     // Distal conditions: k_i u_iz(s-) = point torque; the innermost tube carries the tip moment's tangent part.
     for (int i : bp.ending) {
       r[i] = uz[i];
@@ -475,22 +436,7 @@ void runLoaded(const LoadedProblem& L, const T* z, const T* alpha, const T* beta
         r[i] -= Mloc[2] / P.kt[n - 1];
       }
     }
-    for (int c : bp.contacts) {
-      const ActiveContact& ac = P.contacts[static_cast<std::size_t>(c)];
-      const int col = n + 2 + c;
-      const int a = ac.site.outer, b = ac.site.inner;
-      const double pa = -P.kt[b] / P.kt[a];
-      const bool a_ends = std::find(bp.ending.begin(), bp.ending.end(), a) != bp.ending.end();
-      const bool b_ends = std::find(bp.ending.begin(), bp.ending.end(), b) != bp.ending.end();
-      if (a_ends)
-        r[a] -= pa * z[col];
-      else
-        uz[a] -= pa * z[col];
-      if (b_ends)
-        r[b] -= z[col];
-      else
-        uz[b] -= z[col];
-    }
+    if (!bp.contacts.empty()) contactJumps<T>(L, bp, z, r, uz);
   }
   // Bending part of the tip moment condition (tip frame): (R^T (m - M))_xy = 0, scaled by the tip stiffness.
   const double Ktip = P.segments.empty() ? L.K0 : P.segments.back().K;
@@ -521,6 +467,8 @@ Eigen::VectorXd inputVector(const LoadedProblem& L, const Eigen::VectorXd& z) {
   return x;
 }
 
+}  // namespace
+
 void evalValue(LoadedWork& W, const Eigen::VectorXd& z, LoadedOutputs* rec, bool nodes, bool tubes) {
   const LoadedProblem& L = W.L;
   const int m = L.m;
@@ -543,6 +491,8 @@ void evalValue(LoadedWork& W, const Eigen::VectorXd& z, LoadedOutputs* rec, bool
 }
 
 // Derivatives of (r, tip p, tip R) w.r.t. the inputs x[dirs[start .. start+cnt)] into columns of W.D.
+namespace {
+
 template <int N>
 void evalDualChunk(LoadedWork& W, const Eigen::VectorXd& x, const std::vector<int>& dirs, int start, int cnt,
                    bool want_position) {
@@ -572,6 +522,8 @@ void evalDualChunk(LoadedWork& W, const Eigen::VectorXd& x, const std::vector<in
   }
   for (int k = 0; k < cnt; ++k) W.D(m + 12, start + k) = th.d[k];
 }
+
+}  // namespace
 
 // Value and derivatives w.r.t. the listed inputs (W.D: (m + 13) x dirs.size(): r, tip p, tip R, theta_n(tip)).
 void evalDerivatives(LoadedWork& W, const Eigen::VectorXd& z, const std::vector<int>& dirs, bool want_position) {
@@ -625,167 +577,6 @@ void evalJacobian(LoadedWork& W, const Eigen::VectorXd& z) {
   W.J = W.D.topRows(m);
 }
 
-// ---------------------------------------------------------------------------------------------------------------
-// Newton, continuation in the load, packaging
-// ---------------------------------------------------------------------------------------------------------------
-double maxAbs(const Eigen::VectorXd& v) {
-  return v.size() ? v.cwiseAbs().maxCoeff() : 0.0;
-}
-
-double loadedStability(const LoadedProblem& L, const Eigen::MatrixXd& J);
-
-// Below this |stability| a converged quasi-Newton solve recomputes the exact Jacobian (near a fold).
-constexpr double kExactStabilityBelow = 0.25;
-
-// The exact Jacobian of the last converged solve is kept in the workspace: a nearby frictionless warm start with the
-// same problem structure starts from it (Broyden updates, exact Jacobian again on poor progress). Only the Newton path
-// depends on it; the converged point and its (exact) Jacobian do not.
-Eigen::VectorXd robotFingerprint(const LoadedProblem& L) {
-  const Problem& P = L.P;
-  Eigen::VectorXd f(4 * P.n + 9);
-  f << P.kb, P.kt, P.kappa, L.rho, L.g, L.F, L.M;
-  return f;
-}
-
-bool cachedJacobianUsable(const LoadedWork& W, const Eigen::VectorXd& z) {
-  const Problem& P = W.L.P;
-  // Solves under contact laws (stick-slip steps) never start from the workspace's Jacobian: a step stays a function of
-  // its state and command alone, bit for bit (the planner's exact-mode replay recomputes its checked states).
-  if (!P.contacts.empty()) return false;
-  if (!W.J_valid || W.J.rows() != W.L.m || W.J_z.size() != z.size() || W.J_alpha.size() != P.n) return false;
-  if ((W.J_alpha - P.alpha).cwiseAbs().maxCoeff() > 0.1 || (W.J_beta - P.beta).cwiseAbs().maxCoeff() > 5e-3)
-    return false;
-  // The same robot and loads (another robot's Jacobian could mislead the stability sign kept after convergence).
-  if (W.J_robot.size() != 4 * P.n + 9) return false;
-  if (W.J_robot != robotFingerprint(W.L)) return false;
-  return (W.J_z - z).cwiseAbs().maxCoeff() <= 0.1 * (1.0 + W.J_z.cwiseAbs().maxCoeff());
-}
-
-void storeJacobian(LoadedWork& W, const Eigen::VectorXd& z) {
-  const Problem& P = W.L.P;
-  W.J_valid = true;
-  W.J_robot = robotFingerprint(W.L);
-  W.J_z = z;
-  W.J_alpha = P.alpha;
-  W.J_beta = P.beta;
-}
-
-// Newton (quasi-Newton from a cached Jacobian) with backtracking. On success W.r, W.J (exact) and, with `record`,
-// W.out are those of the returned z; *recorded says whether W.out is at z.
-bool newtonLoaded(LoadedWork& W, Eigen::VectorXd& z, const KinematicsOptions& opt, int max_iterations, int& iterations,
-                  double& res_norm, std::string& why, bool record = false, bool* recorded = nullptr) {
-  const LoadedProblem& L = W.L;
-  LoadedOutputs* rec = record ? &W.out : nullptr;
-  const bool nodes = record && opt.record_backbone, tubes = opt.record_tube_states;
-  bool exact = false;
-  bool rec_at_z = false;
-  if (cachedJacobianUsable(W, z)) {
-    evalValue(W, z, rec, nodes, tubes);
-    rec_at_z = record;
-  } else {
-    evalJacobian(W, z);
-    exact = true;
-    W.J_updates = 0;
-  }
-  double nr = maxAbs(W.r);
-  double merit = W.r.squaredNorm();
-  const double step_cap = 4.0 * M_PI / std::max(L.P.s_tip, 1e-3);
-  auto done = [&](bool ok) {
-    res_norm = nr;
-    if (recorded) *recorded = rec_at_z;
-    return ok;
-  };
-  for (int it = 0;; ++it) {
-    if (!W.r.allFinite()) {
-      why = "non-finite residual";
-      return done(false);
-    }
-    if (nr < opt.tolerance) {
-      // The quasi-Newton Jacobian at the solution is within ~|dz|/|z| of the exact one. It is kept (stability sign,
-      // next warm start) unless near a fold, where the stability's sign matters most, or after many updates.
-      if (!exact && (W.J_updates > 30 || !(std::abs(loadedStability(L, W.J)) > kExactStabilityBelow))) {
-        evalJacobian(W, z);
-        exact = true;
-      }
-      if (exact) W.J_updates = 0;
-      storeJacobian(W, z);
-      return done(true);
-    }
-    if (it >= max_iterations) break;
-    ++iterations;
-    Eigen::PartialPivLU<Eigen::MatrixXd> lu(W.J);
-    Eigen::VectorXd dz = lu.solve(-W.r);
-    if (!dz.allFinite() || std::abs(lu.determinant()) < 1e-300) {
-      const Eigen::MatrixXd JtJ = W.J.transpose() * W.J + 1e-8 * Eigen::MatrixXd::Identity(L.m, L.m);
-      dz = JtJ.ldlt().solve(-W.J.transpose() * W.r);
-      if (!dz.allFinite()) {
-        why = "singular Jacobian";
-        return done(false);
-      }
-    }
-    const double big = maxAbs(dz);
-    if (big > step_cap) dz *= step_cap / big;
-    const Eigen::VectorXd r_old = W.r;
-    double t = 1.0;
-    Eigen::VectorXd zt;
-    bool accepted = false;
-    int ls = 0;
-    for (; ls < 12; ++ls) {
-      zt = z + t * dz;
-      evalValue(W, zt, rec, nodes, tubes);
-      const double mt = W.r.squaredNorm();
-      if (W.r.allFinite() && mt < (1.0 - 1e-4 * t) * merit) {
-        accepted = true;
-        break;
-      }
-      t *= 0.5;
-    }
-    if (!accepted) {
-      if (W.r.allFinite() && maxAbs(W.r) < opt.tolerance) {  // converged within roundoff of the merit test
-        z = zt;
-        nr = maxAbs(W.r);
-        rec_at_z = record;
-        exact = false;
-        continue;
-      }
-      if (!exact) {  // retry from z with the exact Jacobian
-        evalJacobian(W, z);
-        exact = true;
-        rec_at_z = false;
-        nr = maxAbs(W.r);
-        merit = W.r.squaredNorm();
-        continue;
-      }
-      why = "line search failed (no descent direction)";
-      evalJacobian(W, z);
-      rec_at_z = false;
-      nr = maxAbs(W.r);
-      return done(false);
-    }
-    const double nr_new = maxAbs(W.r);
-    rec_at_z = record;
-    if (ls > 0 || nr_new > 0.25 * nr) {
-      evalJacobian(W, zt);  // poor progress: exact Jacobian
-      exact = true;
-    } else {
-      // Broyden update along the step taken.
-      const Eigen::VectorXd s_step = zt - z;
-      const double ss = s_step.squaredNorm();
-      if (ss > 0.0) W.J += ((W.r - r_old) - W.J * s_step) * (s_step.transpose() / ss);
-      exact = false;
-      ++W.J_updates;
-    }
-    z = zt;
-    nr = nr_new;
-    merit = W.r.squaredNorm();
-  }
-  std::ostringstream os;
-  os << "no convergence in " << max_iterations << " Newton iterations (residual " << nr << ")";
-  why = os.str();
-  return done(false);
-}
-
-// Unknowns from a (loaded or load-free) solution: twist rates, base moment, contact torques.
 Eigen::VectorXd unknownsFrom(const LoadedProblem& L, const Solution& s) {
   const Problem& P = L.P;
   const int n = P.n;
@@ -795,22 +586,8 @@ Eigen::VectorXd unknownsFrom(const LoadedProblem& L, const Solution& s) {
   Eigen::Vector3d m0 = s.base_moment;
   if (!s.loaded || !m0.allFinite()) m0 = Eigen::Vector3d(0.0, 0.0, P.kt.dot(s.base_twist_rate));
   z.segment(n - 1, 3) = m0 / L.K0;
-  for (std::size_t c = 0; c < P.contacts.size(); ++c)
-    for (const ContactResult& w : s.contacts)
-      if (w.site == P.contacts[c].site) z[n + 2 + static_cast<int>(c)] = w.torque / P.kt[P.contacts[c].site.inner];
+  contactUnknownsFrom(P, s.contacts, z, n + 2);
   return z;
-}
-
-Solution inadmissibleLoaded(const Configuration& q, const std::string& why, int n) {
-  Solution s;
-  s.q = q;
-  s.loaded = true;
-  s.summary.status = SolveStatus::Inadmissible;
-  s.summary.message = why;
-  s.base_twist_rate = Eigen::VectorXd::Zero(n);
-  s.theta0 = Eigen::VectorXd::Zero(n);
-  s.twist = Eigen::VectorXd::Zero(std::max(0, n - 1));
-  return s;
 }
 
 // Stability of the loaded equilibrium: det(J) over the twist and moment rows/columns (no contacts), normalised by
@@ -818,286 +595,11 @@ Solution inadmissibleLoaded(const Configuration& q, const std::string& why, int 
 // scalings of the moment unknowns m(0)/K0 and of the innermost torsion and bending rows). At zero load det(J) = D0 x
 // the torsion-only measure exactly (the moment block is then a scaled rotation), so the two measures agree there; it
 // is 1 without tube interaction and changes sign exactly where J is singular (folds). (A Schur complement over the
-// moment block, used before, divided by a determinant that itself crosses zero for strongly interacting tubes.)
+// moment block would divide by a determinant that itself crosses zero for strongly interacting tubes.)
 double loadedStability(const LoadedProblem& L, const Eigen::MatrixXd& J) {
   const int n = L.P.n;
   const double Ktip = L.P.segments.empty() ? L.K0 : L.P.segments.back().K;
   return J.topLeftCorner(n + 2, n + 2).determinant() * L.P.kt[n - 1] * Ktip * Ktip / (L.K0 * L.K0 * L.K0);
 }
 
-Solution packageLoaded(LoadedWork& W, const Configuration& q, const Eigen::VectorXd& z, bool ok, int iterations,
-                       double res_norm, const std::string& why, const KinematicsOptions& opt, double stability,
-                       bool recorded) {
-  const LoadedProblem& L = W.L;
-  const Problem& P = L.P;
-  const int n = P.n;
-  // The outputs (twist, moments, contacts, backbone) of an evaluation at the returned point.
-  if (!recorded) evalValue(W, z, &W.out, opt.record_backbone, opt.record_tube_states);
-  Solution sol;
-  sol.q = q;
-  sol.loaded = true;
-  sol.summary.status = ok ? SolveStatus::Converged : SolveStatus::NotConverged;
-  sol.summary.iterations = iterations;
-  sol.summary.residual_norm = ok ? res_norm : maxAbs(W.r);
-  sol.summary.message = ok ? "" : why;
-  sol.summary.stability = stability;
-  sol.summary.stable = ok && stability > 0.0;
-  sol.base_twist_rate.resize(n);
-  double msum = 0.0;
-  for (int i = 0; i + 1 < n; ++i) {
-    sol.base_twist_rate[i] = z[i];
-    msum += P.kt[i] * z[i];
-  }
-  sol.base_moment = L.K0 * z.segment(n - 1, 3);
-  sol.base_twist_rate[n - 1] = (sol.base_moment.z() - msum) / P.kt[n - 1];
-  sol.theta0 = P.alpha - P.beta.cwiseProduct(sol.base_twist_rate);
-  double C = 0.0;
-  for (int i = 0; i < n; ++i) C += L.rho[i] * std::max(0.0, P.end[i]);
-  sol.base_force = L.F + L.g * C;
-  sol.contact_unknowns = z.tail(L.m - n - 2);
-  sol.twist = W.out.twist;
-  if (sol.twist.size() != n - 1) sol.twist = Eigen::VectorXd::Zero(n - 1);
-  sol.tip_position = W.tip_p;
-  sol.tip_frame = W.tip_R;
-  sol.moments = W.out.moments;
-  if (opt.record_backbone) sol.backbone = W.out.backbone;
-  for (std::size_t c = 0; c < P.contacts.size(); ++c) {
-    const ActiveContact& ac = P.contacts[c];
-    ContactResult cr;
-    cr.site = ac.site;
-    cr.condition = ac.condition;
-    cr.relative_twist = W.out.contacts_relative_twist[c];
-    cr.moment = W.out.contacts_moment[c];
-    cr.torque = z[n + 2 + static_cast<int>(c)] * P.kt[ac.site.inner];
-    sol.contacts.push_back(cr);
-  }
-  return sol;
-}
-
-}  // namespace
-
-Solution solveLoaded(const Robot& robot, const Configuration& q, const std::vector<ContactCondition>* conditions,
-                     Workspace& ws, const KinematicsOptions& opt, const Solution* warm) {
-  const Admissibility adm = checkAdmissible(robot, q);
-  if (!adm) return inadmissibleLoaded(q, adm.message, robot.size());
-  LoadedWork& W = ws.impl().loaded;
-  LoadedProblem& L = W.L;
-  setupLoaded(L, robot, q, conditions, opt, 1.0);
-  int iters = 0;
-  double rn = 0.0;
-  std::string why;
-  Eigen::VectorXd z;
-  bool ok = false, recorded = false;
-  const bool have_warm = warm && warm->base_twist_rate.size() == robot.size() && warm->base_twist_rate.allFinite();
-  const Eigen::VectorXd qv = historyKey(q);
-  bool chained = false;
-  if (have_warm) {
-    z = unknownsFrom(L, *warm);
-    // Only frictionless solves follow the workspace's chain (a stick-slip step depends on its state alone).
-    chained = L.P.contacts.empty() && continuesChain(W.history, warm->q, qv, z);
-    if (opt.extrapolate_warm_start && chained && W.history.count >= 2) {
-      // Following a path: Newton from the extrapolation of the chain (the torsion-only solver's predictor).
-      Eigen::VectorXd zp = z;
-      if (continuationPredictor(W.history, qv, zp)) {
-        ok = newtonLoaded(W, zp, opt, opt.max_iterations, iters, rn, why, true, &recorded);
-        if (ok) z = zp;
-      }
-    }
-    if (!ok) ok = newtonLoaded(W, z, opt, opt.max_iterations, iters, rn, why, true, &recorded);
-  }
-  if (!ok) {
-    // From the load-free equilibrium (its own cold-start fallbacks; the warm branch when given), then continuation
-    // in the load scale from 0 to 1 when the full load is too far for Newton.
-    KinematicsOptions o = opt;
-    o.record_backbone = false;
-    o.loaded_model = false;
-    const Solution free = solveTorsionOnly(robot, q, conditions, ws, o, have_warm ? warm : nullptr);
-    iters += free.summary.iterations;
-    if (!free.converged()) {
-      const Eigen::VectorXd z0 = z.size() == L.m ? z : Eigen::VectorXd::Zero(L.m);
-      evalJacobian(W, z0);
-      return packageLoaded(
-          W, q, z0, false, iters, maxAbs(W.r),
-          "the load-free equilibrium (start of the load continuation) did not converge: " + free.summary.message, opt,
-          loadedStability(L, W.J), false);
-    }
-    // Quasi-static loading from the load-free shape: the load scale goes from 0 to 1 (first in one step); a step is
-    // taken when Newton converges and the tip moved little (tangent turned by less than snap_threshold, position by
-    // less than a tenth of the robot's length), otherwise it is halved. So a cold solve returns the equilibrium reached
-    // by applying the load gradually, never another equilibrium that Newton happens to find under the full load.
-    Eigen::VectorXd zc = unknownsFrom(L, free);
-    std::string w;
-    Eigen::Vector3d tip_p = free.tip_position, tip_t = free.tipTangent();
-    double t = 0.0, dt = 1.0;
-    int steps = 0;
-    bool found = true;
-    while (t < 1.0) {
-      const double tn = std::min(1.0, t + dt);
-      setLoadScale(L, robot, tn);
-      Eigen::VectorXd zt = zc;
-      double r2 = 0.0;
-      ++steps;
-      if (newtonLoaded(W, zt, opt, opt.max_iterations, iters, r2, w)) {
-        evalValue(W, zt, nullptr, false, false);  // tip of the converged point
-        const Eigen::Vector3d np = W.tip_p, nt = W.tip_R.col(2);
-        const double turn = std::acos(std::clamp(tip_t.dot(nt), -1.0, 1.0));
-        if ((turn > opt.snap_threshold || (np - tip_p).norm() > 0.1 * L.P.s_tip) && dt > 1e-3) {
-          dt *= 0.5;
-        } else {
-          zc = zt;
-          t = tn;
-          tip_p = np;
-          tip_t = nt;
-          dt = std::min(1.0, 2.0 * dt);
-        }
-      } else {
-        dt *= 0.5;
-      }
-      if (dt < 1e-4 || steps > 400) {
-        found = false;
-        why = (why.empty() ? std::string() : why + "; ") +
-              "load continuation from the load-free equilibrium stopped at " + std::to_string(t) + " of the load: " + w;
-        break;
-      }
-    }
-    setLoadScale(L, robot, 1.0);
-    if (found) found = newtonLoaded(W, zc, opt, opt.max_iterations, iters, rn, w, true, &recorded);
-    if (found) {
-      z = zc;
-      ok = true;
-    } else {
-      if (why.empty()) why = w;
-      if (z.size() != L.m) z = zc;
-      evalJacobian(W, z);
-      rn = maxAbs(W.r);
-      recorded = false;
-    }
-  }
-  double stability = loadedStability(L, W.J);
-  if (ok && opt.refine_below_stability > 0.0 && std::abs(stability) < opt.refine_below_stability) {
-    // Near a fold the twist is ill-conditioned (error ~ discretisation / stability): re-solve with a quarter of the
-    // step from the converged point (same branch), as the torsion-only solver does. Exact Jacobians throughout.
-    setupLoaded(L, robot, q, conditions, opt, 0.25);
-    W.J_valid = false;
-    Eigen::VectorXd zr = z;
-    double rn2 = 0.0;
-    std::string w2;
-    bool rec2 = false;
-    if (newtonLoaded(W, zr, opt, opt.max_iterations, iters, rn2, w2, true, &rec2)) {
-      z = zr;
-      rn = rn2;
-      recorded = rec2;
-    } else {
-      setupLoaded(L, robot, q, conditions, opt, 1.0);
-      W.J_valid = false;
-      evalJacobian(W, z);
-      recorded = false;
-    }
-    stability = loadedStability(L, W.J);
-  }
-  if (ok && L.P.contacts.empty())
-    recordInChain(W.history, chained, qv, z);
-  else
-    W.history.count = 0;
-  return packageLoaded(W, q, z, ok, iters, rn, why, opt, stability, recorded);
-}
-
-}  // namespace detail
-
-TipJacobian tipJacobian(const Robot& robot, const Solution& solution, Workspace& ws, const KinematicsOptions& options,
-                        bool with_compliance, bool polish) {
-  if (!solution.converged()) throw std::invalid_argument("tipJacobian: the solution did not converge");
-  const int n = robot.size();
-  if (solution.q.size() != n || solution.base_twist_rate.size() != n)
-    throw std::invalid_argument("tipJacobian: the solution does not belong to this robot (tube count)");
-  std::vector<ContactCondition> cond;
-  const std::vector<ContactCondition>* conditions = nullptr;
-  if (!solution.contacts.empty()) {
-    const std::size_t k = contactSites(robot, solution.q).size();
-    if (solution.contacts.size() != k)
-      throw std::invalid_argument("tipJacobian: the solution's contacts do not match the robot's contact sites");
-    for (const ContactResult& c : solution.contacts) cond.push_back(c.condition);
-    conditions = &cond;
-  }
-  detail::LoadedWork& W = ws.impl().loaded;
-  detail::LoadedProblem& L = W.L;
-  detail::setupLoaded(L, robot, solution.q, conditions, options, 1.0);
-  TipJacobian out;
-  const int m = L.m;
-  // The tip moment M enters the map only through the distal residuals, where the innermost tube ends at the tip:
-  // there its columns are known in closed form (below) and are not carried as derivative directions.
-  const bool analytic_m = with_compliance && !L.P.segments.empty() && L.P.end[n - 1] >= L.P.s_tip - detail::kSameS;
-  const int nin = m + 2 * n + (with_compliance ? 6 : 0);
-  const int carried = nin - (analytic_m ? 3 : 0);
-  std::vector<int> dirs(static_cast<std::size_t>(carried));
-  for (int i = 0; i < carried; ++i) dirs[static_cast<std::size_t>(i)] = i;
-  // Polish: the equilibrium of exactly the map that is differentiated. A loaded solution solved with the same
-  // options already is one (0 Newton iterations); the value part of the derivative pass shows it, so the pass is
-  // tried first and repeated only after a polish. A torsion-only solution is polished first.
-  Eigen::VectorXd z = detail::unknownsFrom(L, solution);
-  double rn = 0.0;
-  bool differentiated = false;
-  if (polish && solution.loaded) {
-    detail::evalDerivatives(W, z, dirs, true);
-    rn = detail::maxAbs(W.r);
-    differentiated = rn < options.tolerance;
-  }
-  if (polish && !differentiated) {
-    int iters = 0;
-    std::string why;
-    if (!detail::newtonLoaded(W, z, options, options.max_iterations, iters, rn, why)) {
-      out.message = "the equilibrium could not be re-established for differentiation: " + why;
-      out.residual_norm = rn;
-      return out;
-    }
-  }
-  out.residual_norm = rn;
-  if (!differentiated) detail::evalDerivatives(W, z, dirs, true);
-  if (analytic_m) {
-    // d r / d M: r_{n-1} -= (R e3 . M) / k_t,n at the innermost tube's end (the tip); r_{n,n+1} = (R^T (m - M))_xy
-    // / K_tip. The tip pose and theta_n do not depend on M directly.
-    W.D.conservativeResize(Eigen::NoChange, nin);
-    W.D.rightCols(3).setZero();
-    const Eigen::Matrix3d& Rt = W.tip_R;
-    const double Ktip = L.P.segments.empty() ? L.K0 : L.P.segments.back().K;
-    for (int c = 0; c < 3; ++c) {
-      W.D(n - 1, nin - 3 + c) = -Rt(c, 2) / L.P.kt[n - 1];
-      W.D(n, nin - 3 + c) = -Rt(c, 0) / Ktip;
-      W.D(n + 1, nin - 3 + c) = -Rt(c, 1) / Ktip;
-    }
-  }
-  // Tip rows: position, and the spatial angle w with [dw]x = dR R^T (skew part) of the Bishop frame R; the material
-  // frame of the innermost tube, R R_z(theta_n), turns by w + t dtheta_n (t the tip tangent).
-  Eigen::MatrixXd G(6, nin);
-  G.topRows(3) = W.D.block(m, 0, 3, nin);
-  const Eigen::Matrix3d R = W.tip_R;
-  for (int j = 0; j < nin; ++j) {
-    Eigen::Matrix3d dR;
-    for (int c = 0; c < 9; ++c) dR(c / 3, c % 3) = W.D(m + 3 + c, j);
-    const Eigen::Matrix3d Om = dR * R.transpose();
-    G(3, j) = 0.5 * (Om(2, 1) - Om(1, 2));
-    G(4, j) = 0.5 * (Om(0, 2) - Om(2, 0));
-    G(5, j) = 0.5 * (Om(1, 0) - Om(0, 1));
-  }
-  Eigen::MatrixXd Gm = G;
-  Gm.bottomRows(3) += R.col(2) * W.D.row(m + 12);
-  const Eigen::MatrixXd Jz = W.D.topLeftCorner(m, m);
-  const Eigen::MatrixXd Jx = W.D.block(0, m, m, nin - m);
-  Eigen::FullPivLU<Eigen::MatrixXd> lu(Jz);
-  if (!lu.isInvertible()) {
-    out.message = "singular shooting Jacobian (at a fold): the tip Jacobian is not defined";
-    return out;
-  }
-  const Eigen::MatrixXd dz = -lu.solve(Jx);
-  const Eigen::MatrixXd total = Gm.rightCols(nin - m) + Gm.leftCols(m) * dz;
-  out.actuation = total.leftCols(2 * n);
-  if (with_compliance) out.compliance = total.rightCols(6);
-  const Eigen::MatrixXd bishop = G.rightCols(nin - m) + G.leftCols(m) * dz;
-  out.bishop_actuation = bishop.leftCols(2 * n);
-  if (with_compliance) out.bishop_compliance = bishop.rightCols(6);
-  out.ok = out.actuation.allFinite() && out.compliance.allFinite();
-  if (!out.ok) out.message = "non-finite derivative";
-  return out;
-}
-
-}  // namespace ctr
+}  // namespace ctr::detail

@@ -11,7 +11,7 @@
 #include <sstream>
 
 #include "ctr/io/input_error.hpp"
-#include "ctr/io/recording.hpp"
+#include "ctr/io/file.hpp"
 
 namespace fs = std::filesystem;
 using nlohmann::json;

@@ -11,7 +11,7 @@
 #include <stdexcept>
 
 #include "ctr/io/input_error.hpp"
-#include "ctr/io/recording.hpp"
+#include "ctr/io/file.hpp"
 #include "ctr/model/sampling.hpp"
 
 namespace ctr::design {

@@ -10,8 +10,8 @@
 #include <set>
 #include <sstream>
 
-#include "ctr/io/input_error.hpp"
 #include "ctr/io/file.hpp"
+#include "ctr/io/input_error.hpp"
 
 namespace fs = std::filesystem;
 using nlohmann::json;

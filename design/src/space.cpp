@@ -10,8 +10,8 @@
 #include <sstream>
 #include <stdexcept>
 
-#include "ctr/io/input_error.hpp"
 #include "ctr/io/file.hpp"
+#include "ctr/io/input_error.hpp"
 #include "ctr/model/sampling.hpp"
 
 namespace ctr::design {

@@ -11,8 +11,8 @@
 #include "ctr/design/output.hpp"
 #include "ctr/design/search.hpp"
 #include "ctr/design/space.hpp"
-#include "ctr/io/input_error.hpp"
 #include "ctr/io/file.hpp"
+#include "ctr/io/input_error.hpp"
 #include "ctr/io/robot_yaml.hpp"
 
 using namespace ctr;

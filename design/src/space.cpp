@@ -12,6 +12,7 @@
 
 #include "ctr/io/file.hpp"
 #include "ctr/io/input_error.hpp"
+#include "ctr/io/yaml_reader.hpp"
 #include "ctr/model/sampling.hpp"
 
 namespace ctr::design {
@@ -26,39 +27,7 @@ std::string fmt(double v) {
   return o.str();
 }
 
-int lineOf(const YAML::Node& n) {
-  if (!n.IsDefined()) return 0;
-  const YAML::Mark m = n.Mark();
-  return m.line >= 0 ? m.line + 1 : 0;
-}
-
-struct Parser {
-  std::string file;
-  [[noreturn]] void fail(const YAML::Node& n, const std::string& key, const std::string& msg) const {
-    throw InputError(file, lineOf(n), key, msg);
-  }
-  void allowOnly(const YAML::Node& map, const std::string& where, const std::set<std::string>& keys) const {
-    for (const auto& kv : map) {
-      const std::string k = kv.first.as<std::string>("");
-      if (!keys.count(k)) {
-        std::string known;
-        for (const auto& x : keys) known += (known.empty() ? "" : ", ") + x;
-        throw InputError(file, lineOf(kv.first), where.empty() ? k : where + "." + k,
-                         "unknown key (known: " + known + ")");
-      }
-    }
-  }
-  double number(const YAML::Node& n, const std::string& key) const {
-    if (!n.IsScalar()) fail(n, key, "must be a number");
-    double v = 0;
-    try {
-      v = n.as<double>();
-    } catch (const YAML::Exception&) {
-      fail(n, key, "'" + n.Scalar() + "' is not a number");
-    }
-    if (!std::isfinite(v)) fail(n, key, "must be finite");
-    return v;
-  }
+struct Parser : io::YamlReader {
   double positive(const YAML::Node& n, const std::string& key) const {
     const double v = number(n, key);
     if (!(v > 0)) fail(n, key, "must be > 0");
@@ -68,10 +37,6 @@ struct Parser {
     const double v = number(n, key);
     if (v < 0) fail(n, key, "must be >= 0");
     return v;
-  }
-  std::string text(const YAML::Node& n, const std::string& key) const {
-    if (!n.IsScalar()) fail(n, key, "must be a string");
-    return n.Scalar();
   }
   // A range: one number (fixed) or [min, max] with min <= max, both >= 0.
   Range range(const YAML::Node& n, const std::string& key) const {
@@ -275,7 +240,8 @@ std::vector<double> unitPoint(const DesignSpace& space, const Candidate& c) {
 }
 
 DesignSpace parseSpace(const std::string& text, const std::string& source) {
-  Parser p{source};
+  Parser p;
+  p.file = source;
   YAML::Node root;
   try {
     root = YAML::Load(text);

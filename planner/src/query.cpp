@@ -9,48 +9,20 @@
 
 #include "ctr/io/file.hpp"
 #include "ctr/io/input_error.hpp"
+#include "ctr/io/yaml_reader.hpp"
 
 namespace ctr::plan {
 namespace {
 
 using io::InputError;
 
-struct Ctx {
-  std::string file;
+struct Ctx : io::YamlReader {
   bool check_files = true;
-  [[noreturn]] void fail(const YAML::Node& n, const std::string& key, const std::string& msg) const {
-    throw InputError(file, n.IsDefined() ? n.Mark().line + 1 : 0, key, msg);
-  }
-  void allowOnly(const YAML::Node& map, const std::string& where, const std::set<std::string>& keys) const {
-    for (const auto& kv : map) {
-      const std::string k = kv.first.as<std::string>("");
-      if (!keys.count(k)) {
-        std::string known;
-        for (const auto& x : keys) known += (known.empty() ? "" : ", ") + x;
-        throw InputError(file, kv.first.Mark().line + 1, where.empty() ? k : where + "." + k,
-                         "unknown key (known: " + known + ")");
-      }
-    }
-  }
-  double number(const YAML::Node& n, const std::string& key) const {
-    if (!n.IsScalar()) fail(n, key, "must be a number");
-    double v = 0;
-    try {
-      v = n.as<double>();
-    } catch (const YAML::Exception&) {
-      fail(n, key, "'" + n.Scalar() + "' is not a number");
-    }
-    if (!std::isfinite(v)) fail(n, key, "must be finite");
-    return v;
-  }
-  std::string text(const YAML::Node& n, const std::string& key) const {
-    if (!n.IsScalar()) fail(n, key, "must be a string");
-    return n.Scalar();
-  }
   Eigen::VectorXd vec(const YAML::Node& n, const std::string& key, int size = -1) const {
     if (!n.IsSequence()) fail(n, key, "must be a list of numbers");
     Eigen::VectorXd v(static_cast<int>(n.size()));
-    for (std::size_t i = 0; i < n.size(); ++i) v[static_cast<int>(i)] = number(n[i], key + "[" + std::to_string(i) + "]");
+    for (std::size_t i = 0; i < n.size(); ++i)
+      v[static_cast<int>(i)] = number(n[i], key + "[" + std::to_string(i) + "]");
     if (size >= 0 && v.size() != size)
       fail(n, key, "needs " + std::to_string(size) + " values, has " + std::to_string(v.size()));
     return v;
@@ -78,13 +50,16 @@ Configuration configuration(const Ctx& c, const YAML::Node& n, const std::string
 
 std::vector<std::string> plannerNames(Mode mode) {
   if (mode == Mode::Exact) return {"rrt", "kpiece", "sst", "est", "pdst", "portfolio"};
-  return {"rrtconnect", "portfolio", "rrt", "rrtstar", "bitstar", "prm", "prmstar", "lazyprm", "kpiece", "bkpiece", "est", "sbl"};
+  return {"rrtconnect", "portfolio", "rrt",    "rrtstar", "bitstar", "prm",
+          "prmstar",    "lazyprm",   "kpiece", "bkpiece", "est",     "sbl"};
 }
 
 namespace {
 Query parseQueryYaml(const std::string& text, const std::string& source, const std::string& base_dir,
                      bool check_files) {
-  Ctx c{source, check_files};
+  Ctx c;
+  c.file = source;
+  c.check_files = check_files;
   YAML::Node root;
   try {
     root = YAML::Load(text);
@@ -92,10 +67,10 @@ Query parseQueryYaml(const std::string& text, const std::string& source, const s
     throw InputError(source, e.mark.line + 1, "", std::string("not valid YAML: ") + e.msg);
   }
   if (!root.IsMap()) throw InputError(source, 0, "", "a query must be a YAML map");
-  c.allowOnly(root, "",
-              {"name", "robot", "environment", "base_start", "friction", "start", "goal", "loads", "mode", "planner",
-               "time_limit", "time_limit_clock", "seed", "objective", "replay", "resolution",
-               "environment_resolution"});
+  c.allowOnly(
+      root, "",
+      {"name", "robot", "environment", "base_start", "friction", "start", "goal", "loads", "mode", "planner",
+       "time_limit", "time_limit_clock", "seed", "objective", "replay", "resolution", "environment_resolution"});
   Query q;
   q.file = source;
   // Lines of the keys (two levels) for messages about problems detected later.
@@ -193,7 +168,8 @@ Query parseQueryYaml(const std::string& text, const std::string& source, const s
     if (q.planner != "default" && std::find(names.begin(), names.end(), q.planner) == names.end()) {
       std::string known;
       for (const auto& x : names) known += (known.empty() ? "" : ", ") + x;
-      c.fail(root["planner"], "planner", "'" + q.planner + "' is not a planner of mode " + toString(q.mode) + " (" + known + ")");
+      c.fail(root["planner"], "planner",
+             "'" + q.planner + "' is not a planner of mode " + toString(q.mode) + " (" + known + ")");
     }
   }
   if (root["time_limit"]) {
@@ -202,7 +178,8 @@ Query parseQueryYaml(const std::string& text, const std::string& source, const s
   }
   if (root["time_limit_clock"]) {
     const std::string clk = c.text(root["time_limit_clock"], "time_limit_clock");
-    if (clk != "wall" && clk != "cpu") c.fail(root["time_limit_clock"], "time_limit_clock", "must be wall or cpu, not '" + clk + "'");
+    if (clk != "wall" && clk != "cpu")
+      c.fail(root["time_limit_clock"], "time_limit_clock", "must be wall or cpu, not '" + clk + "'");
     q.cpu_time_limit = clk == "cpu";
   }
   if (root["seed"]) {
@@ -239,8 +216,7 @@ Query parseQueryYaml(const std::string& text, const std::string& source, const s
 }
 }  // namespace
 
-Query parseQuery(const std::string& text, const std::string& source, const std::string& base_dir,
-                 bool check_files) {
+Query parseQuery(const std::string& text, const std::string& source, const std::string& base_dir, bool check_files) {
   try {
     return parseQueryYaml(text, source, base_dir, check_files);
   } catch (const YAML::Exception& e) {

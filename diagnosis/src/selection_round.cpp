@@ -101,6 +101,7 @@ bool selectionRound(State& S, int round) {
   if (todo.empty()) return false;
   rep.rounds = round;
   S.progress.round = round;
+  S.progress.rounds = round - 1;
   S.progress.candidates = static_cast<int>(todo.size());
   S.progress.screened = 0;
   S.say(DiagnoseProgress::Stage::Screening, "round " + std::to_string(round) + ": fitting " +
@@ -392,6 +393,7 @@ bool selectionRound(State& S, int round) {
     if (!S.last.count(key)) S.order.push_back(key);
     S.last[key] = f;
   }
+  S.progress.rounds = round;
   if (best < 0) {
     S.say(DiagnoseProgress::Stage::Accepted,
           "round " + std::to_string(round) + ": no candidate improves held-out error and BIC; stopping");

@@ -1,9 +1,12 @@
 // `ctr design`: patient-specific robot design for one or several planning queries (docs/design.md); `ctr design
 // merge` joins the shards of a run (--shard I/N, for Slurm job arrays and GNU parallel).
 #include <algorithm>
+#include <cmath>
 #include <filesystem>
 #include <iomanip>
 #include <iostream>
+#include <limits>
+#include <map>
 #include <nlohmann/json.hpp>
 #include <set>
 #include <sstream>
@@ -12,8 +15,15 @@
 #include "commands.hpp"
 #include "ctr/design/output.hpp"
 #include "ctr/design/search.hpp"
+#include "ctr/io/file.hpp"
 #include "ctr/io/robot_yaml.hpp"
+#include "html_report.hpp"
 #include "progress.hpp"
+
+#ifdef CTR_WITH_REPORTS
+#include "ctr/planner/planner.hpp"
+#include "ctr/planner/propagator.hpp"
+#endif
 
 namespace fs = std::filesystem;
 
@@ -26,7 +36,7 @@ struct DesignOpts {
   long seed = 1;
   int starts = 1, evaluations = 40, population = 8, threads = 0, probe_goals = 3, probe_candidates = 400, confirm = 1;
   double time = 0.0, probe_time = 2.0, plan_time = 0.0, strain_limit = 0.06;
-  bool quiet = false;
+  bool quiet = false, html = false;
   // merge
   std::vector<std::string> dirs;
   std::string merge_out;
@@ -38,6 +48,102 @@ std::string mm(double v) {
   o << std::fixed << std::setprecision(2) << v * 1e3 << " mm";
   return o.str();
 }
+
+#ifdef CTR_WITH_REPORTS
+/// The columns of a replayed path (paths/STEM.csv, as `ctr plan --path` writes it) by header name; empty cells NaN.
+std::map<std::string, std::vector<double>> readPathColumns(const std::string& file) {
+  std::istringstream in(io::readFile(file));
+  std::string line;
+  std::vector<std::string> names;
+  std::map<std::string, std::vector<double>> cols;
+  auto split = [](const std::string& l) {
+    std::vector<std::string> f;
+    std::stringstream ss(l);
+    std::string x;
+    while (std::getline(ss, x, ',')) f.push_back(x);
+    if (!l.empty() && l.back() == ',') f.emplace_back();
+    return f;
+  };
+  if (!std::getline(in, line)) throw io::InputError(file, 1, "", "empty path file");
+  names = split(line);
+  for (int ln = 2; std::getline(in, line); ++ln) {
+    if (line.empty()) continue;
+    const std::vector<std::string> f = split(line);
+    for (std::size_t c = 0; c < names.size(); ++c) {
+      double v = std::numeric_limits<double>::quiet_NaN();
+      if (c < f.size() && !f[c].empty()) {
+        char* end = nullptr;
+        v = std::strtod(f[c].c_str(), &end);
+        if (end == f[c].c_str()) v = std::numeric_limits<double>::quiet_NaN();  // text columns (contact modes)
+      }
+      cols[names[c]].push_back(v);
+    }
+  }
+  return cols;
+}
+
+/// DIR/report.html (the design report) and DIR/viewers/STEM.html (the planning viewer of each designed plan).
+void writeDesignReport(const std::string& dir) {
+  const std::string result_file = (fs::path(dir) / "result.json").string();
+  const std::string result = io::readFile(result_file);
+  const nlohmann::json j = nlohmann::json::parse(result);
+  std::vector<reports::DesignPathPlot> plots;
+  for (const auto& q : j["queries"]) {
+    const std::string name = q.value("query", std::string());
+    const std::string stem = design::queryFileStem(name);
+    const fs::path csv = fs::path(dir) / "paths" / (stem + ".csv");
+    if (!fs::exists(csv)) continue;
+    const auto cols = readPathColumns(csv.string());
+    reports::DesignPathPlot p;
+    p.query = name;
+    const auto tx = cols.find("tip_x"), ty = cols.find("tip_y"), tz = cols.find("tip_z"), cl = cols.find("clearance");
+    if (tx == cols.end() || ty == cols.end() || tz == cols.end())
+      throw io::InputError(csv.string(), 1, "tip_x", "missing (not a replayed path)");
+    double travel = 0.0;
+    for (std::size_t k = 0; k < tx->second.size(); ++k) {
+      if (k > 0)
+        travel += std::hypot(tx->second[k] - tx->second[k - 1], ty->second[k] - ty->second[k - 1],
+                             tz->second[k] - tz->second[k - 1]);
+      p.tip_travel.push_back(travel);
+      p.clearance.push_back(cl == cols.end() ? std::numeric_limits<double>::quiet_NaN() : cl->second[k]);
+    }
+    // The viewer: the designed query (queries/STEM.yaml) and the path's joint values.
+    const fs::path qfile = fs::path(dir) / "queries" / (stem + ".yaml");
+    if (fs::exists(qfile)) {
+      const plan::Query pq = plan::loadQuery(qfile.string());
+      plan::CtrPlanner planner(pq);
+      const int n = planner.context()->robot().size();
+      std::vector<Configuration> wps;
+      for (std::size_t k = 0; k < tx->second.size(); ++k) {
+        Configuration c = Configuration::zeros(n);
+        for (int i = 0; i < n; ++i) {
+          const auto a = cols.find("alpha_" + std::to_string(i + 1)), b = cols.find("beta_" + std::to_string(i + 1));
+          if (a == cols.end() || b == cols.end())
+            throw io::InputError(csv.string(), 1, "alpha_" + std::to_string(i + 1), "missing (not a replayed path)");
+          c.alpha[i] = a->second[k];
+          c.beta[i] = b->second[k];
+        }
+        wps.push_back(c);
+      }
+      reports::PlanningViewOptions vo;
+      vo.title = "Design: " + name + " (" + plan::toString(pq.mode) + ")";
+      if (q.contains("plan") && !q["plan"].is_null()) vo.info_json = q["plan"].dump();
+      const auto start = plan::startCache(*planner.context(), planner.query().start, pq.history);
+      if (start && start->physics_ok) vo.start = start->hysteresis;
+      const fs::path vdir = fs::path(dir) / "viewers";
+      fs::create_directories(vdir);
+      reports::writeHtml((vdir / (stem + ".html")).string(),
+                         reports::planningHtml(*planner.context(), wps, viewGoal(planner.query()), vo));
+      p.viewer = "viewers/" + stem + ".html";
+    }
+    plots.push_back(std::move(p));
+  }
+  std::string title = "Robot design";
+  for (const auto& q : j["queries"]) title += (&q == &j["queries"].front() ? ": " : ", ") + q.value("query", "");
+  reports::writeHtml((fs::path(dir) / "report.html").string(), reports::designHtml(result, plots, title));
+  std::cerr << "wrote " << (fs::path(dir) / "report.html").string() << "\n";
+}
+#endif
 
 int runDesign(const DesignOpts& o, const CLI::App* sub) {
   if (o.queries.empty()) throw UsageError("design: one or more query files are required (or `ctr design merge`)");
@@ -52,6 +158,10 @@ int runDesign(const DesignOpts& o, const CLI::App* sub) {
   if (sub->count("--strain-limit") && !o.space.empty())
     throw UsageError("--strain-limit: set strain_limit in the design space file (" + o.space + ")");
   if (o.strain_limit > 0.2) throw UsageError("--strain-limit: must be a fraction (0.06 is 6 %)");
+  if (o.html) {
+    requireHtmlReports("--html");
+    if (!o.shard.empty()) throw UsageError("--html: a shard has no report of its own; use `ctr design merge --html`");
+  }
   design::DesignOptions d;
   d.seed = static_cast<std::uint64_t>(o.seed);
   d.starts = o.starts;
@@ -123,6 +233,9 @@ int runDesign(const DesignOpts& o, const CLI::App* sub) {
           ? (fs::path(o.out) / "shards" / ("shard-" + std::to_string(index) + "-of-" + std::to_string(count))).string()
           : o.out;
   design::writeDesign(*designer, r, d, shard_label, dir);
+#ifdef CTR_WITH_REPORTS
+  if (o.html) writeDesignReport(dir);
+#endif
   // Summary on stdout.
   std::cout << (r.solved ? "solved" : "not solved") << ": " << r.message << "\n";
   std::cout << r.evaluations.size() << " candidates evaluated in " << Progress::duration(r.wall_time)
@@ -186,17 +299,25 @@ void registerDesign(CLI::App& app, Action& action) {
       ->check(CLI::Range(0, 100));
   sub->add_option("--shard", o->shard, "Run starts I, I+N, ... of --starts (0 <= I < N) into OUT/shards/");
   sub->add_flag("--quiet", o->quiet, "No progress on stderr");
+  sub->add_flag("--html", o->html,
+                "Also write OUT/report.html (the design against the query's robot, the search, clearance along the "
+                "paths) and OUT/viewers/QUERY.html (the viewer of each designed plan)");
   CLI::App* ms = sub->add_subcommand(
       "merge", "Join the shards of a design run: the best design over every shard, with its robot, plans and paths");
   ms->add_option("dirs", o->dirs, "Output folders of `ctr design ... --shard I/N --out DIR`")->required();
   ms->add_option("--out", o->merge_out, "Folder for robot.yaml, result.json, queries/, paths/")->required();
   ms->add_flag("--allow-incomplete", o->allow_incomplete, "Merge the shards that are there (missing ones listed)");
+  ms->add_flag("--html", o->html, "Also write OUT/report.html and OUT/viewers/QUERY.html (as `ctr design --html`)");
   ms->callback([o, &action]() {
     action = [o]() {
       std::error_code ec;
       if (fs::exists(o->merge_out, ec) && !fs::is_directory(o->merge_out, ec))
         throw UsageError("--out: '" + o->merge_out + "' exists and is not a folder");
+      if (o->html) requireHtmlReports("--html");
       const std::string text = design::mergeDesigns(o->dirs, o->merge_out, o->allow_incomplete);
+#ifdef CTR_WITH_REPORTS
+      if (o->html) writeDesignReport(o->merge_out);
+#endif
       const auto j = nlohmann::json::parse(text);
       std::cout << (j.value("solved", false) ? "solved" : "not solved") << ": " << j.value("message", "") << "\n";
       std::cout << j["evaluations"].size() << " candidates from " << j["shards"].size() << " shard(s); wrote "

@@ -106,14 +106,14 @@ std::string relative(const std::string& path, const std::string& dir) {
   return fs::relative(fs::absolute(path), fs::absolute(dir)).lexically_normal().string();
 }
 
-std::string safeName(const std::string& n) {
-  std::string s = n;
+}  // namespace
+
+std::string queryFileStem(const std::string& query_name) {
+  std::string s = query_name;
   for (char& c : s)
     if (!(std::isalnum(static_cast<unsigned char>(c)) || c == '_' || c == '-' || c == '.')) c = '_';
   return s;
 }
-
-}  // namespace
 
 std::string designedQueryYaml(const std::string& query_file, const std::string& robot_path, const Configuration& start,
                               const std::string& dir) {
@@ -183,6 +183,20 @@ std::string resultJson(const Designer& d, const DesignResult& r, const DesignOpt
     queries.push_back(e);
   }
   j["queries"] = queries;
+  // The query's own robot (the first query's), for comparison with the design.
+  {
+    const Robot& b = d.baseRobot();
+    json tubes = json::array();
+    for (const Tube& t : b.tubes())
+      tubes.push_back({{"name", t.name},
+                       {"straight_length", t.straight_length},
+                       {"curved_length", t.curved_length},
+                       {"curvature", t.curvature},
+                       {"outer_diameter", t.outer_diameter},
+                       {"inner_diameter", t.inner_diameter},
+                       {"strain", t.curvature * 0.5 * t.outer_diameter}});
+    j["base"] = {{"robot", b.name()}, {"tubes", tubes}, {"in_space", d.baseCandidate().has_value()}};
+  }
   if (r.best) {
     j["design"] = evaluationJson(d.space(), *r.best);
     j["design"]["robot"] = r.best->robot_yaml;
@@ -204,7 +218,7 @@ void writeDesign(const Designer& d, const DesignResult& r, const DesignOptions& 
     fs::create_directories(fs::path(dir) / "queries");
     for (std::size_t k = 0; k < d.queries().size(); ++k) {
       const QueryOutcome& b = r.best->queries[k];
-      const std::string name = safeName(d.queries()[k].name);
+      const std::string name = queryFileStem(d.queries()[k].name);
       if (b.start.size() > 0) {
         const fs::path qd = fs::path(dir) / "queries";
         io::writeFileAtomic((qd / (name + ".yaml")).string(),
@@ -305,7 +319,7 @@ std::string mergeDesigns(const std::vector<std::string>& dirs, const std::string
     const std::string robot_path = (fs::path(out) / "robot.yaml").string();
     io::writeFileAtomic(robot_path, io::readFile((best->dir / "robot.yaml").string()));
     for (const auto& q : m["queries"]) {
-      const std::string name = safeName(q["query"].get<std::string>());
+      const std::string name = queryFileStem(q["query"].get<std::string>());
       if (q.contains("start")) {
         const auto a = q["start"]["alpha"].get<std::vector<double>>();
         const auto b = q["start"]["beta"].get<std::vector<double>>();

@@ -59,6 +59,8 @@ const char* toString(ReportKind kind) {
       return "sweep";
     case ReportKind::Bench:
       return "bench";
+    case ReportKind::Design:
+      return "design";
   }
   return "diagnosis";
 }

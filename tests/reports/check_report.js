@@ -3,7 +3,7 @@
 // page errors, nothing fetched from the network, the expected elements (plotted series, candidate rows, the slider
 // moving the robot), and a PNG screenshot kept as a test artefact. Registered by tests/reports/CMakeLists.txt.
 //
-// Usage: node check_report.js --kind diagnosis|sweep|planning|bench --html OUT.html --png OUT.png
+// Usage: node check_report.js --kind diagnosis|sweep|planning|bench|design --html OUT.html --png OUT.png
 //          [--metrics OUT.json] [--make-path SPEC] [--min-series N] [--accept-exit 0,1]
 //          [--min-robot-pixels F] -- COMMAND...
 // Planning viewer: the first frame (before any interaction) is kept as OUT.first.png, and the fraction of its canvas
@@ -161,6 +161,26 @@ if (/<script[^>]+src=|<link[^>]+href=["']?https?:/i.test(htmlText)) fail('the re
       const snaps = d.snapped.some((v) => v) ? 1 : 0;
       for (const c of twist) check(c.series >= dirs + (d.band.length ? 1 : 0) && c.series <= dirs + (d.band.length ? 1 : 0) + snaps,
         `twist chart has ${c.series} series`);
+    }
+    if (opt.kind === 'design') {
+      const d = info.data;
+      check(info.charts.some((c) => /Search: feasibility/.test(c.title)), 'no search chart');
+      for (const c of info.charts) check(c.points > 0, `empty chart '${c.title}'`);
+      const qrows = await page.locator('#queries-table tbody tr').count();
+      check(qrows === d.queries.length, `queries table has ${qrows} rows, expected ${d.queries.length}`);
+      const tubes = Math.max(d.base ? d.base.tubes.length : 0, d.design ? d.design.design.length : 0);
+      const trows = await page.locator('#robot-table tbody tr').count();
+      check(trows === tubes, `robot table has ${trows} rows, expected ${tubes}`);
+      const paths = (d.paths || []).filter((p) => p.tip_travel.length > 0);
+      check(!paths.length || info.charts.some((c) => /Clearance along/.test(c.title) && c.series === paths.length),
+        `no clearance chart with ${paths.length} path(s)`);
+      // Every designed plan has its viewer, written beside the report.
+      for (const p of paths) {
+        check(p.viewer && fs.existsSync(path.join(path.dirname(opt.html), p.viewer)), `no viewer for ${p.query}`);
+        check(await page.locator(`#queries-table a[href="${p.viewer}"]`).count() === 1, `no link to ${p.viewer}`);
+      }
+      if (d.solved) check(paths.length === d.queries.length, `solved, but ${paths.length} of ${d.queries.length} paths`);
+      Object.assign(metrics, { evaluations: d.evaluations.length, queries: d.queries.length, paths: paths.length });
     }
     if (opt.kind === 'bench') {
       const d = info.data;

@@ -13,6 +13,10 @@
 
 namespace ctr::design {
 
+/// @brief The file stem of a query's files in a design folder (queries/STEM.yaml, paths/STEM.csv): its name with
+/// every character other than letters, digits, `_`, `-` and `.` replaced by `_`.
+std::string queryFileStem(const std::string& query_name);
+
 /// @brief The result as JSON text. `shard`: "I/N" of the part of the run (or "0/1").
 std::string resultJson(const Designer& designer, const DesignResult& result, const DesignOptions& options,
                        const std::string& shard);

@@ -1,7 +1,7 @@
 /// @file reports.hpp
 /// @brief Self-contained HTML reports: one file with the bundled scripts and styles (three.js, uPlot) and the data
 /// embedded as JSON; it opens offline and fetches nothing. Kinds: diagnosis, planning viewer, sweep, benchmark
-/// campaign.
+/// campaign, robot design.
 #pragma once
 
 #include <array>
@@ -26,9 +26,9 @@ class Context;
 namespace ctr::reports {
 
 /// @brief Report kinds (each has its own bundled script).
-enum class ReportKind { Diagnosis, Planning, Sweep, Bench };
+enum class ReportKind { Diagnosis, Planning, Sweep, Bench, Design };
 
-/// @brief "diagnosis" / "planning" / "sweep" / "bench" (the name of the report's script bundle).
+/// @brief "diagnosis" / "planning" / "sweep" / "bench" / "design" (the name of the report's script bundle).
 const char* toString(ReportKind kind);
 
 /// @brief The complete HTML page of a report: `data_json` (a JSON document) is embedded in a
@@ -74,13 +74,13 @@ std::string diagnosisHtml(const diagnosis::DiagnosisReport& report, const io::Re
 /// @brief Options of the planning viewer.
 struct PlanningViewOptions {
   std::string title = "ctr planning viewer";
-  int max_voxels = 60000;     ///< Surface voxels drawn at most (coarsened beyond).
-  int max_shape_points = 48;  ///< Backbone points per waypoint shape.
-  int band_waypoints = 120;   ///< Waypoints with a friction band (evenly spaced, every one if fewer; 0 = none).
-  int band_shape_points = 16; ///< Backbone points per ghost shape of a band.
-  int band_samples = 0;       ///< FrictionBandOptions::interior_samples.
-  double crop_margin = 0.0;   ///< > 0: only voxels within this distance of the path's bounding box (m).
-  std::string info_json;      ///< Optional JSON object shown in the side panel (e.g. the plan result).
+  int max_voxels = 60000;      ///< Surface voxels drawn at most (coarsened beyond).
+  int max_shape_points = 48;   ///< Backbone points per waypoint shape.
+  int band_waypoints = 120;    ///< Waypoints with a friction band (evenly spaced, every one if fewer; 0 = none).
+  int band_shape_points = 16;  ///< Backbone points per ghost shape of a band.
+  int band_samples = 0;        ///< FrictionBandOptions::interior_samples.
+  double crop_margin = 0.0;    ///< > 0: only voxels within this distance of the path's bounding box (m).
+  std::string info_json;       ///< Optional JSON object shown in the side panel (e.g. the plan result).
   /// Hysteresis state the robot arrived with (e.g. the query's start history); without it the replay starts from
   /// a rest state (no friction torque) at the first waypoint.
   std::optional<HysteresisState> start;
@@ -104,6 +104,20 @@ std::string planningHtml(const plan::Context& ctx, const std::vector<Configurati
 /// query / mode / planner, time-to-solution distributions. `summary_json` is the merge's summary.json (embedded
 /// unchanged).
 std::string benchHtml(const std::string& summary_json, const std::string& title);
+
+/// @brief One replayed path of a design report: the clearance along the tip's travel.
+struct DesignPathPlot {
+  std::string query;               ///< The query's name.
+  std::vector<double> tip_travel;  ///< Distance travelled by the tip up to each waypoint (m).
+  std::vector<double> clearance;   ///< Distance-field clearance at each waypoint (m); NaN where not computed.
+  std::string viewer;              ///< Link to the plan's viewer, relative to the report ("" for none).
+};
+
+/// @brief The design report (`ctr design --html`): the designed robot against the query's own, which queries each
+/// solves (stage reached, closest tip distance, clearance), the search (score of every candidate) and the clearance
+/// along the designed paths, with links to their viewers. `result_json`: the run's result.json (embedded unchanged).
+std::string designHtml(const std::string& result_json, const std::vector<DesignPathPlot>& paths,
+                       const std::string& title);
 
 /// @brief Writes `html` to `path` atomically (no partial file on failure).
 void writeHtml(const std::string& path, const std::string& html);

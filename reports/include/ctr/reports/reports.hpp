@@ -1,5 +1,5 @@
 /// @file reports.hpp
-/// @brief Self-contained HTML reports: one file with the bundled scripts and styles (three.js, uPlot) and the data
+/// @brief Self-contained HTML reports: one file with the bundled scripts and styles (three.js, Chart.js) and the data
 /// embedded as JSON; it opens offline and fetches nothing. Kinds: diagnosis, planning viewer, sweep, benchmark
 /// campaign, robot design.
 #pragma once

@@ -159,8 +159,8 @@ int runDesign(const DesignOpts& o, const CLI::App* sub) {
     throw UsageError("--strain-limit: set strain_limit in the design space file (" + o.space + ")");
   if (o.strain_limit > 0.2) throw UsageError("--strain-limit: must be a fraction (0.06 is 6 %)");
   if (o.html) {
-    requireHtmlReports("--html");
     if (!o.shard.empty()) throw UsageError("--html: a shard has no report of its own; use `ctr design merge --html`");
+    requireHtmlReports("--html");
   }
   design::DesignOptions d;
   d.seed = static_cast<std::uint64_t>(o.seed);

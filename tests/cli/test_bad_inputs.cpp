@@ -406,6 +406,26 @@ const std::vector<Case> kCases = {
    "bench {d}/q.yaml --runs 1 --time 0.5 --out {d}/bench", 2, {"{d}/bench", "not a folder"}, "bench"},
   {"BenchQueryMissing", "bench", "query file does not exist", "plan", none,
    "bench {d}/q.yaml --out {d}/bench", 2, {"{d}/q.yaml"}},
+  // ---- design (queries, a design space, shards) ----
+  {"DesignNoQuery", "design", "no query file", "plan", none,
+   "design --out {d}/o", 2, {"query files are required"}},
+  {"DesignOutIsFile", "design", "--out is an existing file, not a folder", "plan", [](Dir& d) {
+     d.write("q.yaml", heartQuery()); d.write("o", "x"); },
+   "design {d}/q.yaml --out {d}/o", 2, {"{d}/o", "not a folder"}, "o"},
+  {"DesignStrainInPercent", "design", "--strain-limit given in percent (6 for 6 %)", "plan",
+   [](Dir& d) { d.write("q.yaml", heartQuery()); },
+   "design {d}/q.yaml --out {d}/o --strain-limit 6", 2, {"--strain-limit", "fraction"}},
+  {"DesignShardOutOfRange", "design", "--shard 2/2 (shards are 0..N-1)", "plan",
+   [](Dir& d) { d.write("q.yaml", heartQuery()); },
+   "design {d}/q.yaml --out {d}/o --starts 2 --shard 2/2", 2, {"--shard", "0 <= I < N"}},
+  {"DesignHtmlWithShard", "design", "--html on a shard (the report belongs to the merge)", "plan",
+   [](Dir& d) { d.write("q.yaml", heartQuery()); },
+   "design {d}/q.yaml --out {d}/o --starts 2 --shard 0/2 --html", 2, {"--html", "design merge --html"}},
+  {"DesignSpaceMisspeltKey", "design", "misspelt key in the design space", "plan", [](Dir& d) {
+     d.write("q.yaml", heartQuery()); d.write("s.yaml", "name: s\nstrain_limt: 0.06\n"); },
+   "design {d}/q.yaml --space {d}/s.yaml --out {d}/o", 2, {"s.yaml:2", "strain_limt", "unknown key"}},
+  {"DesignMergeNoShards", "design merge", "a folder without design shards", "plan", none,
+   "design merge {d} --out {d}/m", 2, {"{d}", "no design shard here"}},
   // ---- demo and the command line itself ----
   {"DemoNegativeFriction", "demo", "negative --boundary-friction", "", none,
    "demo --paper --boundary-friction -1", 2, {"--boundary-friction", "must not be negative"}},

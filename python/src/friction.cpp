@@ -343,6 +343,9 @@ void registerFriction(pyb::module_& m) {
       .def_readonly("tip_spread", &FrictionBand::tip_spread, "Largest tip distance from the frictionless tip (m).")
       .def_readonly("message", &FrictionBand::message)
       .def_property_readonly(
+          "sites", [](const FrictionBand& b) { return siteList(b.sites); },
+          "The contact sites at q (dicts as contact_sites returns), in the order of torque_fractions' columns.")
+      .def_property_readonly(
           "tip_positions",
           [](const FrictionBand& b) {
             Eigen::MatrixXd p(b.shapes.size(), 3);
@@ -360,19 +363,22 @@ void registerFriction(pyb::module_& m) {
   m.def(
       "friction_band",
       [](const Robot& r, const pyb::object& alpha, const pyb::object& beta, int interior_samples,
-         std::optional<KinematicsOptions> kinematics) {
+         std::optional<KinematicsOptions> kinematics, const FrictionBand* follow) {
         const Configuration q = toConfiguration(r, alpha, beta);
         if (interior_samples < 0) throw pyb::value_error("interior_samples: must not be negative");
         FrictionBandOptions o;
         o.interior_samples = interior_samples;
         if (kinematics) o.kinematics = *kinematics;
+        o.follow = follow;
         pyb::gil_scoped_release release;
         return frictionBand(r, q, workspace(), o);
       },
       arg("robot"), arg("alpha") = pyb::none(), arg("beta") = pyb::none(), arg("interior_samples") = 1,
-      arg("kinematics") = pyb::none(),
+      arg("kinematics") = pyb::none(), arg("follow") = pyb::none(),
       "The friction band at (alpha, beta) with the robot's mu' (every contact torque within its bound). For one "
-      "contact, twist_min / twist_max are the two branches of a sweep's envelope.");
+      "contact, twist_min / twist_max are the two branches of a sweep's envelope. `follow`: the band of a "
+      "configuration just before this one on a path; each shape is then continued from the shape with the same "
+      "torque fractions at the same sites (the branch a robot moving along the path stays on) instead of solved cold.");
 }
 
 }  // namespace ctr::py

@@ -109,3 +109,20 @@ def test_friction_band_is_the_sweep_envelope():
     assert band.twist_max[0] == pytest.approx(max(up, down), abs=1e-6)
     assert band.tip_positions.shape == (3, 3) and band.torque_fractions.shape == (3, 1)
     assert band.tip_spread > 0.005
+
+
+def test_friction_band_names_its_sites_and_follows_a_path():
+    robot = ctr.load_robot(str(PAIR_B)).with_friction(boundary=0.12)
+    band = ctr.friction_band(robot, [0, 2.0], BETA, interior_samples=0)
+    assert len(band.sites) == band.torque_fractions.shape[1] == 1
+    site = band.sites[0]
+    assert site["outer"] == 1 and site["inner"] == 2 and site["s"] > 0
+    # Walking the band along a path: each shape stays on the branch of the shape with the same torque fractions, so
+    # with small steps it is the band solved cold wherever the cold solve has one branch (away from the snap).
+    prev = band
+    for a in [2.05, 2.1, 2.15, 2.2]:
+        prev = ctr.friction_band(robot, [0, a], BETA, interior_samples=0, follow=prev)
+        cold = ctr.friction_band(robot, [0, a], BETA, interior_samples=0)
+        assert prev.converged and len(prev.shapes) == len(cold.shapes)
+        assert np.allclose(prev.tip_positions, cold.tip_positions, atol=1e-9)
+        assert np.allclose(prev.torque_fractions, cold.torque_fractions)

@@ -224,6 +224,7 @@ def main():
         ('real_baseline', lambda: C.dupont, 'baseline verdict of the real log', DUPONT_ROBOT, 'unknown'),
         ('real_backlash_t2', lambda: C.real_backlash(2, 12 * DEG), 'actuator_backlash[2] 0.2094 on top', DUPONT_ROBOT, 'unknown'),
         ('real_offset_t3', lambda: C.real_offset(3, 10 * DEG), 'actuator_offset[3] 0.1745 on top', DUPONT_ROBOT, 'unknown'),
+        ('real_offset_t1', lambda: C.real_offset(1, 6 * DEG), 'actuator_offset[1] 0.105 on top', DUPONT_ROBOT, 'unknown'),
         ('real_translation_offset_t3', lambda: C.real_offset(3, 0.003, True), 'translation_offset[3] 0.003 on top', DUPONT_ROBOT, 'unknown'),
         ('path_friction', lambda: C.inject('path_friction', ['boundary_friction:mu=0.1']), 'boundary_friction', DUPONT_ROBOT, 'unknown'),
         ('path_latency', lambda: C.inject('path_latency', ['sensor_latency:delay=0.1']), 'sensor_latency', DUPONT_ROBOT, 'unknown'),

@@ -5,6 +5,7 @@
 
 #include "ctr/io/robot_yaml.hpp"
 #include "ctr/model/backbone.hpp"
+#include "ctr/model/distributed_friction.hpp"
 #include "ctr/model/friction.hpp"
 #include "ctr/model/jacobian.hpp"
 #include "ctr/model/kinematics.hpp"
@@ -76,8 +77,6 @@ ctr::KinematicsOptions planningSteps() {
   return o;
 }
 
-
-
 // Tip-only solves of the Dupont-lab robot along a sweep (0.5 deg per solve of tubes 2 and 3), each warm-started from
 // the previous one: a controller or a planner's motion check. (BM_SolveWarm above alternates between two fixed
 // configurations, so its warm start never moves: 1 Newton iteration instead of 2.) A full turn restarts cold, untimed.
@@ -118,13 +117,17 @@ void coldSolves(benchmark::State& st, const ctr::Robot& robot, ctr::KinematicsOp
 }
 
 // Cold solves of the Dupont-lab robot with the planner's settings.
-void BM_SolveColdPlanning(benchmark::State& st) { coldSolves(st, loadExample("dupont_lab_3tube.yaml"), planningSteps()); }
+void BM_SolveColdPlanning(benchmark::State& st) {
+  coldSolves(st, loadExample("dupont_lab_3tube.yaml"), planningSteps());
+}
 
 // kPlanning: 0 library default, 1 the planner's settings, 2 the planner's steps only.
 template <int kPlanning>
 void BM_SolveSweep(benchmark::State& st) {
   sweepSolves(st, loadExample("dupont_lab_3tube.yaml"),
-              kPlanning == 1 ? planningSteps() : kPlanning == 2 ? planningStepsOnly() : ctr::KinematicsOptions{});
+              kPlanning == 1   ? planningSteps()
+              : kPlanning == 2 ? planningStepsOnly()
+                               : ctr::KinematicsOptions{});
 }
 
 // One stick-slip step (1 deg) of the 3-tube robot with mu' = 0.1, warm (the state from the previous step).
@@ -172,7 +175,9 @@ void BM_LoadedSweep(benchmark::State& st) {
 }
 
 // The same loaded sweep with the planner's settings (a planning query with loads).
-void BM_LoadedSweepPlanning(benchmark::State& st) { sweepSolves(st, loadedDupont(), planningSteps()); }
+void BM_LoadedSweepPlanning(benchmark::State& st) {
+  sweepSolves(st, loadedDupont(), planningSteps());
+}
 
 // The loaded sweep at library default integration and tolerance with the path predictor
 // (KinematicsOptions::extrapolate_warm_start): what a controller following a path can ask for.
@@ -182,7 +187,9 @@ void BM_LoadedSweepPredictor(benchmark::State& st) {
   sweepSolves(st, loadedDupont(), o);
 }
 
-void BM_LoadedCold(benchmark::State& st) { coldSolves(st, loadedDupont(), ctr::KinematicsOptions{}); }
+void BM_LoadedCold(benchmark::State& st) {
+  coldSolves(st, loadedDupont(), ctr::KinematicsOptions{});
+}
 
 // Exact tip Jacobian (6 x 6 actuation) with / without the 6 x 6 compliance at a loaded equilibrium.
 template <bool kCompliance>
@@ -221,6 +228,24 @@ BENCHMARK(BM_SolveWarm<true, true>)->Name("solve_warm/dupont3/shape100");
 BENCHMARK(BM_SolveCold<true, false>)->Name("solve_cold/dupont3/tip");
 BENCHMARK(BM_SolveCold<true, true>)->Name("solve_cold/dupont3/shape100");
 BENCHMARK(BM_SolveColdPlanning)->Name("solve_cold/dupont3/tip/planning");
+// The distributed-friction solve (§II.B-C: mu 0.2, every interface rotating the same way) from its frictionless
+// start, at configurations of the Dupont-lab robot around the one of BM_SolveCold.
+void BM_DistributedFriction(benchmark::State& st) {
+  const ctr::Robot robot = loadExample("dupont_lab_3tube.yaml");
+  ctr::Workspace ws;
+  ctr::DistributedFrictionOptions opt;
+  opt.mu = 0.2;
+  opt.direction = {1, 1};
+  opt.kinematics.record_backbone = false;
+  int k = 0;
+  for (auto _ : st) {
+    const double a = 0.3 + 0.01 * (k++ % 200);
+    const ctr::DistributedFrictionSolution s = ctr::solveDistributedFriction(robot, dupontConfig(a, -a), ws, opt);
+    benchmark::DoNotOptimize(s.solution.tip_position);
+  }
+}
+
+BENCHMARK(BM_DistributedFriction)->Name("distributed_friction/dupont3/mu0.2");
 BENCHMARK(BM_StickSlipStep3<false>)->Name("stick_slip_step/dupont3/1deg");
 BENCHMARK(BM_StickSlipStep3<true>)->Name("stick_slip_step/dupont3/1deg/planning");
 BENCHMARK(BM_SolveSweep<0>)->Name("solve_sweep/dupont3/tip/default");

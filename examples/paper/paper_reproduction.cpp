@@ -133,11 +133,12 @@ int main(int argc, char** argv) {
     std::ofstream f(out + "/fig3_distributed_force.csv");
     f << "alpha2m_deg,alpha0_deg,force_at_tip_N_per_m\n";
     Series s{"|f(L)|", {}, {}, "#000000"};
+    Workspace ws;
     for (int k = 0; k <= 36; ++k) {
       DistributedFrictionOptions o;
       o.mu = 0.0;
       o.direction = {1};
-      const DistributedFrictionSolution d = solveDistributedFriction(B, cfg(10.0 * k), o);
+      const DistributedFrictionSolution d = solveDistributedFriction(B, cfg(10.0 * k), ws, o);
       if (!d.solution.converged() || d.samples.empty()) continue;
       const double a0 = (d.solution.theta0[1] - d.solution.theta0[0]) / kDeg;
       f << 10.0 * k << ',' << a0 << ',' << d.samples.back().force << '\n';
@@ -154,12 +155,13 @@ int main(int argc, char** argv) {
     f << "mu,force_N_per_m,normal_force_N_per_m,friction_torque_Nm_per_m,integrated_friction_torque_Nm,"
          "base_torque_Nm,tip_twist_deg\n";
     Series sf{"|f|", {}, {}, "#000000"}, sn{"|f_n|", {}, {}, "#888888"}, st{"tau x 1e3", {}, {}, "#d62728", true};
+    Workspace ws;
     for (double lg = -2; lg <= 5.0001; lg += 0.5) {
       const double mu_d = std::pow(10.0, lg);
       DistributedFrictionOptions o;
       o.mu = mu_d;
       o.direction = {1};
-      const DistributedFrictionSolution d = solveDistributedFriction(B, cfg(90), o);
+      const DistributedFrictionSolution d = solveDistributedFriction(B, cfg(90), ws, o);
       if (!d.solution.converged()) continue;
       const auto& t = d.samples.back();
       f << mu_d << ',' << t.force << ',' << t.normal_force << ',' << t.friction_torque << ','

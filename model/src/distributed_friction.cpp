@@ -1,6 +1,7 @@
-// Distributed-contact Coulomb friction (Lock & Dupont 2011 §II.B-C). Not a hot path: the shooting problem is solved
-// by the Newton core (newton.hpp) with a Jacobian by finite differences; the implicit equation for u_z' is solved by
-// fixed-point iteration (a contraction: the friction torque depends on u_z' only through the small term r K u'').
+// Distributed-contact Coulomb friction (Lock & Dupont 2011 §II.B-C). The shooting problem is solved by the Newton core
+// (newton.hpp) with its exact Jacobian (the integrator templated on its scalar, run on dual numbers); the implicit
+// equation for u_z' is solved by fixed-point iteration (a contraction: the friction torque depends on u_z' only
+// through the small term r K u'').
 #include "ctr/model/distributed_friction.hpp"
 
 #include <Eigen/Geometry>
@@ -10,8 +11,12 @@
 #include <limits>
 #include <sstream>
 #include <stdexcept>
+#include <type_traits>
+#include <vector>
 
 #include "contact_events.hpp"
+#include "distributed_map.hpp"
+#include "dual.hpp"
 #include "newton.hpp"
 #include "se3_step.hpp"
 #include "workspace_impl.hpp"
@@ -33,132 +38,162 @@ struct Model {
   bool root_failed = false;
 };
 
-inline Eigen::Vector2d rotT(double c, double s, const Eigen::Vector2d& a) {  // R_z(theta)^T a
-  return Eigen::Vector2d(c * a.x() + s * a.y(), -s * a.x() + c * a.y());
-}
-inline Eigen::Vector2d Jm(const Eigen::Vector2d& a) {
-  return Eigen::Vector2d(a.y(), -a.x());
-}  // J = [[0,1],[-1,0]]
+using detail::value;
 
+/// A 2-vector of scalars T (double, or dual numbers for the exact Jacobian).
+template <class T>
+struct V2 {
+  T x, y;
+};
+template <class T>
+inline V2<T> rotT(const T& c, const T& s, const V2<T>& a) {  // R_z(theta)^T a
+  return {c * a.x + s * a.y, c * a.y - s * a.x};
+}
+template <class T>
+inline V2<T> Jm(const V2<T>& a) {  // J = [[0,1],[-1,0]]
+  return {a.y, -a.x};
+}
+template <class T>
+inline void cross(const T& ax, const T& ay, const T& az, const T& bx, const T& by, const T& bz, T& cx, T& cy, T& cz) {
+  cx = ay * bz - az * by;
+  cy = az * bx - ax * bz;
+  cz = ax * by - ay * bx;
+}
+
+/// What one stage of the integrator needs (the interface decomposition only for the recorded double pass).
+template <class T>
 struct StageOut {
-  Eigen::VectorXd uzp, nzp;  // u_z', n_z'
-  Eigen::Vector2d u0;
+  std::vector<T> uzp, nzp;  // u_z', n_z'
+  V2<T> u0{T(0.0), T(0.0)};
   std::vector<double> iface_force, iface_torque;  // per interface j
 };
 
 // Distributed forces on every present tube (common frame F0) and their interface decomposition, for given u_z'.
-void forces(const Model& M, const Segment& sg, const Eigen::VectorXd& th, const Eigen::VectorXd& uz,
-            const Eigen::VectorXd& nz, const Eigen::VectorXd& uzp, Eigen::VectorXd& tau, Eigen::VectorXd& nzp,
-            std::vector<double>* iface_force, std::vector<double>* iface_torque, Eigen::Vector2d& u0_out) {
+template <class T>
+void forces(const Model& M, const Segment& sg, const std::vector<T>& th, const std::vector<T>& uz,
+            const std::vector<T>& nz, const std::vector<T>& uzp, std::vector<T>& tau, std::vector<T>& nzp,
+            std::vector<double>* iface_force, std::vector<double>* iface_torque, V2<T>& u0_out) {
   const Problem& P = *M.P;
   const int n = P.n;
-  Eigen::VectorXd c(n), s(n);
-  for (int j = 0; j < n; ++j) {
-    c[j] = std::cos(th[j]);
-    s[j] = std::sin(th[j]);
-  }
-  Eigen::Vector2d u0 = Eigen::Vector2d::Zero(), u0p = Eigen::Vector2d::Zero(), u0pp = Eigen::Vector2d::Zero();
+  std::vector<T> c(static_cast<std::size_t>(n)), s(static_cast<std::size_t>(n));
+  for (int j = 0; j < n; ++j) detail::sinCos(th[j], s[j], c[j]);
+  V2<T> u0{T(0.0), T(0.0)}, u0p{T(0.0), T(0.0)}, u0pp{T(0.0), T(0.0)};
   for (int j = 0; j < n; ++j) {
     if (sg.w[j] == 0.0) continue;
-    const Eigen::Vector2d e(c[j], s[j]), d(-s[j], c[j]);
-    u0 += sg.w[j] * d;
-    u0p += sg.w[j] * uz[j] * (-e);
-    u0pp += sg.w[j] * (-uzp[j] * e - uz[j] * uz[j] * d);
+    const double w = sg.w[j];
+    u0.x += w * (-s[j]);
+    u0.y += w * c[j];
+    u0p.x += (w * uz[j]) * (-c[j]);
+    u0p.y += (w * uz[j]) * (-s[j]);
+    u0pp.x += w * (-uzp[j] * c[j] - uz[j] * uz[j] * (-s[j]));
+    u0pp.y += w * (-uzp[j] * s[j] - uz[j] * uz[j] * c[j]);
   }
-  u0 /= sg.K;
-  u0p /= sg.K;
-  u0pp /= sg.K;
+  const double K = sg.K;
+  u0 = {u0.x / K, u0.y / K};
+  u0p = {u0p.x / K, u0p.y / K};
+  u0pp = {u0pp.x / K, u0pp.y / K};
   u0_out = u0;
-  std::vector<Eigen::Vector2d> F(static_cast<std::size_t>(n), Eigen::Vector2d::Zero());
-  nzp.setZero(n);
+  std::vector<V2<T>> F(static_cast<std::size_t>(n), V2<T>{T(0.0), T(0.0)});
+  for (int i = 0; i < n; ++i) nzp[i] = T(0.0);
   for (int i = 0; i < n; ++i) {
     if (!sg.present[static_cast<std::size_t>(i)]) continue;
     const double kb = P.kb[i], kt = P.kt[i];
     const double kap = sg.w[i] != 0.0 ? P.kappa[i] : 0.0;
-    const Eigen::Vector2d a0 = rotT(c[i], s[i], u0), a1 = rotT(c[i], s[i], u0p), a2 = rotT(c[i], s[i], u0pp);
-    const Eigen::Vector2d uxy = a0;
-    const Eigen::Vector2d upxy = uz[i] * Jm(a0) + a1;
-    const Eigen::Vector2d uppxy = uzp[i] * Jm(a0) - uz[i] * uz[i] * a0 + 2.0 * uz[i] * Jm(a1) + a2;
-    const Eigen::Vector3d u(uxy.x(), uxy.y(), uz[i]), up(upxy.x(), upxy.y(), uzp[i]);
-    const Eigen::Vector3d m(kb * uxy.x(), kb * (uxy.y() - kap), kt * uz[i]);
-    const Eigen::Vector3d mp(kb * upxy.x(), kb * upxy.y(), kt * uzp[i]);
-    const Eigen::Vector2d mpp(kb * uppxy.x(), kb * uppxy.y());
+    const V2<T> a0 = rotT(c[i], s[i], u0), a1 = rotT(c[i], s[i], u0p), a2 = rotT(c[i], s[i], u0pp);
+    const V2<T> j0 = Jm(a0), j1 = Jm(a1);
+    const T ux = a0.x, uy = a0.y, uzi = uz[i];
+    const T upx = uzi * j0.x + a1.x, upy = uzi * j0.y + a1.y, upz = uzp[i];
+    const T uppx = uzp[i] * j0.x - uzi * uzi * a0.x + 2.0 * uzi * j1.x + a2.x;
+    const T uppy = uzp[i] * j0.y - uzi * uzi * a0.y + 2.0 * uzi * j1.y + a2.y;
+    const T mx = kb * ux, my = kb * (uy - kap), mz = kt * uzi;
+    const T mpx = kb * upx, mpy = kb * upy, mpz = kt * upz;
+    const T mppx = kb * uppx, mppy = kb * uppy;
     // eq. 23: e_z x n = a := -m' - u x m (no distributed moment in x, y).
-    const Eigen::Vector3d a = -mp - u.cross(m);
-    const double nx = a.y(), ny = -a.x();
+    T cx, cy, cz;
+    cross(ux, uy, uzi, mx, my, mz, cx, cy, cz);
+    const T ax = -mpx - cx, ay = -mpy - cy;
+    const T nx = ay, ny = -ax;
     // eq. 26: derivative.
-    const Eigen::Vector3d ucm_p = up.cross(m) + u.cross(mp);
-    const Eigen::Vector2d ap(-mpp.x() - ucm_p.x(), -mpp.y() - ucm_p.y());
-    const double npx = ap.y(), npy = -ap.x();
+    T dx, dy, dz, ex, ey, ez;
+    cross(upx, upy, upz, mx, my, mz, dx, dy, dz);
+    cross(ux, uy, uzi, mpx, mpy, mpz, ex, ey, ez);
+    const T apx = -mppx - (dx + ex), apy = -mppy - (dy + ey);
+    const T npx = apy, npy = -apx;
     // eq. 22/27: f = n' + u x n.
-    const double fx = npx + (u.y() * nz[i] - u.z() * ny);
-    const double fy = npy + (u.z() * nx - u.x() * nz[i]);
-    F[static_cast<std::size_t>(i)] = Eigen::Vector2d(c[i] * fx - s[i] * fy, s[i] * fx + c[i] * fy);  // to F0
-    nzp[i] = u.x() * ny - u.y() * nx;                                                                // eq. 24
+    const T fx = npx + (uy * nz[i] - uzi * ny);
+    const T fy = npy + (uzi * nx - ux * nz[i]);
+    F[static_cast<std::size_t>(i)] = {c[i] * fx - s[i] * fy, s[i] * fx + c[i] * fy};  // to F0
+    nzp[i] = ux * ny - uy * nx;                                                       // eq. 24
   }
   // Interface forces from the innermost present tube outwards: F_i = G_{i-1} - G_i.
-  tau.setZero(n);
+  for (int i = 0; i < n; ++i) tau[i] = T(0.0);
   if (iface_force) iface_force->assign(static_cast<std::size_t>(std::max(0, n - 1)), 0.0);
   if (iface_torque) iface_torque->assign(static_cast<std::size_t>(std::max(0, n - 1)), 0.0);
-  Eigen::Vector2d G = Eigen::Vector2d::Zero();
+  V2<T> G{T(0.0), T(0.0)};
   for (int i = n - 1; i > sg.outermost; --i) {
-    G = F[static_cast<std::size_t>(i)] + G;  // force on tube i from tube i-1
+    G = {F[static_cast<std::size_t>(i)].x + G.x, F[static_cast<std::size_t>(i)].y + G.y};  // force on i from i-1
     const int j = i - 1;
-    const double T = M.fric * M.radius[j] * G.norm();
+    using std::sqrt;
+    const T g = sqrt(G.x * G.x + G.y * G.y);
+    const T Tq = (M.fric * M.radius[j]) * g;
     const double sg_dir = M.dir[static_cast<std::size_t>(j)];
-    tau[i] += -sg_dir * T;  // applied torque on the inner tube, against its relative rotation
-    tau[j] += sg_dir * T;   // and the reaction on the outer tube
-    if (iface_force) (*iface_force)[static_cast<std::size_t>(j)] = G.norm();
-    if (iface_torque) (*iface_torque)[static_cast<std::size_t>(j)] = T;
+    tau[i] += -sg_dir * Tq;  // applied torque on the inner tube, against its relative rotation
+    tau[j] += sg_dir * Tq;   // and the reaction on the outer tube
+    if (iface_force) (*iface_force)[static_cast<std::size_t>(j)] = value(g);
+    if (iface_torque) (*iface_torque)[static_cast<std::size_t>(j)] = value(Tq);
   }
 }
 
-// u_z' solving u_z' = frictionless(theta) + tau(u_z')/k_t by fixed-point iteration.
-bool stage(Model& M, const Segment& sg, const Eigen::VectorXd& th, const Eigen::VectorXd& uz, const Eigen::VectorXd& nz,
-           StageOut& out, bool want_iface) {
+// u_z' solving u_z' = frictionless(theta) + tau(u_z')/k_t by fixed-point iteration. With dual numbers the derivatives
+// iterate along with the values (the same contraction), so they converge to the derivatives of the fixed point.
+template <class T>
+bool stage(Model& M, const Segment& sg, const std::vector<T>& th, const std::vector<T>& uz, const std::vector<T>& nz,
+           StageOut<T>& out, bool want_iface) {
   const Problem& P = *M.P;
   const int n = P.n;
-  Eigen::VectorXd base(n);
+  const std::size_t un = static_cast<std::size_t>(n);
+  std::vector<T> base(un, T(0.0)), sn(un), cs(un);
+  for (int j = 0; j < n; ++j) detail::sinCos(th[j], sn[j], cs[j]);
   // Frictionless part: (kb/kt) kappa u_ix.
-  double A = 0, B = 0;
+  T A(0.0), B(0.0);
   for (int j = 0; j < n; ++j)
     if (sg.w[j] != 0.0) {
-      A += sg.w[j] * std::cos(th[j]);
-      B += sg.w[j] * std::sin(th[j]);
+      A += sg.w[j] * cs[j];
+      B += sg.w[j] * sn[j];
     }
-  for (int i = 0; i < n; ++i) base[i] = sg.a[i] != 0.0 ? sg.a[i] * (std::sin(th[i]) * A - std::cos(th[i]) * B) : 0.0;
-  Eigen::VectorXd uzp = base, tau(n), nzp(n);
-  Eigen::Vector2d u0;
+  for (int i = 0; i < n; ++i)
+    if (sg.a[i] != 0.0) base[i] = sg.a[i] * (sn[i] * A - cs[i] * B);
+  std::vector<T>& uzp = out.uzp;
+  uzp = base;
+  std::vector<T> tau(un), next(un);
+  out.nzp.resize(un);
   bool ok = false;
   int it = 0;
   for (; it < M.max_iter; ++it) {
-    forces(M, sg, th, uz, nz, uzp, tau, nzp, nullptr, nullptr, u0);
+    forces(M, sg, th, uz, nz, uzp, tau, out.nzp, nullptr, nullptr, out.u0);
     // tau is the applied distributed torque; the internal torque obeys m_z' = -tau + (elastic coupling).
-    Eigen::VectorXd next = base;
-    for (int i = 0; i < n; ++i)
+    double change = 0.0, size = 0.0;
+    for (int i = 0; i < n; ++i) {
+      next[i] = base[i];
       if (sg.present[static_cast<std::size_t>(i)]) next[i] -= tau[i] / P.kt[i];
-    const double change = (next - uzp).cwiseAbs().maxCoeff();
-    uzp = next;
-    if (change <= M.tol * (1.0 + uzp.cwiseAbs().maxCoeff())) {
+      change = std::max(change, std::abs(value(next[i]) - value(uzp[i])));
+      size = std::max(size, std::abs(value(next[i])));
+    }
+    uzp.swap(next);
+    if (change <= M.tol * (1.0 + size)) {
       ok = true;
       break;
     }
   }
   M.worst_iter = std::max(M.worst_iter, it + 1);
   if (!ok) M.root_failed = true;
-  out.uzp = uzp;
-  if (want_iface) {
-    forces(M, sg, th, uz, nz, uzp, tau, nzp, &out.iface_force, &out.iface_torque, u0);
-  } else {
-    forces(M, sg, th, uz, nz, uzp, tau, nzp, nullptr, nullptr, u0);
-  }
-  out.nzp = nzp;
-  out.u0 = u0;
+  forces(M, sg, th, uz, nz, uzp, tau, out.nzp, want_iface ? &out.iface_force : nullptr,
+         want_iface ? &out.iface_torque : nullptr, out.u0);
   return ok;
 }
 
 struct Pass {
-  Eigen::VectorXd r;  // residuals: u_iz(end_i), n_iz(end_i)
+  Eigen::VectorXd r;  // residuals: u_iz(end_i), n_iz(end_i), contact laws
   Eigen::VectorXd twist;
   Eigen::Vector3d p = Eigen::Vector3d::Zero();
   Eigen::Matrix3d R = Eigen::Matrix3d::Identity();
@@ -168,143 +203,225 @@ struct Pass {
   std::vector<double> contact_twist, contact_moment;  // per active contact (lumped friction)
 };
 
-// One integration from s = 0 to the tip for z = (u_z(0), n_z(0)).
-void integrate(Model& M, const Eigen::VectorXd& z, bool record, Pass& out) {
+// One integration from s = 0 to the tip for z = (u_z(0), n_z(0), contact torques): the residuals r (size 2n + nc).
+// With T = double (and `out`) also the shape, twists, contact results and, when `record`, the backbone and force
+// samples; with dual numbers only the residuals and their derivatives.
+template <class T>
+void integrate(Model& M, const std::vector<T>& z, std::vector<T>& r, bool record, Pass* out) {
+  constexpr bool plain = std::is_same_v<T, double>;
   const Problem& P = *M.P;
   const int n = P.n;
-  Eigen::VectorXd th(n), uz(n), nz(n);
+  const std::size_t un = static_cast<std::size_t>(n);
+  std::vector<T> th(un), uz(un), nz(un);
   for (int i = 0; i < n; ++i) {
     th[i] = P.alpha[i] - P.beta[i] * z[i];
     uz[i] = z[i];
     nz[i] = z[n + i];
   }
   const int nc = static_cast<int>(P.contacts.size());
-  out.r.setZero(2 * n + nc);
-  out.contact_twist.assign(static_cast<std::size_t>(nc), 0.0);
-  out.contact_moment.assign(static_cast<std::size_t>(nc), 0.0);
-  out.twist.setZero(std::max(0, n - 1));
-  out.p.setZero();
-  out.R.setIdentity();
-  out.backbone.clear();
-  out.samples.clear();
-  out.integrated.assign(static_cast<std::size_t>(std::max(0, n - 1)), 0.0);
+  r.assign(static_cast<std::size_t>(2 * n + nc), T(0.0));
+  if (out) {
+    out->contact_twist.assign(static_cast<std::size_t>(nc), 0.0);
+    out->contact_moment.assign(static_cast<std::size_t>(nc), 0.0);
+    out->twist.setZero(std::max(0, n - 1));
+    out->p.setZero();
+    out->R.setIdentity();
+    out->backbone.clear();
+    out->samples.clear();
+    out->integrated.assign(static_cast<std::size_t>(std::max(0, n - 1)), 0.0);
+  }
   for (int i = 0; i < n; ++i)
     if (P.end[i] <= 1e-12) {
-      out.r[i] = z[i];
-      out.r[n + i] = z[n + i];
+      r[i] = z[i];
+      r[n + i] = z[n + i];
     }
-  StageOut k1, k2, k3, k4;
-  auto recordNode = [&](double s, const Segment& sg, const StageOut& so) {
+  StageOut<T> k1, k2, k3, k4;
+  auto recordNode = [&](double s, const Segment& sg, const auto& so) {  // (instantiated for T = double only)
     BackbonePoint bp;
     bp.s = s;
-    bp.position = out.p;
-    bp.frame = out.R;
-    bp.theta = th;
-    bp.uz = uz;
-    bp.u0 = so.u0;
+    bp.position = out->p;
+    bp.frame = out->R;
+    bp.theta = Eigen::Map<const Eigen::VectorXd>(th.data(), n);
+    bp.uz = Eigen::Map<const Eigen::VectorXd>(uz.data(), n);
+    bp.u0 = Eigen::Vector2d(so.u0.x, so.u0.y);
     bp.outermost = sg.outermost;
-    out.backbone.push_back(bp);
+    out->backbone.push_back(bp);
     for (std::size_t j = 0; j < so.iface_force.size(); ++j) {
       if (static_cast<int>(j) < sg.outermost || !sg.present[j + 1]) continue;
-      out.samples.push_back({s, static_cast<int>(j), so.iface_force[j], so.iface_force[j] / std::sqrt(1 + M.mu * M.mu),
-                             so.iface_torque[j]});
+      out->samples.push_back({s, static_cast<int>(j), so.iface_force[j], so.iface_force[j] / std::sqrt(1 + M.mu * M.mu),
+                              so.iface_torque[j]});
     }
   };
+  std::vector<T> t2(un), u2(un), n2(un), dt[4], du[4], dn[4];
+  for (int k = 0; k < 4; ++k) {
+    dt[k].resize(un);
+    du[k].resize(un);
+    dn[k].resize(un);
+  }
+  StageOut<T>* ks[4] = {&k1, &k2, &k3, &k4};
   for (std::size_t si = 0; si < P.segments.size(); ++si) {
     const Segment& sg = P.segments[si];
     const double h = sg.h;
+    auto on = [&](int i) { return sg.present[static_cast<std::size_t>(i)] != 0; };
     for (int st = 0; st < sg.steps; ++st) {
-      stage(M, sg, th, uz, nz, k1, true);
-      if (record) recordNode(sg.s0 + st * h, sg, k1);
-      auto dth = [&](const Eigen::VectorXd& u) {
-        Eigen::VectorXd d = u;
-        for (int i = 0; i < n; ++i)
-          if (!sg.present[static_cast<std::size_t>(i)]) d[i] = 0;
-        return d;
-      };
-      auto mask = [&](const Eigen::VectorXd& v) {
-        Eigen::VectorXd d = v;
-        for (int i = 0; i < n; ++i)
-          if (!sg.present[static_cast<std::size_t>(i)]) d[i] = 0;
-        return d;
-      };
-      const Eigen::VectorXd d1t = dth(uz), d1u = mask(k1.uzp), d1n = mask(k1.nzp);
-      stage(M, sg, th + 0.5 * h * d1t, uz + 0.5 * h * d1u, nz + 0.5 * h * d1n, k2, true);
-      const Eigen::VectorXd d2t = dth(uz + 0.5 * h * d1u), d2u = mask(k2.uzp), d2n = mask(k2.nzp);
-      stage(M, sg, th + 0.5 * h * d2t, uz + 0.5 * h * d2u, nz + 0.5 * h * d2n, k3, true);
-      const Eigen::VectorXd d3t = dth(uz + 0.5 * h * d2u), d3u = mask(k3.uzp), d3n = mask(k3.nzp);
-      stage(M, sg, th + h * d3t, uz + h * d3u, nz + h * d3n, k4, true);
-      const Eigen::VectorXd d4t = dth(uz + h * d3u), d4u = mask(k4.uzp), d4n = mask(k4.nzp);
-      for (std::size_t j = 0; j < out.integrated.size(); ++j)
-        out.integrated[j] +=
-            h / 6 * (k1.iface_torque[j] + 2 * k2.iface_torque[j] + 2 * k3.iface_torque[j] + k4.iface_torque[j]);
-      th += h / 6 * (d1t + 2 * d2t + 2 * d3t + d4t);
-      uz += h / 6 * (d1u + 2 * d2u + 2 * d3u + d4u);
-      nz += h / 6 * (d1n + 2 * d2n + 2 * d3n + d4n);
-      detail::se3Step(out.R, out.p, h / 12 * (3 * k1.u0 + 2 * k2.u0 + 2 * k3.u0 - k4.u0), 0.5 * h);
-      detail::se3Step(out.R, out.p, h / 12 * (-k1.u0 + 2 * k2.u0 + 2 * k3.u0 + 3 * k4.u0), 0.5 * h);
+      // Classical RK4 on (theta, u_z, n_z): theta' = u_z, u_z' and n_z' from the stage (absent tubes frozen).
+      for (int k = 0; k < 4; ++k) {
+        const double f = k == 0 ? 0.0 : (k == 3 ? h : 0.5 * h);
+        for (int i = 0; i < n; ++i) {
+          t2[i] = k == 0 ? th[i] : th[i] + f * dt[k - 1][i];
+          u2[i] = k == 0 ? uz[i] : uz[i] + f * du[k - 1][i];
+          n2[i] = k == 0 ? nz[i] : nz[i] + f * dn[k - 1][i];
+        }
+        stage(M, sg, t2, u2, n2, *ks[k], plain && out);
+        if constexpr (plain)
+          if (k == 0 && record) recordNode(sg.s0 + st * h, sg, k1);
+        for (int i = 0; i < n; ++i) {
+          dt[k][i] = on(i) ? u2[i] : T(0.0);
+          du[k][i] = on(i) ? ks[k]->uzp[i] : T(0.0);
+          dn[k][i] = on(i) ? ks[k]->nzp[i] : T(0.0);
+        }
+      }
+      if constexpr (plain)
+        if (out)
+          for (std::size_t j = 0; j < out->integrated.size(); ++j)
+            out->integrated[j] +=
+                h / 6 * (k1.iface_torque[j] + 2 * k2.iface_torque[j] + 2 * k3.iface_torque[j] + k4.iface_torque[j]);
+      for (int i = 0; i < n; ++i) {
+        th[i] += h / 6 * (dt[0][i] + 2.0 * dt[1][i] + 2.0 * dt[2][i] + dt[3][i]);
+        uz[i] += h / 6 * (du[0][i] + 2.0 * du[1][i] + 2.0 * du[2][i] + du[3][i]);
+        nz[i] += h / 6 * (dn[0][i] + 2.0 * dn[1][i] + 2.0 * dn[2][i] + dn[3][i]);
+      }
+      if constexpr (plain)
+        if (out) {
+          const Eigen::Vector2d a1(k1.u0.x, k1.u0.y), a2(k2.u0.x, k2.u0.y), a3(k3.u0.x, k3.u0.y), a4(k4.u0.x, k4.u0.y);
+          detail::se3Step(out->R, out->p, h / 12 * (3 * a1 + 2 * a2 + 2 * a3 - a4), 0.5 * h);
+          detail::se3Step(out->R, out->p, h / 12 * (-a1 + 2 * a2 + 2 * a3 + 3 * a4), 0.5 * h);
+        }
     }
     const detail::Breakpoint& bp = P.breakpoints[si];
-    if (bp.twist_point)
-      for (int k = 1; k < n; ++k) out.twist[k - 1] = th[k] - th[0];
+    if constexpr (plain)
+      if (out && bp.twist_point)
+        for (int k = 1; k < n; ++k) out->twist[k - 1] = th[k] - th[0];
     for (int i : bp.ending) {
-      out.r[i] = uz[i];
-      out.r[n + i] = nz[i];
+      r[i] = uz[i];
+      r[n + i] = nz[i];
     }
     // Lumped friction at concentrated moments (§II.D), as in the other integrators: unknown scaled torque tau_c, its
     // law's residual row, and its point torque.
     for (int c : bp.contacts) {
       const detail::ActiveContact& ac = P.contacts[static_cast<std::size_t>(c)];
-      const double relative_twist = th[ac.site.inner] - th[ac.site.outer];
-      const double mom = detail::siteMoment<double>(P, si, th.data(), ac.site, 0.0, 0.0);
-      out.contact_twist[static_cast<std::size_t>(c)] = relative_twist;
-      out.contact_moment[static_cast<std::size_t>(c)] = mom;
-      out.r[2 * n + c] = detail::contactLawResidual(P, ac, z[2 * n + c], relative_twist, mom);
+      const T relative_twist = th[ac.site.inner] - th[ac.site.outer];
+      const T mom = detail::siteMoment<T>(P, si, th.data(), ac.site, T(0.0), T(0.0));
+      if (out) {
+        out->contact_twist[static_cast<std::size_t>(c)] = value(relative_twist);
+        out->contact_moment[static_cast<std::size_t>(c)] = value(mom);
+      }
+      r[2 * n + c] = detail::contactLawResidual(P, ac, z[2 * n + c], relative_twist, mom);
     }
     for (int c : bp.contacts)
       detail::applyContactJump(detail::contactJump(P, bp, P.contacts[static_cast<std::size_t>(c)]), z[2 * n + c],
-                               out.r.data(), uz.data());
-    if (record && si + 1 == P.segments.size()) {
-      StageOut last;
-      stage(M, sg, th, uz, nz, last, true);
-      recordNode(bp.s, sg, last);
-    }
+                               r.data(), uz.data());
+    if constexpr (plain)
+      if (record && si + 1 == P.segments.size()) {
+        StageOut<double> last;
+        stage(M, sg, th, uz, nz, last, true);
+        recordNode(bp.s, sg, last);
+      }
   }
 }
 
-// The distributed-friction map as a system of the Newton core, its Jacobian by forward differences (the implicit
-// equation for u_z' at every stage keeps it from the exact derivatives of the other maps).
+// The distributed-friction map as a system of the Newton core. Its Jacobian is exact: the integrator runs on dual
+// numbers carrying the derivatives w.r.t. up to kChunk unknowns per pass (the implicit equation for u_z' at every
+// stage is differentiated by iterating the derivatives with the values).
 class DistributedSystem final : public detail::NewtonSystem {
  public:
   explicit DistributedSystem(Model& M) : M_(M) {}
   void evaluate(const Eigen::VectorXd& z, bool jacobian) override {
-    integrate(M_, z, false, pass_);
-    if (!jacobian) return;
     const Eigen::Index m = z.size();
+    zd_.assign(z.data(), z.data() + m);
+    integrate<double>(M_, zd_, rd_, false, nullptr);
+    r_ = Eigen::Map<const Eigen::VectorXd>(rd_.data(), m);
+    if (!jacobian) return;
     J_.resize(m, m);
-    for (Eigen::Index c = 0; c < m; ++c) {
-      const double hstep = 1e-7 * (1.0 + std::abs(z[c]));
-      probe_z_ = z;
-      probe_z_[c] += hstep;
-      integrate(M_, probe_z_, false, probe_);
-      J_.col(c) = (probe_.r - pass_.r) / hstep;
-    }
+    for (Eigen::Index first = 0; first < m; first += kChunk) derivativeChunk(z, static_cast<int>(first));
   }
-  const Eigen::VectorXd& residual() const override { return pass_.r; }
+  const Eigen::VectorXd& residual() const override { return r_; }
   Eigen::MatrixXd& jacobian() override { return J_; }
   // The reported stability is the branch's without distributed friction: no Jacobian is needed at the solution.
   double stability() const override { return std::numeric_limits<double>::infinity(); }
 
  private:
+  static constexpr int kChunk = 4;
+  using D = detail::Dual<kChunk>;
+  // Columns first .. first + kChunk - 1 of the Jacobian.
+  void derivativeChunk(const Eigen::VectorXd& z, int first) {
+    const int m = static_cast<int>(z.size());
+    std::vector<D> zz(static_cast<std::size_t>(m)), rr;
+    for (int c = 0; c < m; ++c) {
+      zz[c] = D(z[c]);
+      if (c >= first && c < first + kChunk) zz[c].d[c - first] = 1.0;
+    }
+    integrate<D>(M_, zz, rr, false, nullptr);
+    for (int k = 0; k < kChunk && first + k < m; ++k)
+      for (int row = 0; row < m; ++row) J_(row, first + k) = rr[row].d[k];
+  }
   Model& M_;
-  Pass pass_, probe_;
-  Eigen::VectorXd probe_z_;
+  std::vector<double> zd_, rd_;
+  Eigen::VectorXd r_;
   Eigen::MatrixXd J_;
 };
 
+// The problem (discretisation, contact sites) and the friction model of (robot, q, opt); returns the contact laws
+// (nullptr: none).
+const std::vector<ContactCondition>* setupModel(const Robot& robot, const Configuration& q,
+                                                const DistributedFrictionOptions& opt, Problem& P, Model& M,
+                                                bool& used_default_radius) {
+  const int n = robot.size();
+  if (!opt.contacts.empty() && opt.contacts.size() != contactSites(robot, q).size())
+    throw std::invalid_argument("solveDistributedFriction: contacts needs one condition per contact site (" +
+                                std::to_string(contactSites(robot, q).size()) + ")");
+  const std::vector<ContactCondition>* conditions = opt.contacts.empty() ? nullptr : &opt.contacts;
+  P.setup(robot, q, conditions, opt.kinematics);
+  M.P = &P;
+  M.mu = opt.mu;
+  M.fric = opt.mu / std::sqrt(1.0 + opt.mu * opt.mu);
+  M.max_iter = opt.max_root_iterations;
+  M.tol = opt.root_tolerance;
+  M.radius.resize(std::max(0, n - 1));
+  for (int j = 0; j + 1 < n; ++j) {
+    double r = 0.5 * robot.tube(j + 1).outer_diameter;
+    if (r <= 0) r = 0.5 * robot.tube(j).inner_diameter;
+    if (r <= 0) {
+      r = opt.default_contact_radius;
+      used_default_radius = true;
+    }
+    M.radius[j] = r;
+  }
+  M.dir = opt.direction;
+  return conditions;
+}
+
 }  // namespace
 
-DistributedFrictionSolution solveDistributedFriction(const Robot& robot, const Configuration& q,
+namespace detail {
+
+void distributedFrictionMap(const Robot& robot, const Configuration& q, const DistributedFrictionOptions& opt,
+                            const Eigen::VectorXd& z, Eigen::VectorXd& r, Eigen::MatrixXd* J) {
+  Problem P;
+  Model M;
+  bool used_default = false;
+  setupModel(robot, q, opt, P, M, used_default);
+  if (z.size() != 2 * P.n + static_cast<Eigen::Index>(P.contacts.size()))
+    throw std::invalid_argument("distributedFrictionMap: z needs 2n + contacts entries");
+  DistributedSystem S(M);
+  S.evaluate(z, J != nullptr);
+  r = S.residual();
+  if (J) *J = S.jacobian();
+}
+
+}  // namespace detail
+
+DistributedFrictionSolution solveDistributedFriction(const Robot& robot, const Configuration& q, Workspace& ws,
                                                      const DistributedFrictionOptions& opt, const Solution* warm) {
   const int n = robot.size();
   if (static_cast<int>(opt.direction.size()) != std::max(0, n - 1))
@@ -331,32 +448,11 @@ DistributedFrictionSolution solveDistributedFriction(const Robot& robot, const C
     return res;
   }
   Problem P;
-  if (!opt.contacts.empty() && opt.contacts.size() != contactSites(robot, q).size())
-    throw std::invalid_argument("solveDistributedFriction: contacts needs one condition per contact site (" +
-                                std::to_string(contactSites(robot, q).size()) + ")");
-  const std::vector<ContactCondition>* conditions = opt.contacts.empty() ? nullptr : &opt.contacts;
-  P.setup(robot, q, conditions, opt.kinematics);
-  const int nc = static_cast<int>(P.contacts.size());
   Model M;
-  M.P = &P;
-  M.mu = opt.mu;
-  M.fric = opt.mu / std::sqrt(1.0 + opt.mu * opt.mu);
-  M.max_iter = opt.max_root_iterations;
-  M.tol = opt.root_tolerance;
-  M.radius.resize(std::max(0, n - 1));
-  for (int j = 0; j + 1 < n; ++j) {
-    double r = 0.5 * robot.tube(j + 1).outer_diameter;
-    if (r <= 0) r = 0.5 * robot.tube(j).inner_diameter;
-    if (r <= 0) {
-      r = opt.default_contact_radius;
-      res.used_default_radius = true;
-    }
-    M.radius[j] = r;
-  }
-  M.dir = opt.direction;
+  const std::vector<ContactCondition>* conditions = setupModel(robot, q, opt, P, M, res.used_default_radius);
+  const int nc = static_cast<int>(P.contacts.size());
 
   // Initial guess: the solution without distributed friction (with the same contact laws), n_z(0) = 0.
-  Workspace ws;
   KinematicsOptions ko = opt.kinematics;
   ko.record_backbone = false;
   const Solution base =
@@ -378,7 +474,11 @@ DistributedFrictionSolution solveDistributedFriction(const Robot& robot, const C
   const double tol = opt.kinematics.tolerance;
   const bool ok = nr < std::max(tol, 1e-9) && !M.root_failed;
   Pass pass;
-  integrate(M, z, opt.kinematics.record_backbone, pass);
+  {
+    std::vector<double> zv(z.data(), z.data() + z.size()), rv;
+    integrate<double>(M, zv, rv, opt.kinematics.record_backbone, &pass);
+    pass.r = Eigen::Map<const Eigen::VectorXd>(rv.data(), static_cast<Eigen::Index>(rv.size()));
+  }
   Solution& s = res.solution;
   s.summary.status = ok ? SolveStatus::Converged : SolveStatus::NotConverged;
   s.summary.iterations = iters;

@@ -188,7 +188,7 @@ SubstepOutcome solveSubstep(const Robot& robot, const HysteresisState& prev, con
       out.interface_direction[j] = d;
     }
     if (mu == 0.0) {
-      DistributedFrictionSolution ds = solveDistributedFriction(robot, q, dopt, &warm);
+      DistributedFrictionSolution ds = solveDistributedFriction(robot, q, ws, dopt, &warm);
       out.solution = std::move(ds.solution);
       out.ok = out.solution.converged();
       out.iterations = 1;
@@ -200,7 +200,7 @@ SubstepOutcome solveSubstep(const Robot& robot, const HysteresisState& prev, con
   auto solveLaws = [&](const std::vector<ContactCondition>& cond) {
     if (!distributed) return solveWithContacts(robot, q, cond, ws, kopt, &warm);
     dopt.contacts = cond;
-    return std::move(solveDistributedFriction(robot, q, dopt, &warm).solution);
+    return std::move(solveDistributedFriction(robot, q, ws, dopt, &warm).solution);
   };
   if (mu == 0.0) {
     // Frictionless: exactly the frictionless model (no contact unknowns), following the branch.

@@ -7,6 +7,7 @@
 #include "ctr/model/distributed_friction.hpp"
 #include "ctr/model/friction.hpp"
 #include "ctr/model/replay.hpp"
+#include "distributed_map.hpp"  // internal
 #include "tube_factory.hpp"
 
 using namespace ctr;
@@ -26,7 +27,9 @@ Tube makeTube(const std::string& name, double kb, double od, double id) {
   return t;
 }
 
-Robot pairB() { return Robot("B", {makeTube("outer", 0.0334, 2.77e-3, 2.55e-3), makeTube("inner", 0.0511, 2.41e-3, 1.97e-3)}); }
+Robot pairB() {
+  return Robot("B", {makeTube("outer", 0.0334, 2.77e-3, 2.55e-3), makeTube("inner", 0.0511, 2.41e-3, 1.97e-3)});
+}
 
 const Configuration kHalfPi(Eigen::Vector2d(0, M_PI / 2), Eigen::Vector2d(-0.018, -0.018));
 
@@ -34,7 +37,8 @@ DistributedFrictionSolution solveMu(double mu) {
   DistributedFrictionOptions o;
   o.mu = mu;
   o.direction = {1};
-  return solveDistributedFriction(pairB(), kHalfPi, o);
+  Workspace ws;
+  return solveDistributedFriction(pairB(), kHalfPi, ws, o);
 }
 
 }  // namespace
@@ -87,7 +91,7 @@ TEST(DistributedFriction, EvenHugeMuChangesShapeNegligibly) {
   // Fig. 6: mu = 1e5 barely changes the twist rate and the tip.
   const DistributedFrictionSolution a = solveMu(0.0), b = solveMu(1e5);
   ASSERT_TRUE(a.solution.converged() && b.solution.converged());
-  EXPECT_LT(std::abs(a.solution.twist[0] - b.solution.twist[0]), 0.02);  // rad (~1 deg)
+  EXPECT_LT(std::abs(a.solution.twist[0] - b.solution.twist[0]), 0.02);         // rad (~1 deg)
   EXPECT_LT((a.solution.tip_position - b.solution.tip_position).norm(), 2e-4);  // m
   // Twist rate profile: relative difference along s small.
   ASSERT_EQ(a.solution.backbone.size(), b.solution.backbone.size());
@@ -104,9 +108,10 @@ TEST(DistributedFriction, OpposesTheRelativeRotationAndKeepsTorqueBalance) {
   DistributedFrictionOptions o;
   o.mu = 1.0;
   o.direction = {1};
-  const DistributedFrictionSolution up = solveDistributedFriction(pairB(), kHalfPi, o);
+  Workspace ws;
+  const DistributedFrictionSolution up = solveDistributedFriction(pairB(), kHalfPi, ws, o);
   o.direction = {-1};
-  const DistributedFrictionSolution down = solveDistributedFriction(pairB(), kHalfPi, o);
+  const DistributedFrictionSolution down = solveDistributedFriction(pairB(), kHalfPi, ws, o);
   ASSERT_TRUE(up.solution.converged() && down.solution.converged());
   EXPECT_LT(up.solution.twist[0], d0.solution.twist[0]);    // lags when rotating positively
   EXPECT_GT(down.solution.twist[0], d0.solution.twist[0]);  // leads when rotating back
@@ -179,14 +184,15 @@ TEST(DistributedFriction, LumpedTorquesWithZeroMuMatchTheKinematicsSolver) {
     o.direction = {1, 1};
     o.contacts = cases[k];
     o.kinematics = ko;
-    const DistributedFrictionSolution d = solveDistributedFriction(r, q, o);
+    const DistributedFrictionSolution d = solveDistributedFriction(r, q, ws, o);
     ASSERT_TRUE(d.solution.converged()) << d.solution.summary.message;
     EXPECT_LT((d.solution.twist - ref.twist).cwiseAbs().maxCoeff(), 1e-8) << "case " << k;
     EXPECT_LT((d.solution.tip_position - ref.tip_position).norm(), 1e-9) << "case " << k;
     ASSERT_EQ(d.solution.contacts.size(), ref.contacts.size());
     for (std::size_t c = 0; c < ref.contacts.size(); ++c) {
       EXPECT_TRUE(d.solution.contacts[c].site == ref.contacts[c].site);
-      EXPECT_NEAR(d.solution.contacts[c].torque, ref.contacts[c].torque, 1e-8 + 1e-6 * std::abs(ref.contacts[c].torque));
+      EXPECT_NEAR(d.solution.contacts[c].torque, ref.contacts[c].torque,
+                  1e-8 + 1e-6 * std::abs(ref.contacts[c].torque));
       EXPECT_NEAR(d.solution.contacts[c].moment, ref.contacts[c].moment, 1e-9 + 1e-6 * ref.contacts[c].moment);
       EXPECT_NEAR(d.solution.contacts[c].relative_twist, ref.contacts[c].relative_twist, 1e-8);
     }
@@ -197,7 +203,7 @@ TEST(DistributedFriction, LumpedTorquesWithZeroMuMatchTheKinematicsSolver) {
   DistributedFrictionOptions bad;
   bad.direction = {1, 1};
   bad.contacts.assign(sites.size() + 1, {Law::Free, 0.0});
-  EXPECT_THROW(solveDistributedFriction(r, q, bad), std::invalid_argument);
+  EXPECT_THROW(solveDistributedFriction(r, q, ws, bad), std::invalid_argument);
 }
 
 TEST(DistributedFriction, TogetherWithBoundaryFrictionKeepsBoundsAndTorqueBalance) {
@@ -258,4 +264,56 @@ TEST(DistributedFriction, TogetherWithBoundaryFrictionWidensTheEnvelope) {
   EXPECT_GT(wb, wd);
   EXPECT_GT(wbd, wb + 0.5 * wd);
   EXPECT_NEAR(wbd, wb + wd, 0.2 * wd);  // two small perturbations of one branch: nearly additive
+}
+
+TEST(DistributedFriction, ExactJacobianMatchesCentralDifferences) {
+  // The shooting map's Jacobian from the dual-number pass against central differences of its residual, on a pair
+  // and on three tubes with lumped contact laws of every kind (stick, slip torque, free), near the solution (its
+  // u_z(0) and contact torques, n_z(0) = 0) and away from it.
+  struct Case {
+    Robot robot;
+    Configuration q;
+    std::vector<ContactCondition> contacts;
+  };
+  const Robot three = threeTubes(0.1).withFriction({0.1, 1.0});
+  const Configuration q3(Eigen::Vector3d(0.0, 1.0, -0.5), Eigen::Vector3d(-0.02, -0.04, -0.07));
+  std::vector<ContactCondition> laws;
+  const ContactCondition::Law kinds[] = {ContactCondition::Law::Stick, ContactCondition::Law::Torque,
+                                         ContactCondition::Law::Free};
+  for (std::size_t c = 0; c < contactSites(three, q3).size(); ++c)
+    laws.push_back({kinds[c % 3], kinds[c % 3] == ContactCondition::Law::Stick ? 0.05 : 0.7});
+  const std::vector<Case> cases = {{pairB(), kHalfPi, {}}, {three, q3, laws}};
+  Workspace ws;
+  for (const Case& c : cases) {
+    DistributedFrictionOptions o;
+    o.mu = 0.3;
+    o.direction.assign(static_cast<std::size_t>(c.robot.size() - 1), 1);
+    o.contacts = c.contacts;
+    const DistributedFrictionSolution sol = solveDistributedFriction(c.robot, c.q, ws, o);
+    ASSERT_TRUE(sol.solution.converged()) << sol.solution.summary.message;
+    const int n = c.robot.size(), m = 2 * n + static_cast<int>(c.contacts.size());
+    Eigen::VectorXd z = Eigen::VectorXd::Zero(m);
+    z.head(n) = sol.solution.base_twist_rate;
+    for (std::size_t k = 0; k < c.contacts.size(); ++k)
+      z[2 * n + static_cast<Eigen::Index>(k)] =
+          sol.solution.contacts[k].torque / c.robot.tube(sol.solution.contacts[k].site.inner).torsional_stiffness;
+    for (double away : {0.0, 0.3}) {
+      Eigen::VectorXd za = z;
+      for (int k = 0; k < m; ++k) za[k] += away * (0.5 + 0.1 * k);
+      Eigen::VectorXd r;
+      Eigen::MatrixXd J;
+      detail::distributedFrictionMap(c.robot, c.q, o, za, r, &J);
+      ASSERT_EQ(J.rows(), m);
+      for (int k = 0; k < m; ++k) {
+        const double h = 1e-6 * (1.0 + std::abs(za[k]));
+        Eigen::VectorXd zp = za, zm = za, rp, rm;
+        zp[k] += h;
+        zm[k] -= h;
+        detail::distributedFrictionMap(c.robot, c.q, o, zp, rp, nullptr);
+        detail::distributedFrictionMap(c.robot, c.q, o, zm, rm, nullptr);
+        const Eigen::VectorXd fd = (rp - rm) / (2 * h);
+        EXPECT_LT((J.col(k) - fd).norm(), 1e-6 * (1.0 + fd.norm())) << "column " << k << ", away " << away;
+      }
+    }
+  }
 }

@@ -535,7 +535,8 @@ TEST(Loads, DistributedFrictionWithLoadsIsReportedNotSolved) {
   DistributedFrictionOptions o;
   o.mu = 0.5;
   o.direction = {1, 1};
-  const DistributedFrictionSolution s = solveDistributedFriction(robot, threeConfig(), o);
+  Workspace ws;
+  const DistributedFrictionSolution s = solveDistributedFriction(robot, threeConfig(), ws, o);
   EXPECT_FALSE(s.solution.converged());
   EXPECT_NE(s.solution.summary.message.find("not implemented"), std::string::npos);
 }

@@ -15,12 +15,12 @@ namespace ctr {
 
 /// @brief Options of the distributed-friction model.
 struct DistributedFrictionOptions {
-  double mu = 0.0;                 ///< Coulomb coefficient (>= 0; may be very large, e.g. 1e5).
-  std::vector<int> direction;      ///< Per interface j (tubes j|j+1, 0-based j): sign of inner-minus-outer rotation.
+  double mu = 0.0;             ///< Coulomb coefficient (>= 0; may be very large, e.g. 1e5).
+  std::vector<int> direction;  ///< Per interface j (tubes j|j+1, 0-based j): sign of inner-minus-outer rotation.
   double default_contact_radius = 1e-3;  ///< Used when the diameters are not given (m).
-  int max_root_iterations = 60;    ///< Iterations of the implicit equation in u_z' per stage.
-  double root_tolerance = 1e-12;   ///< On u_z' (1/m^2), relative to its size.
-  KinematicsOptions kinematics;    ///< Step size, Newton tolerance, iterations.
+  int max_root_iterations = 60;          ///< Iterations of the implicit equation in u_z' per stage.
+  double root_tolerance = 1e-12;         ///< On u_z' (1/m^2), relative to its size.
+  KinematicsOptions kinematics;          ///< Step size, Newton tolerance, iterations.
   /// Lumped friction at the concentrated moments (§II.D) acting together with the distributed friction: one law per
   /// site of contactSites(robot, q), or empty for none. Torque laws use robot.friction().boundary as mu'.
   std::vector<ContactCondition> contacts;
@@ -47,7 +47,8 @@ struct DistributedFrictionSolution {
 /// @brief Equilibrium of the torsionally compliant model with distributed Coulomb friction (and, optionally, the
 /// lumped friction torques of `options.contacts`; then Solution::contacts reports them as solveWithContacts does).
 /// Throws std::invalid_argument if `direction` does not have n-1 entries or `contacts` has the wrong size.
-DistributedFrictionSolution solveDistributedFriction(const Robot& robot, const Configuration& q,
+/// `ws` is used for the start (the solution without distributed friction); `warm` warm-starts it.
+DistributedFrictionSolution solveDistributedFriction(const Robot& robot, const Configuration& q, Workspace& ws,
                                                      const DistributedFrictionOptions& options,
                                                      const Solution* warm = nullptr);
 

@@ -56,7 +56,8 @@ void BM_Cold(benchmark::State& st) {
   const std::vector<Eigen::Vector3d> targets = reachableTargets(r, kTargets, 2024);
   ctr::Workspace ws;
   ctr::IkOptions o;
-  std::size_t k = 0, reached = 0, other_branch = 0, starts = 0;
+  std::size_t k = 0, reached = 0, other_branch = 0, starts = 0, iterations = 0;
+  int most_starts = 0, most_iterations = 0;
   double worst = 0.0;
   std::vector<double> cpu;
   for (auto _ : st) {
@@ -68,6 +69,9 @@ void BM_Cold(benchmark::State& st) {
     reached += res.summary.reached() && !res.summary.branch_dependent;
     other_branch += res.summary.reached() && res.summary.branch_dependent;
     starts += static_cast<std::size_t>(res.summary.starts);
+    iterations += static_cast<std::size_t>(res.summary.iterations);
+    most_starts = std::max(most_starts, res.summary.starts);
+    most_iterations = std::max(most_iterations, res.summary.iterations);
     if (!res.summary.reached()) worst = std::max(worst, res.summary.tip_error);
     ++k;
   }
@@ -81,6 +85,9 @@ void BM_Cold(benchmark::State& st) {
   st.counters["targets"] = static_cast<double>(k);
   st.counters["reached_fraction"] = static_cast<double>(reached) / static_cast<double>(k);
   st.counters["starts_per_ik"] = static_cast<double>(starts) / static_cast<double>(k);
+  st.counters["starts_max"] = most_starts;
+  st.counters["iterations_per_ik"] = static_cast<double>(iterations) / static_cast<double>(k);
+  st.counters["iterations_max"] = most_iterations;
   st.counters["worst_miss_mm"] = worst * 1e3;
 }
 

@@ -30,6 +30,13 @@ using detail::ActuatorSet;
 using detail::Descent;
 using detail::IkGoal;
 
+// Trial points of the Newton line search of a trial solve and of a candidate's coarse cold solve
+// (KinematicsOptions::line_search_steps). A trial past a fold has no solution near its warm start: its Newton steps
+// find no descent, and the solver's 12 halvings (each point with its Jacobian) made such a refused trial cost 5-15
+// accepted ones, most of the time of a start whose branch ends before the target. With 4 the descents are the same
+// (the same iterations for the 600 cold IKs of the medmpd robots in bench_ik) and the refusals cheap.
+constexpr int kTrialLineSearch = 4;
+
 // Evaluation and differentiation of the equilibrium map for the descent.
 struct EquilibriumMap {
   const Robot& robot;
@@ -42,6 +49,7 @@ struct EquilibriumMap {
     KinematicsOptions k = o.kinematics;
     k.homotopy = false;
     k.max_iterations = std::min(k.max_iterations, 12);
+    k.line_search_steps = std::min(k.line_search_steps, kTrialLineSearch);
     return k;
   }();
 
@@ -88,25 +96,23 @@ class Run {
                                   "' has no admissible translations (limits, nesting, min_protrusion)");
   }
 
-  // One descent from an evaluated start. With the branch check, a descent that reaches is checked by a cold solve of
-  // its configuration (what forward kinematics gives without history): another equilibrium there ranks the answer
-  // below one whose cold solve agrees.
-  void descend(Solution start, const Configuration& q0, const Eigen::MatrixXd* stale) {
-    auto d = detail::descend(set_, goal_, o_, std::move(start), q0, stale, map_,
-                             [this](const Solution& s, Eigen::MatrixXd& A) { return map_.differentiate(s, A); });
+  // One descent from an evaluated start. `may_set_aside`: a slow descent (IkOptions::slow_start_horizon) stops in
+  // the middle and is kept for resumeSetAside().
+  void descend(Solution start, const Configuration& q0, const Eigen::MatrixXd* stale, bool may_set_aside = false) {
     ++summary_.starts;
-    summary_.iterations += d.iterations;
-    summary_.evaluations += d.evaluations;
-    summary_.jacobians += d.jacobians;
-    int rank = d.reached ? 0 : 2;
-    if (d.reached && check_branch_) {
-      ++summary_.evaluations;
-      const Solution cold = solve(robot_, d.q, map_.ws, o_.kinematics);
-      if (!cold.converged() || !goal_.reached(goal_.measure(cold))) rank = 1;
-    }
-    if (!best_ || rank < rank_ || (rank == rank_ && d.m.cost < best_->m.cost)) {
-      best_ = std::move(d);
-      rank_ = rank;
+    advance(detail::beginDescent(set_, goal_, o_, std::move(start), q0, stale), may_set_aside);
+  }
+
+  // Continues the set-aside descents, the smallest error first, until one reaches with a cold-solve-consistent
+  // equilibrium.
+  void resumeSetAside() {
+    std::stable_sort(aside_.begin(), aside_.end(),
+                     [](const Descent<Solution>& a, const Descent<Solution>& b) { return a.m.cost < b.m.cost; });
+    std::vector<Descent<Solution>> aside = std::move(aside_);
+    aside_.clear();
+    for (Descent<Solution>& d : aside) {
+      if (done(true)) break;
+      advance(std::move(d), false);
     }
   }
 
@@ -120,7 +126,8 @@ class Run {
     return map_.acceptable(out, nullptr);
   }
 
-  // Descents from random admissible configurations until one reaches. Turning every tube by the same angle turns
+  // Descents from random admissible configurations until one reaches; a slow one (IkOptions::slow_start_horizon) is
+  // set aside for the next start and resumed only if none reaches. Turning every tube by the same angle turns
   // the load-free robot rigidly about the base axis: each candidate is first turned so that its tip has the target's
   // azimuth (within the rotation limits), and the candidates are tried in the order of the distance left in the
   // (radius, height) half-plane, the part of the error this turn cannot remove. (The model is 2 pi periodic in each
@@ -136,12 +143,18 @@ class Run {
     const double target_radius = p.head<2>().norm(), target_azimuth = std::atan2(p.y(), p.x());
     // The candidates only rank the starts: solved with coarse steps (the planner's 40 mm / 0.3 rad: tips within a few
     // um, about half the cost); the chosen ones are solved again at the options' discretisation below.
+    // Without the cold solve's continuation (homotopy) fallback: a configuration whose cold Newton fails or ends on an
+    // unstable equilibrium is replaced by another draw (the continuation took about half of the candidates' time on
+    // the medmpd robots; the starts per target did not grow without those configurations).
     KinematicsOptions coarse = o_.kinematics;
     coarse.max_step = std::max(coarse.max_step, 0.04);
     coarse.max_bending_per_step = std::max(coarse.max_bending_per_step, 0.3);
     coarse.tolerance = std::max(coarse.tolerance, 1e-8);
+    coarse.homotopy = false;
+    coarse.line_search_steps = std::min(coarse.line_search_steps, kTrialLineSearch);
     std::vector<Candidate> c;
-    for (int k = 0; k < std::max(o_.cold_candidates, count); ++k) {
+    const int wanted = std::max(o_.cold_candidates, count);
+    for (int k = 0; static_cast<int>(c.size()) < wanted && k < 2 * wanted; ++k) {
       Candidate cand;
       ++summary_.evaluations;
       cand.s = solve(robot_, set_.sample(rng), map_.ws, coarse);
@@ -162,8 +175,9 @@ class Run {
       }
       ++summary_.evaluations;
       Solution start = solve(robot_, q, map_.ws, o_.kinematics, &c[k].s);
-      if (map_.acceptable(start, nullptr)) descend(std::move(start), q, nullptr);
+      if (map_.acceptable(start, nullptr)) descend(std::move(start), q, nullptr, true);
     }
+    if (!done(true)) resumeSetAside();
   }
 
   // Reached; with `clean`, by an equilibrium a cold solve also gives.
@@ -194,6 +208,34 @@ class Run {
   ActuatorSet& set() { return set_; }
 
  private:
+  // Continues a descent; a stopped one is ranked (with the branch check, a descent that reaches is checked by a cold
+  // solve of its configuration, what forward kinematics gives without history: another equilibrium there ranks the
+  // answer below one whose cold solve agrees), a slow one (with `may_set_aside`) is set aside.
+  void advance(Descent<Solution> d, bool may_set_aside) {
+    const int iterations = d.iterations, evaluations = d.evaluations, jacobians = d.jacobians;
+    const double horizon = may_set_aside ? o_.slow_start_horizon : 0.0;
+    detail::advance(
+        d, set_, goal_, o_, map_, [this](const Solution& s, Eigen::MatrixXd& A) { return map_.differentiate(s, A); },
+        [horizon](const Descent<Solution>& x) { return detail::isSlow(x, horizon); });
+    summary_.iterations += d.iterations - iterations;
+    summary_.evaluations += d.evaluations - evaluations;
+    summary_.jacobians += d.jacobians - jacobians;
+    if (!d.stopped) {
+      aside_.push_back(std::move(d));
+      return;
+    }
+    int rank = d.reached ? 0 : 2;
+    if (d.reached && check_branch_) {
+      ++summary_.evaluations;
+      const Solution cold = solve(robot_, d.q, map_.ws, o_.kinematics);
+      if (!cold.converged() || !goal_.reached(goal_.measure(cold))) rank = 1;
+    }
+    if (!best_ || rank < rank_ || (rank == rank_ && d.m.cost < best_->m.cost)) {
+      best_ = std::move(d);
+      rank_ = rank;
+    }
+  }
+
   const Robot& robot_;
   const IkTarget& target_;
   const IkOptions& o_;
@@ -202,7 +244,8 @@ class Run {
   EquilibriumMap map_;
   IkSummary summary_;
   std::optional<Descent<Solution>> best_;
-  int rank_ = 3;  // 0 reached (cold solve agrees), 1 reached on another branch, 2 not reached
+  std::vector<Descent<Solution>> aside_;  // slow descents set aside (cold start and restarts)
+  int rank_ = 3;                          // 0 reached (cold solve agrees), 1 reached on another branch, 2 not reached
   bool check_branch_ = false;
 };
 

@@ -34,6 +34,7 @@ ActuatorSet::ActuatorSet(const Robot& robot, const IkOptions& o)
     throw std::invalid_argument("IkOptions::min_protrusion must be finite and not negative");
   if (o.max_iterations < 0 || o.restarts < 0 || o.cold_candidates < 0)
     throw std::invalid_argument("IkOptions: max_iterations, restarts and cold_candidates must not be negative");
+  if (!(o.slow_start_horizon >= 0.0)) throw std::invalid_argument("IkOptions::slow_start_horizon must not be negative");
   length_.resize(n_);
   rot_lo_ = Eigen::VectorXd::Constant(n_, -std::numeric_limits<double>::infinity());
   rot_hi_ = Eigen::VectorXd::Constant(n_, std::numeric_limits<double>::infinity());

@@ -91,33 +91,43 @@ inline const Solution& solutionOf(const StepResult& r) {
 /// |stability| below which an equilibrium is taken as near a fold (the measure is 1 without tube interaction).
 inline constexpr double kFoldStability = 0.05;
 
-/// One descent from a start point.
+/// One descent from a start point. It can stop in the middle (set aside, `stopped` false) and resume where it was:
+/// the loop's state is kept here.
 template <class Point>
 struct Descent {
   Point point;  ///< At the end (the best point of the descent).
   Configuration q;
   IkMeasure m;
   bool reached = false;
+  bool stopped = false;  ///< Reached, or gave up (`message`); false while it can go on.
   int iterations = 0, evaluations = 0, jacobians = 0;
   Eigen::MatrixXd jacobian;  ///< Last actuation Jacobian computed or used, and where.
   Configuration jacobian_q;
   std::string message;  ///< Why it stopped without reaching.
+  // The loop's state between iterations.
+  Eigen::MatrixXd A;  // the actuation Jacobian of the next step (empty: compute it at the current point)
+  bool exact = false;
+  bool move_first = false;
+  double mu = 0.0;
+  int slow = 0;
+  double reach = 1.0;
+  std::vector<double> progress;  // sqrt(cost) after each accepted step
 };
 
-/// Damped least squares with a backtracking line search from `start` (at `q0`, evaluated). `eval(q, from, out)` gives
-/// the point at command q (from the accepted point `from`; false: refused); `differentiate(point, actuation)` its
-/// 6 x 2n actuation Jacobian (false: not defined). With `stale` (a Jacobian taken near q0) the first step uses it.
-/// `move_first`: the first full step is taken even without decrease (a stateful map whose value at q0 is not what any
-/// move from q0 gives: a contact that releases as soon as the tubes move); the descent goes on from there.
-template <class Point, class Eval, class Differentiate>
-Descent<Point> descend(const ActuatorSet& set, const IkGoal& goal, const IkOptions& o, Point start,
-                       const Configuration& q0, const Eigen::MatrixXd* stale, Eval&& eval,
-                       Differentiate&& differentiate, bool move_first = false) {
+/// A descent from `start` (at `q0`, evaluated), before its first iteration. With `stale` (a Jacobian taken near q0)
+/// the first step uses it. `move_first`: the first full step is taken even without decrease (a stateful map whose
+/// value at q0 is not what any move from q0 gives: a contact that releases as soon as the tubes move); the descent
+/// goes on from there.
+template <class Point>
+Descent<Point> beginDescent(const ActuatorSet& set, const IkGoal& goal, const IkOptions& o, Point start,
+                            const Configuration& q0, const Eigen::MatrixXd* stale, bool move_first = false) {
   Descent<Point> d;
   d.point = std::move(start);
   d.q = q0;
   d.m = goal.measure(solutionOf(d.point));
-  d.reached = goal.reached(d.m);
+  d.reached = d.stopped = goal.reached(d.m);
+  d.mu = o.damping;
+  d.move_first = move_first;
   if (d.reached) {
     if (stale) {
       d.jacobian = *stale;
@@ -126,17 +136,34 @@ Descent<Point> descend(const ActuatorSet& set, const IkGoal& goal, const IkOptio
     return d;
   }
   // The actuation Jacobian of the step: exact at the current point, or the stale one for the first step.
-  Eigen::MatrixXd A;
-  bool exact = false;
   if (stale && stale->rows() == 6 && stale->cols() == 2 * set.tubes()) {
-    A = *stale;
+    d.A = *stale;
     d.jacobian_q = q0;
   }
-  double mu = o.damping;
-  int slow = 0;
-  // Longest fraction of the step tried first: halved steps that succeed make the next iteration start at twice the
-  // fraction that worked (near a fold, where full steps leave the branch, this saves their refused solves).
-  double reach = 1.0;
+  return d;
+}
+
+/// Whether a descent is slow: at the rate its residual fell over its last two steps, more than `horizon` further
+/// iterations would be needed to reach zero (or it did not fall). Cold IK sets such a start aside (IkOptions).
+template <class Point>
+bool isSlow(const Descent<Point>& d, double horizon) {
+  const std::size_t k = d.progress.size();
+  if (!(horizon > 0.0) || k < 3) return false;
+  const double rate = 0.5 * (d.progress[k - 3] - d.progress[k - 1]);
+  return !(rate > 0.0) || d.progress[k - 1] > horizon * rate;
+}
+
+/// Damped least squares with a backtracking line search: continues `d` until it stops (reached or gave up), or until
+/// `set_aside(d)` is true after a step (then it can be continued later by another call). `eval(q, from, out)` gives
+/// the point at command q (from the accepted point `from`; false: refused); `differentiate(point, actuation)` its
+/// 6 x 2n actuation Jacobian (false: not defined).
+template <class Point, class Eval, class Differentiate, class SetAside>
+void advance(Descent<Point>& d, const ActuatorSet& set, const IkGoal& goal, const IkOptions& o, Eval&& eval,
+             Differentiate&& differentiate, SetAside&& set_aside) {
+  if (d.stopped) return;
+  Eigen::MatrixXd& A = d.A;
+  // Longest fraction of the step tried first (d.reach): halved steps that succeed make the next iteration start at
+  // twice the fraction that worked (near a fold, where full steps leave the branch, this saves their refused solves).
   Point trial;
   while (d.iterations < o.max_iterations) {
     if (A.size() == 0) {
@@ -146,7 +173,7 @@ Descent<Point> descend(const ActuatorSet& set, const IkGoal& goal, const IkOptio
         break;
       }
       ++d.jacobians;
-      exact = true;
+      d.exact = true;
       d.jacobian_q = d.q;
     }
     ++d.iterations;
@@ -155,11 +182,11 @@ Descent<Point> descend(const ActuatorSet& set, const IkGoal& goal, const IkOptio
     bool accepted = false;
     int refused = 0;  // trials of this iteration whose evaluation was refused (not converged, unstable, snapped)
     for (bool first = true; !accepted; first = false) {
-      const Eigen::VectorXd dx = set.step(d.q, G, d.m.r, mu * mean_diag, o.max_step);
+      const Eigen::VectorXd dx = set.step(d.q, G, d.m.r, d.mu * mean_diag, o.max_step);
       if (!(dx.squaredNorm() > 0.0)) break;
       // Backtracking: the step (times `reach`), then half and a quarter of it; the first decrease of the cost is taken.
       // With more damping (later rounds) the step itself is shorter: one trial each.
-      for (double t = reach; t > (first ? 0.2 : 0.99) * reach && !accepted; t *= 0.5) {
+      for (double t = d.reach; t > (first ? 0.2 : 0.99) * d.reach && !accepted; t *= 0.5) {
         const Configuration qt = set.move(d.q, dx, t);
         ++d.evaluations;
         if (!eval(qt, d.point, trial)) {
@@ -167,23 +194,23 @@ Descent<Point> descend(const ActuatorSet& set, const IkGoal& goal, const IkOptio
           continue;
         }
         const IkMeasure mt = goal.measure(solutionOf(trial));
-        if (mt.cost < d.m.cost || (move_first && d.iterations == 1 && t == 1.0)) {
-          slow = mt.cost > (1.0 - 1e-3) * d.m.cost ? slow + 1 : 0;
+        if (mt.cost < d.m.cost || (d.move_first && d.iterations == 1 && t == 1.0)) {
+          d.slow = mt.cost > (1.0 - 1e-3) * d.m.cost ? d.slow + 1 : 0;
           std::swap(d.point, trial);
           d.q = qt;
           d.m = mt;
           accepted = true;
-          reach = std::min(1.0, 2.0 * t);
+          d.reach = std::min(1.0, 2.0 * t);
         }
       }
-      if (accepted || !exact) break;  // a stale Jacobian is replaced by the exact one before damping more
+      if (accepted || !d.exact) break;  // a stale Jacobian is replaced by the exact one before damping more
       // At the end of the branch (a fold) shorter steps only creep toward it: give up this start.
       if (refused >= 3 && std::abs(solutionOf(d.point).summary.stability) < kFoldStability) break;
-      mu = std::max(10.0 * mu, o.damping);
-      if (mu > 1e6) break;
+      d.mu = std::max(10.0 * d.mu, o.damping);
+      if (d.mu > 1e6) break;
     }
     d.jacobian = A;
-    if (!accepted && !exact) {
+    if (!accepted && !d.exact) {
       A.resize(0, 0);
       continue;
     }
@@ -194,23 +221,35 @@ Descent<Point> descend(const ActuatorSet& set, const IkGoal& goal, const IkOptio
       break;
     }
     if (goal.reached(d.m)) {
-      d.reached = true;
-      return d;
+      d.reached = d.stopped = true;
+      return;
     }
-    mu = std::max(mu * 0.1, 1e-12);
+    d.mu = std::max(d.mu * 0.1, 1e-12);
     A.resize(0, 0);
-    exact = false;
+    d.exact = false;
     if (refused >= 3 && std::abs(solutionOf(d.point).summary.stability) < kFoldStability) {
       // Creeping along the end of the branch: steps toward the target leave it. Another start is cheaper.
       d.message = "the equilibrium branch ends (a fold) between this start and the target";
       break;
     }
-    if (slow >= 4) {
+    if (d.slow >= 4) {
       d.message = "the tip error stopped decreasing (the edge of the workspace or a local minimum)";
       break;
     }
+    d.progress.push_back(std::sqrt(d.m.cost));
+    if (d.iterations < o.max_iterations && set_aside(d)) return;
   }
   if (d.message.empty()) d.message = "iteration limit reached";
+  d.stopped = true;
+}
+
+/// A whole descent (beginDescent, then advance to its end).
+template <class Point, class Eval, class Differentiate>
+Descent<Point> descend(const ActuatorSet& set, const IkGoal& goal, const IkOptions& o, Point start,
+                       const Configuration& q0, const Eigen::MatrixXd* stale, Eval&& eval,
+                       Differentiate&& differentiate, bool move_first = false) {
+  Descent<Point> d = beginDescent(set, goal, o, std::move(start), q0, stale, move_first);
+  advance(d, set, goal, o, eval, differentiate, [](const Descent<Point>&) { return false; });
   return d;
 }
 

@@ -15,6 +15,7 @@ double exactStabilityBelow(const KinematicsOptions& opt) {
 NewtonSettings newtonSettings(const KinematicsOptions& opt, double s_tip, int capped, JacobianReuse reuse) {
   NewtonSettings s;
   s.max_iterations = opt.max_iterations;
+  s.line_search_steps = std::max(1, opt.line_search_steps);
   s.tolerance = opt.tolerance;
   s.step_cap = 4.0 * M_PI / std::max(s_tip, 1e-3);  // a base twist rate changes by at most 4 pi over the robot (1/m)
   s.capped = capped;
@@ -89,7 +90,7 @@ bool newton(NewtonSystem& S, Eigen::VectorXd& z, const NewtonSettings& s, Newton
     double t = 1.0;
     bool accepted = false;
     int ls = 0;
-    for (; ls < 12; ++ls) {
+    for (; ls < s.line_search_steps; ++ls) {
       zt = z + t * dz;
       S.evaluate(zt, !value_only);
       const double mt = S.residual().squaredNorm();

@@ -48,6 +48,9 @@ enum class JacobianReuse {
 
 struct NewtonSettings {
   int max_iterations = 40;
+  /// Trial points of the backtracking line search of one iteration (the step, then halved each time) before the
+  /// solve gives up (no descent direction).
+  int line_search_steps = 12;
   double tolerance = 1e-10;  ///< On the max-norm of the residual.
   /// Largest max-norm change of the first `capped` unknowns in one step (0 capped: all).
   double step_cap = std::numeric_limits<double>::infinity();

@@ -237,6 +237,7 @@ void registerIk(pyb::module_& m) {
       .def_readwrite("max_iterations", &IkOptions::max_iterations)
       .def_readwrite("restarts", &IkOptions::restarts)
       .def_readwrite("cold_candidates", &IkOptions::cold_candidates)
+      .def_readwrite("slow_start_horizon", &IkOptions::slow_start_horizon)
       .def_readwrite("seed", &IkOptions::seed)
       .def_readwrite("damping", &IkOptions::damping)
       .def_readwrite("translation_scale", &IkOptions::translation_scale)
@@ -245,9 +246,9 @@ void registerIk(pyb::module_& m) {
       .def_readwrite("require_stable", &IkOptions::require_stable)
       .def_readwrite("check_branch", &IkOptions::check_branch)
       .def_readwrite("kinematics", &IkOptions::kinematics);
-  addOptionsProtocol<IkOptions>(
-      iko, {"tolerance", "direction_tolerance", "max_iterations", "restarts", "cold_candidates", "seed", "damping",
-            "translation_scale", "max_step", "min_protrusion", "require_stable", "check_branch", "kinematics"});
+  addOptionsProtocol<IkOptions>(iko, {"tolerance", "direction_tolerance", "max_iterations", "restarts",
+                                      "cold_candidates", "slow_start_horizon", "seed", "damping", "translation_scale",
+                                      "max_step", "min_protrusion", "require_stable", "check_branch", "kinematics"});
 
   m.def(
       "ik",

@@ -360,6 +360,7 @@ void registerModel(pyb::module_& m) {
       .def_readwrite("max_bending_per_step", &KinematicsOptions::max_bending_per_step)
       .def_readwrite("bending_limit_per_segment", &KinematicsOptions::bending_limit_per_segment)
       .def_readwrite("max_iterations", &KinematicsOptions::max_iterations)
+      .def_readwrite("line_search_steps", &KinematicsOptions::line_search_steps)
       .def_readwrite("tolerance", &KinematicsOptions::tolerance)
       .def_readwrite("record_backbone", &KinematicsOptions::record_backbone)
       .def_readwrite("record_tube_states", &KinematicsOptions::record_tube_states)
@@ -373,8 +374,8 @@ void registerModel(pyb::module_& m) {
       .def_readwrite("extrapolate_warm_start", &KinematicsOptions::extrapolate_warm_start);
   addOptionsProtocol<KinematicsOptions>(
       ko,
-      {"max_step", "max_bending_per_step", "bending_limit_per_segment", "max_iterations", "tolerance",
-       "record_backbone", "record_tube_states", "homotopy", "homotopy_steps", "max_rotation_step",
+      {"max_step", "max_bending_per_step", "bending_limit_per_segment", "max_iterations", "line_search_steps",
+       "tolerance", "record_backbone", "record_tube_states", "homotopy", "homotopy_steps", "max_rotation_step",
        "max_translation_step", "snap_threshold", "refine_below_stability", "loaded_model", "extrapolate_warm_start"});
 
   // ---- Solution ----

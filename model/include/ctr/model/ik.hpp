@@ -41,8 +41,15 @@ struct IkOptions {
   /// Further starts when a start does not reach the target: random admissible configurations (from `seed`), tried in
   /// the order of their tip's distance to the target (the cold solve draws `cold_candidates` of them).
   int restarts = 8;
-  int cold_candidates = 32;  ///< Random configurations drawn (and solved) for a cold start or for restarts.
-  std::uint64_t seed = 1;    ///< Of the random configurations (the result is deterministic for a given seed).
+  /// Random configurations solved for a cold start or for restarts: this many that converge to a stable equilibrium
+  /// from a cold start without continuation (at most twice as many are drawn).
+  int cold_candidates = 32;
+  /// Cold start and restarts: a descent that is slow — at the rate its error fell over its last two iterations, it
+  /// would need more than this many further iterations — is set aside for the next start; the set-aside descents are
+  /// resumed (the smallest error first) only when no start reaches the target with a cold-solve-consistent equilibrium.
+  /// 0: every descent runs to its end before the next start.
+  double slow_start_horizon = 5.0;
+  std::uint64_t seed = 1;  ///< Of the random configurations (the result is deterministic for a given seed).
   /// Initial Levenberg-Marquardt damping, relative to the mean diagonal of J J^T (divided by 10 after a successful
   /// step, multiplied by 10 when the line search finds no decrease).
   double damping = 1e-4;
@@ -112,8 +119,9 @@ struct IkResult {
 /// @brief Cold inverse kinematics: starts from the best of `cold_candidates` random admissible configurations (each
 /// turned about the base axis toward the target's azimuth; the nearest in radius and height first), then from the
 /// next ones up to `restarts` more times, until a start reaches the target with an equilibrium that a cold solve of
-/// its configuration also gives (IkSummary::branch_dependent). Throws std::invalid_argument for a non-finite target,
-/// options out of range or an empty admissible set.
+/// its configuration also gives (IkSummary::branch_dependent); a slow descent is set aside for the next start and
+/// continued only if none reaches (IkOptions::slow_start_horizon). Throws std::invalid_argument for a non-finite
+/// target, options out of range or an empty admissible set.
 IkResult inverseKinematics(const Robot& robot, const IkTarget& target, Workspace& ws, const IkOptions& options = {});
 
 /// @brief Warm inverse kinematics from `start` (projected onto the admissible set if it is not admissible; throws

@@ -69,6 +69,10 @@ struct KinematicsOptions {
   /// capsules follow each step's arc, docs/planning.md).
   bool bending_limit_per_segment = true;
   int max_iterations = 40;         ///< Newton iterations per solve.
+  /// Trial points of Newton's backtracking line search in one iteration (the full step, then halved each time) before
+  /// a solve gives up at a point without descent. Fewer make a solve that has no solution near its start (past a
+  /// fold) fail sooner: the inverse kinematics' trial solves use 4 (docs/ik.md).
+  int line_search_steps = 12;
   double tolerance = 1e-10;        ///< Converged when every scaled residual (1/m or rad) is below this.
   bool record_backbone = true;     ///< Store the backbone (theta, u_z, position, frame) at integration nodes.
   /// With record_backbone: also store each tube's theta and u_z at the nodes. False keeps the geometry only (s,

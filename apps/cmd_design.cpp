@@ -280,8 +280,9 @@ void registerDesign(CLI::App& app, Action& action) {
   sub->add_option("--starts", o->starts, "Independent searches (restarts); --shard splits them (default 1)")
       ->check(CLI::Range(1, 100000));
   sub->add_option("--evaluations", o->evaluations, "Candidates per start (default 40)")->check(CLI::Range(1, 1000000));
-  sub->add_option("--population", o->population, "Candidates per generation, evaluated in parallel (default 8)")
-      ->check(CLI::Range(1, 10000));
+  sub->add_option("--population", o->population,
+                  "Candidates (gaco's ants) per generation, evaluated in parallel (default 8)")
+      ->check(CLI::Range(2, 10000));
   sub->add_option("--time", o->time, "Wall-clock budget of the run in s (default: none)")->check(finitePositive());
   sub->add_option("--threads", o->threads, "Candidates evaluated at once (default: the machine's cores)")
       ->check(CLI::Range(1, 1024));

@@ -13,6 +13,7 @@ PACKAGES=(
   libfcl-dev
   liboctomap-dev libdynamicedt3d-dev
   libceres-dev
+  libpagmo-dev                    # the design search (pagmo::gaco)
   libnifti2-dev
   libassimp-dev
   libgtest-dev libgmock-dev

@@ -1,12 +1,21 @@
 #include "ctr/design/search.hpp"
 
+#include <pagmo/algorithm.hpp>
+#include <pagmo/algorithms/gaco.hpp>
+#include <pagmo/batch_evaluators/member_bfe.hpp>
+#include <pagmo/bfe.hpp>
+#include <pagmo/population.hpp>
+#include <pagmo/problem.hpp>
+#include <pagmo/rng.hpp>
+#include <pagmo/types.hpp>
+#include <pagmo/utils/generic.hpp>
+
 #include <algorithm>
 #include <atomic>
 #include <chrono>
 #include <cmath>
 #include <iomanip>
 #include <mutex>
-#include <numeric>
 #include <sstream>
 #include <thread>
 
@@ -40,11 +49,8 @@ std::uint64_t mix(std::uint64_t a, std::uint64_t b) {
   return z ^ (z >> 31);
 }
 
-double reflect(double x) {
-  // Into [0, 1] by reflection at the faces.
-  x = std::fmod(std::abs(x), 2.0);
-  return x > 1.0 ? 2.0 - x : x;
-}
+// The fitness of a candidate that was not evaluated (the time limit, or past the budget in the last batch).
+constexpr double kUnevaluated = 1e15;
 
 double longestTube(const Candidate& c) {
   double l = 0.0;
@@ -70,12 +76,14 @@ const char* toString(QueryOutcome::Stage s) {
   return "?";
 }
 
-bool Score::better(const Score& o) const {
-  if (std::abs(badness - o.badness) > 1e-9) return badness < o.badness;
-  // Clearance in 0.1 mm bins: a shorter robot wins over a few micrometres of clearance.
-  const double a = std::floor(clearance * 1e4), b = std::floor(o.clearance * 1e4);
-  if (a != b) return a > b;
-  return length < o.length - 1e-9;
+double Score::fitness() const {
+  if (!(badness < std::numeric_limits<double>::infinity())) return kUnevaluated;  // never evaluated (or NaN)
+  const double l = length >= 0.0 ? length / (1.0 + length) : 0.0;                 // in [0, 1): shorter is smaller
+  const double b = std::round(badness * 1e6);                                     // feasibility in steps of 1e-6
+  if (b > 0.0) return 2e6 + std::min(b, 1e14) + l;
+  // Solved: clearance in 0.1 mm bins (a shorter robot wins over a few micrometres of clearance), larger first.
+  const double bin = std::clamp(std::floor(clearance * 1e4), -1e6, 1e6);
+  return -bin + l;
 }
 
 Score scoreOf(const std::vector<QueryOutcome>& queries, const Candidate& c) {
@@ -123,79 +131,194 @@ std::optional<Evaluation> bestOf(const std::vector<Evaluation>& evaluations) {
 }
 
 // ---------------------------------------------------------------------------------------------------------------
-// Sampler
+// Decoder: the decision vector of the search
 
-Sampler::Sampler(const DesignSpace& space, std::uint64_t seed)
-    : space_(space), combos_(space.size_combinations()), rng_(seed) {
-  const int d = continuousDimension(space);
-  mean_.assign(static_cast<std::size_t>(d), 0.5);
-  sigma_.assign(static_cast<std::size_t>(d), 0.3);
-  combo_p_.assign(combos_.size(), 1.0 / static_cast<double>(combos_.size()));
+Decoder::Decoder(const DesignSpace& space)
+    : space_(space),
+      combos_(space.size_combinations()),
+      continuous_(static_cast<std::size_t>(continuousDimension(space))) {
+  if (combos_.empty()) throw std::invalid_argument("design space: no size combination nests");
 }
 
-std::optional<Candidate> Sampler::draw(bool uniform) {
-  std::uniform_real_distribution<double> u01(0.0, 1.0);
-  std::normal_distribution<double> n01(0.0, 1.0);
-  for (int attempt = 0; attempt < 400; ++attempt) {
-    const bool uni = uniform || attempt >= 200;  // a distribution stuck on infeasible repairs: fall back to uniform
-    std::size_t combo = 0;
-    if (uni) {
-      combo = std::uniform_int_distribution<std::size_t>(0, combos_.size() - 1)(rng_);
-    } else {
-      combo = std::discrete_distribution<std::size_t>(combo_p_.begin(), combo_p_.end())(rng_);
-    }
-    std::vector<double> x(mean_.size());
-    for (std::size_t j = 0; j < x.size(); ++j) x[j] = uni ? u01(rng_) : reflect(mean_[j] + sigma_[j] * n01(rng_));
-    if (auto c = candidateAt(space_, x, combo)) return c;
-  }
-  return std::nullopt;
+std::pair<std::vector<double>, std::vector<double>> Decoder::bounds() const {
+  std::vector<double> lo(dimension(), 0.0), hi(dimension(), 1.0);
+  if (integerDimension() > 0) hi.back() = static_cast<double>(combos_.size() - 1);
+  return {lo, hi};
 }
 
-std::vector<Candidate> Sampler::generation(int n, const std::optional<Candidate>& seed_candidate) {
-  std::vector<Candidate> out;
-  if (!fitted_ && seed_candidate && violation(space_, *seed_candidate).empty()) out.push_back(*seed_candidate);
-  while (static_cast<int>(out.size()) < n) {
-    std::optional<Candidate> c = draw(!fitted_);
-    if (!c) throw std::runtime_error("design space: the sampler found no candidate within the constraints");
-    out.push_back(std::move(*c));
+Candidate Decoder::decode(const std::vector<double>& x) const {
+  if (x.size() != dimension()) throw std::invalid_argument("design: decision vector of the wrong length");
+  std::vector<double> u(x.begin(), x.begin() + static_cast<std::ptrdiff_t>(continuous_));
+  for (double& v : u) v = std::clamp(v, 0.0, 1.0);
+  const std::size_t n = combos_.size();
+  const std::size_t c0 =
+      integerDimension() > 0
+          ? static_cast<std::size_t>(std::clamp<double>(std::round(x.back()), 0.0, static_cast<double>(n - 1)))
+          : 0;
+  // The combination drawn first, then the others by distance of their index.
+  std::vector<std::size_t> order{c0};
+  for (std::size_t d = 1; d < n; ++d) {
+    if (c0 >= d) order.push_back(c0 - d);
+    if (c0 + d < n) order.push_back(c0 + d);
   }
-  return out;
+  // The point itself, then pulled toward the centre of the lengths and the least precurvature (which the space's
+  // parser guarantees some combination repairs).
+  for (double t : {1.0, 0.75, 0.5, 0.25, 0.0}) {
+    std::vector<double> p(u);
+    for (std::size_t j = 0; j < p.size(); ++j) p[j] = t * u[j] + (1.0 - t) * (j % 3 == 2 ? 0.0 : 0.5);
+    for (std::size_t c : order)
+      if (auto cand = candidateAt(space_, p, c)) return std::move(*cand);
+  }
+  throw std::runtime_error("design space: no candidate within the constraints near this point");
 }
 
-void Sampler::update(const std::vector<Candidate>& ranked) {
-  if (ranked.empty()) return;
-  const std::size_t mu = std::min(ranked.size(), std::max<std::size_t>(2, ranked.size() / 4));
-  std::vector<double> w(mu);
-  for (std::size_t i = 0; i < mu; ++i) w[i] = std::log(mu + 0.5) - std::log(static_cast<double>(i) + 1.0);
-  const double ws = std::accumulate(w.begin(), w.end(), 0.0);
-  for (double& v : w) v /= ws;
-  const std::size_t d = mean_.size();
-  std::vector<double> m(d, 0.0), var(d, 0.0);
-  std::vector<std::vector<double>> xs;
-  for (std::size_t i = 0; i < mu; ++i) xs.push_back(unitPoint(space_, ranked[i]));
-  for (std::size_t i = 0; i < mu; ++i)
-    for (std::size_t j = 0; j < d; ++j) m[j] += w[i] * xs[i][j];
-  for (std::size_t i = 0; i < mu; ++i)
-    for (std::size_t j = 0; j < d; ++j) var[j] += w[i] * (xs[i][j] - m[j]) * (xs[i][j] - m[j]);
-  for (std::size_t j = 0; j < d; ++j) {
-    mean_[j] = m[j];
-    sigma_[j] = std::clamp(0.3 * sigma_[j] + 0.7 * std::sqrt(var[j]), 0.03, 0.35);
-  }
-  // Size combinations: the elites' weighted frequencies, smoothed, never zero.
-  std::vector<double> freq(combos_.size(), 0.0);
-  for (std::size_t i = 0; i < mu; ++i) {
+std::vector<double> Decoder::encode(const Candidate& c) const {
+  std::vector<double> x = unitPoint(space_, c);
+  if (integerDimension() > 0) {
     std::vector<int> sizes;
-    for (const auto& t : ranked[i].tubes) sizes.push_back(t.size);
+    for (const auto& t : c.tubes) sizes.push_back(t.size);
     const auto it = std::find(combos_.begin(), combos_.end(), sizes);
-    if (it != combos_.end()) freq[static_cast<std::size_t>(it - combos_.begin())] += w[i];
+    x.push_back(it == combos_.end() ? 0.0 : static_cast<double>(it - combos_.begin()));
   }
-  double total = 0.0;
-  for (std::size_t k = 0; k < combos_.size(); ++k) {
-    combo_p_[k] = 0.5 * combo_p_[k] + 0.5 * freq[k] + 0.05 / static_cast<double>(combos_.size());
-    total += combo_p_[k];
+  return x;
+}
+
+// ---------------------------------------------------------------------------------------------------------------
+// The search: pagmo's gaco over a user-defined problem whose batch fitness evaluates a generation in parallel.
+
+namespace {
+
+// What the problem's copies share (pagmo copies the problem into the population and the algorithm).
+struct SearchState {
+  Decoder decoder;
+  const EvaluateFn* evaluate = nullptr;
+  const std::function<bool()>* stop = nullptr;
+  int threads = 1;
+  std::size_t budget = 0;  // candidates of the start
+  int start = 0, generation = 0;
+  std::vector<Evaluation> evals;  // in the order of evaluation
+  explicit SearchState(const DesignSpace& s) : decoder(s) {}
+};
+
+// The pagmo user-defined problem: minimise Score::fitness() over the Decoder's box (the last variable, the size
+// combination, is an integer). batch_fitness() is what pagmo::member_bfe calls for a whole generation.
+class DesignProblem {
+ public:
+  DesignProblem() = default;
+  explicit DesignProblem(std::shared_ptr<SearchState> s) : s_(std::move(s)) {}
+  pagmo::vector_double fitness(const pagmo::vector_double& x) const { return batch_fitness(x); }
+  std::pair<pagmo::vector_double, pagmo::vector_double> get_bounds() const { return s_->decoder.bounds(); }
+  pagmo::vector_double::size_type get_nix() const { return s_->decoder.integerDimension(); }
+  std::string get_name() const { return "ctr::design candidate (Score::fitness)"; }
+
+  // Evaluates the batch in parallel threads, each candidate seeded by its index in the start (so the outcome does
+  // not depend on which thread ran it); records the evaluations in the batch's order. Candidates past the start's
+  // budget, or not started when stop() turned true, are not evaluated (fitness kUnevaluated).
+  pagmo::vector_double batch_fitness(const pagmo::vector_double& xs) const {
+    SearchState& s = *s_;
+    const std::size_t dim = s.decoder.dimension(), n = xs.size() / dim, base = s.evals.size();
+    const std::size_t m = std::min(n, s.budget > base ? s.budget - base : 0);
+    std::vector<Candidate> cands(m);
+    for (std::size_t i = 0; i < m; ++i)
+      cands[i] = s.decoder.decode(std::vector<double>(xs.begin() + static_cast<std::ptrdiff_t>(i * dim),
+                                                      xs.begin() + static_cast<std::ptrdiff_t>((i + 1) * dim)));
+    std::vector<std::optional<Evaluation>> results(m);
+    std::atomic<std::size_t> next{0};
+    std::exception_ptr error;
+    std::mutex error_mutex;
+    auto worker = [&] {
+      for (std::size_t i = next++; i < m; i = next++) {
+        if ((*s.stop)()) break;
+        try {
+          results[i] = (*s.evaluate)(cands[i], base + i);
+        } catch (...) {
+          std::lock_guard<std::mutex> lock(error_mutex);
+          if (!error) error = std::current_exception();
+        }
+      }
+    };
+    std::vector<std::thread> pool;
+    const int nt = std::min<int>(std::max(1, s.threads), static_cast<int>(m));
+    for (int k = 1; k < nt; ++k) pool.emplace_back(worker);
+    worker();
+    for (auto& th : pool) th.join();
+    if (error) std::rethrow_exception(error);
+    pagmo::vector_double f(n, kUnevaluated);
+    for (std::size_t i = 0; i < m; ++i) {
+      if (!results[i]) continue;
+      Evaluation& ev = *results[i];
+      ev.candidate = cands[i];
+      ev.index = base + i;
+      ev.start = s.start;
+      ev.generation = s.generation;
+      f[i] = ev.score.fitness();
+      s.evals.push_back(std::move(ev));
+    }
+    // Only the best so far keeps its paths (the rest would only fill memory).
+    std::size_t best = 0;
+    for (std::size_t i = 1; i < s.evals.size(); ++i)
+      if (s.evals[i].score.better(s.evals[best].score)) best = i;
+    for (std::size_t i = 0; i < s.evals.size(); ++i)
+      if (i != best)
+        for (auto& q : s.evals[i].queries) q.path_csv.clear();
+    return f;
   }
-  for (double& p : combo_p_) p /= total;
-  fitted_ = true;
+
+ private:
+  std::shared_ptr<SearchState> s_;
+};
+
+}  // namespace
+
+std::vector<Evaluation> searchStart(const DesignSpace& space, int start, const DesignOptions& o,
+                                    const std::optional<Candidate>& first, const EvaluateFn& evaluate,
+                                    const std::function<bool()>& stop) {
+  if (o.evaluations < 1) throw std::invalid_argument("design: evaluations must be >= 1");
+  if (o.population < 2) throw std::invalid_argument("design: population must be >= 2 (gaco's solution archive)");
+  auto state = std::make_shared<SearchState>(space);
+  state->evaluate = &evaluate;
+  state->stop = &stop;
+  state->threads = o.threads > 0 ? o.threads : std::max(1, static_cast<int>(std::thread::hardware_concurrency()));
+  state->budget = static_cast<std::size_t>(o.evaluations);
+  state->start = start;
+  const pagmo::problem prob{DesignProblem(state)};
+  const pagmo::bfe batch{pagmo::member_bfe{}};
+  const std::uint64_t key = mix(o.seed, 0x5eed0000ULL + static_cast<std::uint64_t>(start));
+
+  // First generation: the given candidate, then uniform samples of the box (integer index uniform).
+  const std::size_t pop_size = static_cast<std::size_t>(o.population);
+  const std::size_t n0 = std::min(pop_size, state->budget);
+  pagmo::detail::random_engine_type rng(static_cast<unsigned>(key));
+  pagmo::vector_double xs;
+  for (std::size_t i = 0; i < n0; ++i) {
+    const pagmo::vector_double x = i == 0 && first && violation(space, *first).empty()
+                                       ? state->decoder.encode(*first)
+                                       : pagmo::random_decision_vector(prob, rng);
+    xs.insert(xs.end(), x.begin(), x.end());
+  }
+  const pagmo::vector_double f0 = batch(prob, xs);
+  if (n0 < pop_size || state->evals.size() >= state->budget || stop()) return std::move(state->evals);
+  pagmo::population pop{prob, 0u, static_cast<unsigned>(key >> 32)};
+  const std::size_t dim = state->decoder.dimension();
+  for (std::size_t i = 0; i < n0; ++i)
+    pop.push_back(pagmo::vector_double(xs.begin() + static_cast<std::ptrdiff_t>(i * dim),
+                                       xs.begin() + static_cast<std::ptrdiff_t>((i + 1) * dim)),
+                  pagmo::vector_double{f0[i]});
+
+  // Then one gaco generation per evolve() (memory on: the solution archive and the generator carry over), so that
+  // the budget and the time limit are checked between generations. Kernel (solution archive) = the population;
+  // convergence speed q = 1 (ants start from any archived solution almost alike) for the first half of the
+  // generations, then 0.01 (from the best); accuracy 0 (every archived fitness counts); other parameters gaco's.
+  const unsigned generations = static_cast<unsigned>((state->budget - n0 + pop_size - 1) / pop_size);
+  pagmo::gaco uda(1u, static_cast<unsigned>(pop_size), 1.0, 0.0, 0.0, generations / 2 + 1, 7u, 100000u, 100000u, 0.0,
+                  true, static_cast<unsigned>(mix(key, 1)));
+  uda.set_bfe(batch);
+  pagmo::algorithm algo{uda};
+  while (state->evals.size() < state->budget && !stop()) {
+    ++state->generation;
+    pop = algo.evolve(pop);
+  }
+  return std::move(state->evals);
 }
 
 // ---------------------------------------------------------------------------------------------------------------
@@ -413,83 +536,50 @@ Evaluation Designer::evaluate(const Candidate& c, std::uint64_t seed, const Desi
 
 DesignResult Designer::run(const DesignOptions& o) const {
   if (o.evaluations < 1) throw std::invalid_argument("design: evaluations must be >= 1");
-  if (o.population < 1) throw std::invalid_argument("design: population must be >= 1");
+  if (o.population < 2) throw std::invalid_argument("design: population must be >= 2 (gaco's solution archive)");
   if (o.starts < 1) throw std::invalid_argument("design: starts must be >= 1");
   const auto t0 = Clock::now();
   DesignResult res;
   std::vector<int> starts = o.start_indices;
   if (starts.empty())
     for (int s = 0; s < o.starts; ++s) starts.push_back(s);
-  const int threads = o.threads > 0 ? o.threads : std::max(1, static_cast<int>(std::thread::hardware_concurrency()));
   const std::size_t total = starts.size() * static_cast<std::size_t>(o.evaluations);
   std::mutex mutex;
   std::size_t done = 0;
   auto out_of_time = [&] { return o.time_limit > 0 && since(t0) >= o.time_limit; };
   std::optional<Score> best_score;
+  const std::function<bool()> stop = out_of_time;
   for (int s : starts) {
-    Sampler sampler(space_, mix(o.seed, 0x5eed0000ULL + static_cast<std::uint64_t>(s)));
-    std::vector<Evaluation> evals;
-    int gen = 0;
-    while (static_cast<int>(evals.size()) < o.evaluations && !out_of_time()) {
-      const int n = std::min(o.population, o.evaluations - static_cast<int>(evals.size()));
-      // The query's own robot (when in the space) is the first candidate of start 0.
-      const std::vector<Candidate> cands =
-          sampler.generation(n, gen == 0 && s == starts.front() ? baseCandidate() : std::nullopt);
-      std::vector<std::optional<Evaluation>> results(cands.size());
-      std::atomic<std::size_t> next{0};
-      auto worker = [&] {
-        for (std::size_t i = next++; i < cands.size(); i = next++) {
-          if (out_of_time()) break;
-          const std::size_t index = evals.size() + i;
-          Evaluation ev;
-          try {
-            ev = evaluate(cands[i], mix(mix(o.seed, static_cast<std::uint64_t>(s)), index), o);
-          } catch (const std::exception& e) {
-            // A failure inside the model or the planner for this candidate: recorded as its outcome (never thrown
-            // out of a worker thread).
-            ev.candidate = cands[i];
-            ev.queries.resize(queries_.size());
-            for (QueryOutcome& q : ev.queries) q.message = std::string("evaluation failed: ") + e.what();
-            ev.score = scoreOf(ev.queries, cands[i]);
-          }
-          ev.index = index;
-          ev.start = s;
-          ev.generation = gen;
-          std::lock_guard<std::mutex> lock(mutex);
-          ++done;
-          if (!best_score || ev.score.better(*best_score)) best_score = ev.score;
-          if (o.progress) {
-            std::ostringstream d;
-            d << "start " << s << " generation " << gen << ": ";
-            if (best_score->solved())
-              d << "best solves every query, clearance " << mm(best_score->clearance) << ", longest tube "
-                << mm(best_score->length);
-            else
-              d << "best badness " << std::setprecision(3) << best_score->badness;
-            o.progress(done, total, d.str());
-          }
-          results[i] = std::move(ev);
-        }
-      };
-      std::vector<std::thread> pool;
-      const int nt = std::min<int>(threads, static_cast<int>(cands.size()));
-      for (int k = 1; k < nt; ++k) pool.emplace_back(worker);
-      worker();
-      for (auto& th : pool) th.join();
-      for (auto& r : results)
-        if (r) evals.push_back(std::move(*r));
-      // Only the best keeps its path (the rest would only fill memory).
-      std::vector<std::size_t> order(evals.size());
-      std::iota(order.begin(), order.end(), 0);
-      std::stable_sort(order.begin(), order.end(),
-                       [&](std::size_t a, std::size_t b) { return evals[a].score.better(evals[b].score); });
-      for (std::size_t i = 1; i < order.size(); ++i)
-        for (auto& q : evals[order[i]].queries) q.path_csv.clear();
-      std::vector<Candidate> ranked;
-      for (std::size_t i : order) ranked.push_back(evals[i].candidate);
-      sampler.update(ranked);
-      ++gen;
-    }
+    const EvaluateFn score_one = [&](const Candidate& c, std::size_t index) {
+      Evaluation ev;
+      try {
+        ev = this->evaluate(c, mix(mix(o.seed, static_cast<std::uint64_t>(s)), index), o);
+      } catch (const std::exception& e) {
+        // A failure inside the model or the planner for this candidate: recorded as its outcome (never thrown out
+        // of a worker thread).
+        ev.candidate = c;
+        ev.queries.resize(queries_.size());
+        for (QueryOutcome& q : ev.queries) q.message = std::string("evaluation failed: ") + e.what();
+        ev.score = scoreOf(ev.queries, c);
+      }
+      std::lock_guard<std::mutex> lock(mutex);
+      ++done;
+      if (!best_score || ev.score.better(*best_score)) best_score = ev.score;
+      if (o.progress) {
+        std::ostringstream d;
+        d << "start " << s << ": ";
+        if (best_score->solved())
+          d << "best solves every query, clearance " << mm(best_score->clearance) << ", longest tube "
+            << mm(best_score->length);
+        else
+          d << "best badness " << std::setprecision(3) << best_score->badness;
+        o.progress(done, total, d.str());
+      }
+      return ev;
+    };
+    // The query's own robot (when in the space) is the first candidate of the first start run here.
+    std::vector<Evaluation> evals =
+        searchStart(space_, s, o, s == starts.front() ? baseCandidate() : std::nullopt, score_one, stop);
     for (auto& e : evals) res.evaluations.push_back(std::move(e));
   }
   res.budget_exhausted = out_of_time();

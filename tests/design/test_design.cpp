@@ -1,12 +1,14 @@
-// Tests of ctr::design: the design space (parsing, constraints), the sampler (never leaves the constraints), the
-// verdict for a target no design reaches, and a small design run on an easy query.
+// Tests of ctr::design: the design space (parsing, constraints), the gaco search (never leaves the constraints,
+// seeded, the fitness's order), the verdict for a target no design reaches, and a small design run on an easy query.
 #include <gtest/gtest.h>
 
 #include <unistd.h>
 #include <chrono>
 #include <filesystem>
 #include <fstream>
+#include <mutex>
 #include <nlohmann/json.hpp>
+#include <set>
 
 #include "ctr/design/output.hpp"
 #include "ctr/design/search.hpp"
@@ -153,44 +155,139 @@ TEST(DesignSpace, BadInputNamesTheFileLineAndKey) {
   expectSpaceError(t, "tubes[2]", "impossible ranges");
 }
 
-TEST(DesignSampler, NeverProducesACandidateThatViolatesStrainOrNesting) {
-  const DesignSpace s = parseSpace(kSpace, "space.yaml");
-  Sampler sampler(s, 42);
-  std::mt19937_64 rng(7);
-  int checked = 0;
-  for (int gen = 0; gen < 40; ++gen) {
-    std::vector<Candidate> cands = sampler.generation(25);
-    for (const Candidate& c : cands) {
-      ++checked;
-      ASSERT_EQ(violation(s, c), "");
-      for (int i = 0; i < 3; ++i) {
-        EXPECT_LE(strain(s, c, i), s.strain_limit * (1 + 1e-12));
-        if (i > 0) {
-          const auto& o = c.tubes[i - 1];
-          const auto& t = c.tubes[i];
-          EXPECT_GE(s.catalogue[o.size].inner_diameter - s.catalogue[t.size].outer_diameter,
-                    s.nesting_clearance - 1e-12);
-          EXPECT_GE(t.straight_length + t.curved_length, o.straight_length + o.curved_length + s.length_step - 1e-12);
-        }
-      }
-      // Every candidate is a loadable robot with admissible translations.
-      Tube bt;
-      bt.name = "t";
-      bt.straight_length = 0.1;
-      bt.bending_stiffness = bt.torsional_stiffness = 1e-3;
-      const Robot r = makeRobot(s, c, Robot("base", {c.tubes.size(), bt}), "d");
-      EXPECT_EQ(io::parseRobot(io::robotToYaml(r), "r.yaml").size(), 3);
+// Checks the constraints of a candidate (strain, diameter nesting, length nesting, a loadable robot).
+void expectWithinConstraints(const DesignSpace& s, const Candidate& c) {
+  ASSERT_EQ(violation(s, c), "");
+  for (int i = 0; i < 3; ++i) {
+    EXPECT_LE(strain(s, c, i), s.strain_limit * (1 + 1e-12));
+    if (i > 0) {
+      const auto& o = c.tubes[i - 1];
+      const auto& t = c.tubes[i];
+      EXPECT_GE(s.catalogue[o.size].inner_diameter - s.catalogue[t.size].outer_diameter, s.nesting_clearance - 1e-12);
+      EXPECT_GE(t.straight_length + t.curved_length, o.straight_length + o.curved_length + s.length_step - 1e-12);
     }
-    // Re-fit to a random ranking (the sampler must stay within the constraints whatever the objective says).
-    std::shuffle(cands.begin(), cands.end(), rng);
-    sampler.update(cands);
   }
-  EXPECT_EQ(checked, 1000);
-  // The sampler's distribution contracted toward the elites but stays in the unit cube.
-  for (double m : sampler.mean()) {
-    EXPECT_GE(m, 0.0);
-    EXPECT_LE(m, 1.0);
+  Tube bt;
+  bt.name = "t";
+  bt.straight_length = 0.1;
+  bt.bending_stiffness = bt.torsional_stiffness = 1e-3;
+  const Robot r = makeRobot(s, c, Robot("base", {c.tubes.size(), bt}), "d");
+  EXPECT_EQ(io::parseRobot(io::robotToYaml(r), "r.yaml").size(), 3);
+}
+
+// A search of 1,000 candidates by pagmo's gaco under an objective that ranks candidates at random (a hash of the
+// candidate): every candidate it evaluates satisfies the constraints, whatever the objective says.
+TEST(DesignSearch, NeverEvaluatesACandidateThatViolatesStrainOrNesting) {
+  const DesignSpace s = parseSpace(kSpace, "space.yaml");
+  const Decoder dec(s);
+  ASSERT_EQ(dec.integerDimension(), 1u);
+  // The box's corners and centre decode (repaired) within the constraints.
+  const auto [lo, hi] = dec.bounds();
+  for (int corner = 0; corner < 1 << 3; ++corner) {
+    std::vector<double> x(dec.dimension());
+    for (std::size_t j = 0; j < x.size(); ++j) x[j] = ((corner >> (j % 3)) & 1) ? hi[j] : lo[j];
+    expectWithinConstraints(s, dec.decode(x));
   }
+  std::mutex m;
+  std::vector<Candidate> seen;
+  const EvaluateFn random_rank = [&](const Candidate& c, std::size_t) {
+    Evaluation ev;
+    std::size_t h = 0;
+    for (const auto& t : c.tubes)
+      h = h * 1000003 ^ std::hash<double>()(t.straight_length + 3 * t.curved_length + 7 * t.curvature + t.size);
+    ev.score.badness = 1.0 + static_cast<double>(h % 1000) / 1000.0;
+    ev.score.length = 0.1;
+    std::lock_guard<std::mutex> lock(m);
+    seen.push_back(c);
+    return ev;
+  };
+  DesignOptions o;
+  o.evaluations = 1000;
+  o.population = 25;
+  o.threads = 2;
+  const std::vector<Evaluation> evals = searchStart(s, 0, o, std::nullopt, random_rank, [] { return false; });
+  ASSERT_EQ(evals.size(), 1000u);
+  ASSERT_EQ(seen.size(), 1000u);
+  for (const Candidate& c : seen) expectWithinConstraints(s, c);
+  std::set<std::vector<int>> combos;
+  for (std::size_t i = 0; i < evals.size(); ++i) {
+    EXPECT_EQ(evals[i].index, i);
+    EXPECT_EQ(evals[i].generation, static_cast<int>(i / 25));
+    std::vector<int> sizes;
+    for (const auto& t : evals[i].candidate.tubes) sizes.push_back(t.size);
+    combos.insert(sizes);
+  }
+  EXPECT_GT(combos.size(), 1u);  // the integer variable varies
+}
+
+// The search is pagmo's gaco: on a smooth objective it improves on its first generation, starts with the given
+// candidate, and the same seed gives the same candidates.
+TEST(DesignSearch, TheSearchIsSeededAndImprovesOnASmoothObjective) {
+  const DesignSpace s = parseSpace(kSpace, "space.yaml");
+  const Decoder dec(s);
+  const std::vector<double> target{0.3, 0.6, 0.2, 0.7, 0.4, 0.5, 0.9, 0.5, 0.1};
+  const EvaluateFn smooth = [&](const Candidate& c, std::size_t) {
+    Evaluation ev;
+    const std::vector<double> x = dec.encode(c);
+    double d = 0.0;
+    for (std::size_t j = 0; j < target.size(); ++j) d += (x[j] - target[j]) * (x[j] - target[j]);
+    ev.score.badness = 1.0 + d;
+    ev.score.length = 0.1;
+    return ev;
+  };
+  const Candidate first = dec.decode(std::vector<double>(dec.dimension(), 0.0));
+  DesignOptions o;
+  o.evaluations = 200;
+  o.population = 10;
+  o.threads = 2;
+  o.seed = 5;
+  auto never = [] { return false; };
+  const std::vector<Evaluation> a = searchStart(s, 3, o, first, smooth, never);
+  const std::vector<Evaluation> b = searchStart(s, 3, o, first, smooth, never);
+  ASSERT_EQ(a.size(), 200u);
+  ASSERT_EQ(b.size(), 200u);
+  EXPECT_EQ(dec.encode(a[0].candidate), dec.encode(first));
+  for (std::size_t i = 0; i < a.size(); ++i) EXPECT_EQ(dec.encode(a[i].candidate), dec.encode(b[i].candidate)) << i;
+  double first_gen = 1e9, last_gen = 1e9;
+  for (std::size_t i = 0; i < 10; ++i) first_gen = std::min(first_gen, a[i].score.badness);
+  for (std::size_t i = 150; i < 200; ++i) last_gen = std::min(last_gen, a[i].score.badness);
+  EXPECT_LT(last_gen, first_gen);
+  // Another start draws other candidates.
+  const std::vector<Evaluation> c = searchStart(s, 4, o, std::nullopt, smooth, never);
+  EXPECT_NE(dec.encode(a[1].candidate), dec.encode(c[1].candidate));
+  // Past the budget in the last batch nothing is evaluated: 23 candidates with 10 per generation.
+  o.evaluations = 23;
+  EXPECT_EQ(searchStart(s, 0, o, std::nullopt, smooth, never).size(), 23u);
+}
+
+// The search's scalar fitness orders scores lexicographically: badness first, then clearance in 0.1 mm bins, then
+// the length.
+TEST(DesignSearch, TheFitnessOrdersScoresLexicographically) {
+  auto sc = [](double badness, double clearance, double length) {
+    Score s;
+    s.badness = badness;
+    s.clearance = badness == 0.0 ? clearance : -std::numeric_limits<double>::infinity();
+    s.length = length;
+    return s;
+  };
+  const std::vector<Score> ranked{sc(0.0, 0.00125, 0.30),
+                                  sc(0.0, 0.00125, 0.31),
+                                  sc(0.0, 0.00119, 0.10),
+                                  sc(0.0, 0.00015, 0.2),
+                                  sc(0.0, 0.0, 0.05),
+                                  sc(0.0, -0.0002, 0.01),
+                                  sc(1e-6, 0, 0.5),
+                                  sc(1e-6, 0, 0.6),
+                                  sc(0.5, 0, 0.01),
+                                  sc(0.500002, 0, 0.0),
+                                  sc(3.999, 0, 0.2),
+                                  sc(7.2, 0, 0.1),
+                                  Score{}};
+  for (std::size_t i = 0; i < ranked.size(); ++i)
+    for (std::size_t j = 0; j < ranked.size(); ++j) {
+      EXPECT_EQ(ranked[i].better(ranked[j]), i < j) << i << " vs " << j;
+      EXPECT_EQ(ranked[i].fitness() < ranked[j].fitness(), i < j) << i << " vs " << j;
+    }
 }
 
 TEST(DesignSpace, DefaultSpaceOfALungRobotContainsIt) {

@@ -1,8 +1,8 @@
 /// @file search.hpp
-/// @brief Patient-specific robot design (docs/design.md): a seeded search over a DesignSpace in which every candidate
-/// is scored by what the planner does with it on one or several queries: a goal probe (can a valid, collision-free
-/// configuration put the tip on the target?) as a cheap first filter, then a friction-aware plan in each query's mode
-/// whose replay must be clean.
+/// @brief Patient-specific robot design (docs/design.md): a seeded search (pagmo's gaco) over a DesignSpace in which
+/// every candidate is scored by what the planner does with it on one or several queries: a goal probe (can a valid,
+/// collision-free configuration put the tip on the target?) as a cheap first filter, then a friction-aware plan in
+/// each query's mode whose replay must be clean.
 /// @code
 ///   std::vector<ctr::plan::Query> qs{ctr::plan::loadQuery("examples/queries/medmpd_lung_patient1.yaml")};
 ///   ctr::design::DesignResult r = ctr::design::designRobot(qs, std::nullopt, {});  // default space of the robot
@@ -16,8 +16,8 @@
 #include <memory>
 #include <mutex>
 #include <optional>
-#include <random>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "ctr/design/space.hpp"
@@ -32,7 +32,7 @@ struct DesignOptions {
   int starts = 1;
   std::vector<int> start_indices;  ///< The starts this process runs (empty: all).
   int evaluations = 40;            ///< Candidates per start.
-  int population = 8;              ///< Candidates per generation (evaluated in parallel).
+  int population = 8;              ///< Ants per generation (>= 2), evaluated as one batch in parallel.
   double time_limit = 0.0;         ///< Wall seconds of the whole run (0: no limit); running candidates finish.
   int threads = 0;                 ///< Candidates evaluated at once (0: the machine's cores).
   double probe_time = 2.0;         ///< Wall seconds of the goal probe per query and candidate.
@@ -72,15 +72,19 @@ struct QueryOutcome {
 const char* toString(QueryOutcome::Stage s);
 
 /// @brief The objective, compared lexicographically (docs/design.md "Objective"): feasibility first (the sum over
-/// queries of the stage reached plus a continuous progress within it), then the largest minimum clearance along the
-/// replayed paths (0.1 mm bins), then the shortest robot.
+/// queries of the stage reached plus a continuous progress within it, in steps of 1e-6), then the largest minimum
+/// clearance along the replayed paths (0.1 mm bins), then the shortest robot.
 struct Score {
   double badness = std::numeric_limits<double>::infinity();     ///< 0: every query solved.
   double clearance = -std::numeric_limits<double>::infinity();  ///< Min over queries of the replay clearance (m).
   double length = std::numeric_limits<double>::infinity();      ///< Length of the longest tube (m).
   bool solved() const { return badness == 0.0; }
-  /// Strictly better than `o`.
-  bool better(const Score& o) const;
+  /// @brief The lexicographic order as one number to minimise (the search's fitness): solved designs
+  /// -bin(clearance) + l / (1 + l) (bins of 0.1 mm, clamped to +-1e6), others 2e6 + round(badness x 1e6) +
+  /// l / (1 + l), with l the length in m; 1e15 for a score never evaluated.
+  double fitness() const;
+  /// Strictly better than `o`: fitness() < o.fitness().
+  bool better(const Score& o) const { return fitness() < o.fitness(); }
 };
 
 /// @brief One evaluated candidate.
@@ -104,28 +108,44 @@ struct DesignResult {
   bool budget_exhausted = false;  ///< Stopped by the time limit.
 };
 
-/// @brief The search's sampler (docs/design.md "Search"): a seeded cross-entropy / CMA-like distribution over the
-/// unit cube of the continuous coordinates (a Gaussian with a diagonal covariance, reflected at the faces) and a
-/// categorical distribution over the size combinations; each generation is re-fitted to the best candidates so far.
-/// Every candidate it returns satisfies the space's constraints (strain limit, nesting, admissible translations).
-class Sampler {
+/// @brief The search's decision vector (docs/design.md "Search"): the unit-cube coordinates of candidateAt() (3 per
+/// tube, continuous) followed, when the space has more than one size combination, by the index of the combination
+/// (an integer variable). decode() repairs every point of the box into a candidate within the space's constraints.
+class Decoder {
  public:
-  Sampler(const DesignSpace& space, std::uint64_t seed);
-  /// @brief `n` new candidates (the first generation: `seed_candidate`, when given, then uniform samples).
-  std::vector<Candidate> generation(int n, const std::optional<Candidate>& seed_candidate = std::nullopt);
-  /// @brief Re-fits the distribution to the candidates ranked best first.
-  void update(const std::vector<Candidate>& ranked);
-  const std::vector<double>& mean() const { return mean_; }
-  const std::vector<double>& sigma() const { return sigma_; }
+  explicit Decoder(const DesignSpace& space);
+  /// @brief Length of the decision vector.
+  std::size_t dimension() const { return continuous_ + (combos_.size() > 1 ? 1 : 0); }
+  /// @brief Integer variables at the end of the vector (0 or 1).
+  std::size_t integerDimension() const { return combos_.size() > 1 ? 1 : 0; }
+  /// @brief The box: [0, 1] for the continuous coordinates, [0, combinations - 1] for the size index.
+  std::pair<std::vector<double>, std::vector<double>> bounds() const;
+  /// @brief The candidate of a decision vector: candidateAt() of its coordinates and size combination; when that
+  /// repair fails, the other combinations (nearest index first), then the point pulled toward the cube's centre with
+  /// the least precurvature, until one repairs. Throws std::runtime_error when no candidate satisfies the space.
+  Candidate decode(const std::vector<double>& x) const;
+  /// @brief The decision vector of a candidate within the space (decode(encode(c)) == c up to rounding).
+  std::vector<double> encode(const Candidate& c) const;
 
  private:
-  std::optional<Candidate> draw(bool uniform);
-  const DesignSpace& space_;
+  DesignSpace space_;
   std::vector<std::vector<int>> combos_;
-  std::mt19937_64 rng_;
-  std::vector<double> mean_, sigma_, combo_p_;
-  bool fitted_ = false;
+  std::size_t continuous_ = 0;
 };
+
+/// @brief Scores one candidate; `index` is its place in the start's order of evaluation. Called from several
+/// threads at once.
+using EvaluateFn = std::function<Evaluation(const Candidate& candidate, std::size_t index)>;
+
+/// @brief One start of the search (docs/design.md "Search"): pagmo's extended ant colony optimisation (pagmo::gaco)
+/// over the Decoder's decision vectors, minimising Score::fitness(). The first generation is `first` (when given)
+/// and uniform samples of the box, seeded by (o.seed, start); each further generation of o.population ants is
+/// evaluated as one batch, o.threads candidates at once. Stops after o.evaluations candidates or when `stop()`
+/// returns true (checked before each candidate starts). Returns the evaluations in their order (index), with
+/// `start` and `generation` set; only the best keeps its paths.
+std::vector<Evaluation> searchStart(const DesignSpace& space, int start, const DesignOptions& o,
+                                    const std::optional<Candidate>& first, const EvaluateFn& evaluate,
+                                    const std::function<bool()>& stop);
 
 /// @brief The queries' problems, loaded once (robot, environment and its map), and the evaluation of candidates.
 class Designer {

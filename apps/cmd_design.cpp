@@ -75,16 +75,16 @@ int runDesign(const DesignOpts& o, const CLI::App* sub) {
   }
   const std::string shard_label = std::to_string(index) + "/" + std::to_string(count);
   // Every input is checked before any work or output.
-  std::vector<plan::Query> queries;
+  std::vector<planner::Query> queries;
   std::set<std::string> names;
   for (const std::string& f : o.queries) {
-    plan::Query q = plan::loadQuery(f);
+    planner::Query q = planner::loadQuery(f);
     if (!names.insert(q.name).second)
       throw io::InputError(f, q.lineOf("name"), "name", "two queries are named '" + q.name + "'");
     if (!o.planner.empty()) {
-      const auto known = plan::plannerNames(q.mode);
+      const auto known = planner::plannerNames(q.mode);
       if (o.planner != "default" && std::find(known.begin(), known.end(), o.planner) == known.end())
-        throw UsageError("--planner: unknown planner '" + o.planner + "' for mode " + plan::toString(q.mode) + " of " +
+        throw UsageError("--planner: unknown planner '" + o.planner + "' for mode " + planner::toString(q.mode) + " of " +
                          f);
     }
     queries.push_back(std::move(q));

@@ -11,7 +11,7 @@
 
 #include "ctr/environments/voxel_grid.hpp"
 
-namespace ctr::env {
+namespace ctr::environments {
 
 DistanceField::DistanceField(const octomap::OcTree& tree, const Aabb& region, const DistanceFieldOptions& options)
     : res_(tree.getResolution()), max_distance_(options.max_distance) {
@@ -194,4 +194,4 @@ double DistanceField::lowerBound(const Eigen::Vector3d& p) const {
   return probe(p, lb, occ) ? lb : -1.0;
 }
 
-}  // namespace ctr::env
+}  // namespace ctr::environments

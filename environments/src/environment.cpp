@@ -15,7 +15,7 @@
 #include "ctr/environments/voxel_grid.hpp"
 #include "ctr/io/input_error.hpp"
 
-namespace ctr::env {
+namespace ctr::environments {
 
 const char* toString(UnknownSpace u) { return u == UnknownSpace::Free ? "free" : "occupied"; }
 
@@ -238,4 +238,4 @@ Eigen::Isometry3d poseFromMatrix(const Eigen::Matrix4d& m, double tolerance) {
   return T;
 }
 
-}  // namespace ctr::env
+}  // namespace ctr::environments

@@ -2,7 +2,7 @@
 
 #include <nlohmann/json.hpp>
 
-namespace ctr::env {
+namespace ctr::environments {
 namespace {
 
 using Json = nlohmann::json;
@@ -60,4 +60,4 @@ std::string infoJson(const Environment& e, int indent) {
   return j.dump(indent);
 }
 
-}  // namespace ctr::env
+}  // namespace ctr::environments

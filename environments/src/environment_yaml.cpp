@@ -17,7 +17,7 @@
 #include "ctr/environments/voxel_grid.hpp"
 #include "ctr/io/input_error.hpp"
 
-namespace ctr::env {
+namespace ctr::environments {
 
 namespace fs = std::filesystem;
 
@@ -643,4 +643,4 @@ Environment loadEnvironment(const std::string& path, const BuildOptions& options
   return buildEnvironment(loadEnvironmentDescription(path), options);
 }
 
-}  // namespace ctr::env
+}  // namespace ctr::environments

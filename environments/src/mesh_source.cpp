@@ -15,7 +15,7 @@
 #include "ctr/io/input_error.hpp"
 #include "ply_validation.hpp"
 
-namespace ctr::env {
+namespace ctr::environments {
 
 Aabb TriangleMesh::extent() const {
   Aabb b;
@@ -324,4 +324,4 @@ void writeStl(const std::string& path, const TriangleMesh& mesh) {
   out << "endsolid mesh\n";
 }
 
-}  // namespace ctr::env
+}  // namespace ctr::environments

@@ -15,7 +15,7 @@
 
 #include "ctr/io/input_error.hpp"
 
-namespace ctr::env {
+namespace ctr::environments {
 
 const char* toString(NiftiAffine affine) {
   switch (affine) {
@@ -429,4 +429,4 @@ void writeNifti(const std::string& path, const Eigen::Vector3i& dims, const std:
   if (!check) fail(path, "writeNifti: the file was not written");
 }
 
-}  // namespace ctr::env
+}  // namespace ctr::environments

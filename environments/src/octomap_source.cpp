@@ -10,7 +10,7 @@
 
 #include "ctr/io/input_error.hpp"
 
-namespace ctr::env {
+namespace ctr::environments {
 
 namespace {
 
@@ -112,4 +112,4 @@ std::shared_ptr<octomap::OcTree> loadOcTreeFile(const std::string& path) {
   return tree;
 }
 
-}  // namespace ctr::env
+}  // namespace ctr::environments

@@ -12,7 +12,7 @@
 
 #include "ctr/io/input_error.hpp"
 
-namespace ctr::env::detail {
+namespace ctr::environments::detail {
 namespace {
 
 enum class Type { Char, UChar, Short, UShort, Int, UInt, Float, Double };
@@ -613,4 +613,4 @@ std::size_t validatePly(const std::string& path, const std::string& bytes) {
   return Validator(path, bytes).run();
 }
 
-}  // namespace ctr::env::detail
+}  // namespace ctr::environments::detail

@@ -8,7 +8,7 @@
 
 #include "ctr/io/input_error.hpp"
 
-namespace ctr::env {
+namespace ctr::environments {
 
 namespace {
 
@@ -236,4 +236,4 @@ void writeXyz(const std::string& path, const std::vector<Eigen::Vector3d>& point
   for (const auto& p : points) out << p.x() << " " << p.y() << " " << p.z() << "\n";
 }
 
-}  // namespace ctr::env
+}  // namespace ctr::environments

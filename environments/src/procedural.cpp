@@ -6,7 +6,7 @@
 #include <sstream>
 #include <stdexcept>
 
-namespace ctr::env {
+namespace ctr::environments {
 
 // ---------------------------------------------------------------------------------------------------------------
 // Primitives.
@@ -466,4 +466,4 @@ void rasterizeProcedural(const ProceduralAnatomy& anatomy, VoxelGrid& grid) {
     d[id] = (lumen[id] < -half_diag && !hit[id]) ? VoxelGrid::kFree : VoxelGrid::kOccupied;
 }
 
-}  // namespace ctr::env
+}  // namespace ctr::environments

@@ -4,7 +4,7 @@
 
 #include <octomap/OcTree.h>
 
-namespace ctr::env::detail {
+namespace ctr::environments::detail {
 
 class TreeBuilder : public octomap::OcTree {
 public:
@@ -20,4 +20,4 @@ public:
   }
 };
 
-}  // namespace ctr::env::detail
+}  // namespace ctr::environments::detail

@@ -10,7 +10,7 @@
 
 #include "tree_builder.hpp"
 
-namespace ctr::env {
+namespace ctr::environments {
 
 namespace {
 constexpr int kKeyOffset = 32768;
@@ -341,4 +341,4 @@ std::shared_ptr<octomap::OcTree> fillUnknown(const octomap::OcTree& tree, const 
   return out;
 }
 
-}  // namespace ctr::env
+}  // namespace ctr::environments

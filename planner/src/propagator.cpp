@@ -7,7 +7,7 @@
 namespace ob = ompl::base;
 namespace oc = ompl::control;
 
-namespace ctr::plan {
+namespace ctr::planner {
 namespace {
 
 FrictionOptions stepOptions(const Context& ctx) {
@@ -175,4 +175,4 @@ bool FrictionPropagator::steer(const ob::State* from, const ob::State* to, oc::C
   return true;
 }
 
-}  // namespace ctr::plan
+}  // namespace ctr::planner

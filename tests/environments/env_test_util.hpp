@@ -18,7 +18,7 @@
 #include "ctr/environments/robot_geometry.hpp"
 #include "ctr/io/input_error.hpp"
 
-namespace ctr::env::test {
+namespace ctr::environments::test {
 
 /// A fresh folder under the system temp dir, removed at the end of the test.
 class TempDir {
@@ -93,4 +93,4 @@ void expectInputError(F&& f, const std::vector<std::string>& fragments) {
   }
 }
 
-}  // namespace ctr::env::test
+}  // namespace ctr::environments::test

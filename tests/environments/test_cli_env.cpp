@@ -9,7 +9,7 @@
 
 #include "env_test_util.hpp"
 
-namespace ctr::env {
+namespace ctr::environments {
 namespace {
 
 #ifdef CTR_CLI_PATH
@@ -121,4 +121,4 @@ TEST(CliEnv, NotBuilt) { GTEST_SKIP() << "ctr_cli is not part of this build"; }
 #endif
 
 }  // namespace
-}  // namespace ctr::env
+}  // namespace ctr::environments

@@ -11,7 +11,7 @@
 #include "ctr/model/kinematics.hpp"
 #include "env_test_util.hpp"
 
-namespace ctr::env {
+namespace ctr::environments {
 namespace {
 
 constexpr double kRes = 0.001;
@@ -356,4 +356,4 @@ TEST(Collision, ThreadsShareOneChecker) {
 }
 
 }  // namespace
-}  // namespace ctr::env
+}  // namespace ctr::environments

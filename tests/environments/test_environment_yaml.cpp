@@ -10,7 +10,7 @@
 #include "ctr/environments/pointcloud_source.hpp"
 #include "env_test_util.hpp"
 
-namespace ctr::env {
+namespace ctr::environments {
 namespace {
 
 using test::expectInputError;
@@ -230,4 +230,4 @@ TEST(EnvironmentYaml, NonScalarKeysAreInputErrors) {
 }
 
 }  // namespace
-}  // namespace ctr::env
+}  // namespace ctr::environments

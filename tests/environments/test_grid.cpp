@@ -9,7 +9,7 @@
 #include "ctr/environments/voxel_grid.hpp"
 #include "env_test_util.hpp"
 
-namespace ctr::env {
+namespace ctr::environments {
 namespace {
 
 TEST(VoxelGrid, KeysMatchOctoMap) {
@@ -168,4 +168,4 @@ TEST(Environment, PosesAndNames) {
 }
 
 }  // namespace
-}  // namespace ctr::env
+}  // namespace ctr::environments

@@ -8,7 +8,7 @@
 #include "ctr/io/robot_yaml.hpp"
 #include "env_test_util.hpp"
 
-namespace ctr::env {
+namespace ctr::environments {
 namespace {
 
 const std::string kExamples = std::string(CTR_SOURCE_DIR) + "/examples";
@@ -81,4 +81,4 @@ TEST(MedMpd, AllExampleDescriptionsParse) {
 }
 
 }  // namespace
-}  // namespace ctr::env
+}  // namespace ctr::environments

@@ -9,7 +9,7 @@
 #include "ctr/environments/procedural.hpp"
 #include "env_test_util.hpp"
 
-namespace ctr::env {
+namespace ctr::environments {
 namespace {
 
 // Every leaf: key, depth and log-odds, in traversal order.
@@ -124,4 +124,4 @@ TEST(Procedural, Parameters) {
 }
 
 }  // namespace
-}  // namespace ctr::env
+}  // namespace ctr::environments

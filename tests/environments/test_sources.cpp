@@ -14,7 +14,7 @@
 #include "ctr/environments/voxel_grid.hpp"
 #include "env_test_util.hpp"
 
-namespace ctr::env {
+namespace ctr::environments {
 namespace {
 
 using test::expectInputError;
@@ -541,4 +541,4 @@ TEST(MeshSource, MalformedPlyBinaryBodiesNameTheByteOffset) {
 }
 
 }  // namespace
-}  // namespace ctr::env
+}  // namespace ctr::environments

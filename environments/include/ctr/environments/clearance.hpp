@@ -25,7 +25,7 @@ namespace octomap {
 class OcTree;
 }
 
-namespace ctr::env {
+namespace ctr::environments {
 
 /// @brief Options of a distance field.
 struct DistanceFieldOptions {
@@ -95,4 +95,4 @@ private:
   double build_seconds_ = 0.0;
 };
 
-}  // namespace ctr::env
+}  // namespace ctr::environments

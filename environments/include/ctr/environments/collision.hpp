@@ -5,11 +5,11 @@
 /// Usage: build one CollisionChecker per (environment, robot) and share it; give every thread its own
 /// CollisionChecker::Query (mutable buffers and FCL shapes).
 /// @code
-///   auto env = std::make_shared<const ctr::env::Environment>(ctr::env::loadEnvironment("lung.yaml"));
-///   ctr::env::CollisionChecker checker(env, robot, ctr::env::CollisionOptions::fromEnvironment(*env));
+///   auto env = std::make_shared<const ctr::environments::Environment>(ctr::environments::loadEnvironment("lung.yaml"));
+///   ctr::environments::CollisionChecker checker(env, robot, ctr::environments::CollisionOptions::fromEnvironment(*env));
 ///   auto q = checker.query();
-///   ctr::env::CollisionResult r = checker.check(solution, q);
-///   ctr::env::ClearanceResult c = checker.clearance(solution, q);
+///   ctr::environments::CollisionResult r = checker.check(solution, q);
+///   ctr::environments::ClearanceResult c = checker.clearance(solution, q);
 /// @endcode
 ///
 /// Guarantees (verified against brute force in tests): a shape reported free has no capsule overlapping an occupied
@@ -32,7 +32,7 @@ namespace octomap {
 class OcTree;
 }
 
-namespace ctr::env {
+namespace ctr::environments {
 
 /// @brief Options of collision checking and clearance.
 struct CollisionOptions {
@@ -139,4 +139,4 @@ private:
   double reach_ = 0.0;
 };
 
-}  // namespace ctr::env
+}  // namespace ctr::environments

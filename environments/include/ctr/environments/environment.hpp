@@ -17,7 +17,7 @@ namespace octomap {
 class OcTree;
 }
 
-namespace ctr::env {
+namespace ctr::environments {
 
 /// @brief How space the map knows nothing about (no octree node) is treated by collision and clearance.
 enum class UnknownSpace {
@@ -161,4 +161,4 @@ Eigen::Isometry3d poseFromDirection(const Eigen::Vector3d& position, const Eigen
 /// row is not [0 0 0 1].
 Eigen::Isometry3d poseFromMatrix(const Eigen::Matrix4d& m, double tolerance = 1e-3);
 
-}  // namespace ctr::env
+}  // namespace ctr::environments

@@ -15,7 +15,7 @@
 #include "ctr/environments/nifti_source.hpp"
 #include "ctr/environments/procedural.hpp"
 
-namespace ctr::env {
+namespace ctr::environments {
 
 /// @brief One source of occupied (or, for stay_inside, free) space.
 struct SourceSpec {
@@ -76,4 +76,4 @@ Environment buildEnvironment(const EnvironmentDescription& description, const Bu
 /// @brief loadEnvironmentDescription + buildEnvironment.
 Environment loadEnvironment(const std::string& path, const BuildOptions& options = {});
 
-}  // namespace ctr::env
+}  // namespace ctr::environments

@@ -15,7 +15,7 @@
 #include "ctr/environments/aabb.hpp"
 #include "ctr/environments/voxel_grid.hpp"
 
-namespace ctr::env {
+namespace ctr::environments {
 
 /// @brief Which NIfTI transform maps voxel indices to world coordinates.
 enum class NiftiAffine {
@@ -94,4 +94,4 @@ void writeNifti(const std::string& path, const Eigen::Vector3i& dims, const std:
                 const Eigen::Matrix4d& ijk_to_world, int sform_code = 1, int qform_code = 1,
                 bool as_uint8 = true, const Eigen::Matrix4d* qform_ijk_to_world = nullptr);
 
-}  // namespace ctr::env
+}  // namespace ctr::environments

@@ -17,7 +17,7 @@
 #include "ctr/environments/environment.hpp"
 #include "ctr/environments/voxel_grid.hpp"
 
-namespace ctr::env {
+namespace ctr::environments {
 
 /// @brief What to generate. `params` holds the type's optional numeric parameters (see proceduralParameters()).
 struct ProceduralSpec {
@@ -71,4 +71,4 @@ ProceduralAnatomy makeProcedural(const ProceduralSpec& spec);
 /// all others kOccupied.
 void rasterizeProcedural(const ProceduralAnatomy& anatomy, VoxelGrid& grid);
 
-}  // namespace ctr::env
+}  // namespace ctr::environments

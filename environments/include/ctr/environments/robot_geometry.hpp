@@ -17,7 +17,7 @@
 #include "ctr/model/kinematics.hpp"
 #include "ctr/model/robot.hpp"
 
-namespace ctr::env {
+namespace ctr::environments {
 
 /// @brief Options of the collision geometry.
 struct RobotGeometryOptions {
@@ -64,4 +64,4 @@ std::vector<Capsule> robotCapsules(const Robot& robot, const Solution& solution,
 /// @brief Closest point of segment [a, b] to p.
 Eigen::Vector3d closestPointOnSegment(const Eigen::Vector3d& a, const Eigen::Vector3d& b, const Eigen::Vector3d& p);
 
-}  // namespace ctr::env
+}  // namespace ctr::environments

@@ -14,7 +14,7 @@ namespace octomap {
 class OcTree;
 }
 
-namespace ctr::env {
+namespace ctr::environments {
 
 /// @brief OctoMap key (per axis) of a coordinate at a resolution: floor(c / res) + 32768, as octomap computes it.
 int coordToKey(double c, double resolution);
@@ -90,4 +90,4 @@ void rasterizeOcTree(const octomap::OcTree& tree, VoxelGrid& grid, bool mark_fre
 /// @brief A copy of `tree` in which every unknown cell inside `bounds` is occupied (for UnknownSpace::Occupied).
 std::shared_ptr<octomap::OcTree> fillUnknown(const octomap::OcTree& tree, const Aabb& bounds);
 
-}  // namespace ctr::env
+}  // namespace ctr::environments

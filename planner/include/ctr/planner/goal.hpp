@@ -16,7 +16,7 @@
 
 #include "ctr/planner/state_space.hpp"
 
-namespace ctr::plan {
+namespace ctr::planner {
 
 /// @brief Tip goal specification.
 struct TipGoalSpec {
@@ -76,4 +76,4 @@ private:
   mutable ompl::RNG rng_;
 };
 
-}  // namespace ctr::plan
+}  // namespace ctr::planner

@@ -1,8 +1,8 @@
 /// @file planner.hpp
 /// @brief A SimpleSetup-like facade: plan a query in a few lines.
 /// @code
-///   ctr::plan::Query q = ctr::plan::loadQuery("examples/queries/proc_intracardiac.yaml");
-///   ctr::plan::PlanResult r = ctr::plan::plan(q);
+///   ctr::planner::Query q = ctr::planner::loadQuery("examples/queries/proc_intracardiac.yaml");
+///   ctr::planner::PlanResult r = ctr::planner::plan(q);
 ///   if (r.solved) { /* r.path: waypoints; r.replay: collisions, clearance, tip error */ }
 /// @endcode
 #pragma once
@@ -15,7 +15,7 @@
 #include "ctr/planner/replay.hpp"
 #include "ctr/planner/validity.hpp"
 
-namespace ctr::plan {
+namespace ctr::planner {
 
 /// @brief Result of planning + replay.
 struct PlanResult {
@@ -39,7 +39,7 @@ public:
   /// @brief Loads robot and environment (throws ctr::io::InputError for bad files) and sets everything up.
   explicit CtrPlanner(const Query& query);
   /// @brief With a robot and an environment already loaded (query.robot / query.environment are ignored).
-  CtrPlanner(const Query& query, Robot robot, env::Environment environment);
+  CtrPlanner(const Query& query, Robot robot, environments::Environment environment);
   /// @brief Checks the start before planning, as `ctr plan` does: throws ctr::io::InputError naming the query file,
   /// the line and key `start` when the model does not converge there or the start configuration is invalid
   /// (collision, elastic instability). solve() itself reports an invalid start in its result instead.
@@ -68,9 +68,9 @@ public:
   PlanResult replaySolution(const std::string& planner, double planning_time, bool exact);
 
 private:
-  void init(Robot robot, env::Environment e);
+  void init(Robot robot, environments::Environment e);
   Query query_;
-  std::shared_ptr<const env::Environment> env_;
+  std::shared_ptr<const environments::Environment> env_;
   std::shared_ptr<const Context> ctx_;
   std::shared_ptr<const CtrStateSpace> space_holder_;
   ompl::geometric::SimpleSetupPtr gss_;
@@ -82,4 +82,4 @@ private:
 /// @brief loadQuery + CtrPlanner + solve.
 PlanResult plan(const Query& query);
 
-}  // namespace ctr::plan
+}  // namespace ctr::planner

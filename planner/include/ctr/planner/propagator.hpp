@@ -10,7 +10,7 @@
 #include "ctr/model/replay.hpp"
 #include "ctr/planner/state_space.hpp"
 
-namespace ctr::plan {
+namespace ctr::planner {
 
 /// @brief How the robot arrived at the start configuration.
 struct StartHistory {
@@ -71,4 +71,4 @@ private:
   double rot_rate_, trans_rate_;
 };
 
-}  // namespace ctr::plan
+}  // namespace ctr::planner

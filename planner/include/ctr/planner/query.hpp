@@ -13,7 +13,7 @@
 #include "ctr/planner/goal.hpp"
 #include "ctr/planner/propagator.hpp"
 
-namespace ctr::plan {
+namespace ctr::planner {
 
 /// @brief A parsed query (paths resolved relative to the query file's folder).
 struct Query {
@@ -64,4 +64,4 @@ Query parseQuery(const std::string& text, const std::string& source, const std::
 /// @brief Known planner names per mode.
 std::vector<std::string> plannerNames(Mode mode);
 
-}  // namespace ctr::plan
+}  // namespace ctr::planner

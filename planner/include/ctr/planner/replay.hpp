@@ -9,7 +9,7 @@
 
 #include "ctr/planner/propagator.hpp"
 
-namespace ctr::plan {
+namespace ctr::planner {
 
 /// @brief One replayed point.
 struct ReplayPoint {
@@ -55,4 +55,4 @@ ReplayReport replayPath(const Context& ctx, const std::vector<Configuration>& wa
 /// (mode, torque, relative twist).
 std::string replayCsv(const Robot& robot, const ReplayReport& r);
 
-}  // namespace ctr::plan
+}  // namespace ctr::planner

@@ -11,7 +11,7 @@
 
 #include "ctr/planner/context.hpp"
 
-namespace ctr::plan {
+namespace ctr::planner {
 
 /// @brief The physics of a state reached along a path (exact mode): hysteresis memory and the equilibrium shape.
 struct StateCache {
@@ -91,4 +91,4 @@ private:
 bool tipOf(const Context& ctx, const CtrStateSpace& space, const ompl::base::State* s, Eigen::Vector3d& tip,
            Eigen::Vector3d* tangent = nullptr);
 
-}  // namespace ctr::plan
+}  // namespace ctr::planner

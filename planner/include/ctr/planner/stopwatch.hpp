@@ -5,7 +5,7 @@
 #include <chrono>
 #include <ctime>
 
-namespace ctr::plan {
+namespace ctr::planner {
 
 /// @brief Measures elapsed seconds since construction, on the wall clock or as CPU time of the whole process.
 class Stopwatch {
@@ -30,4 +30,4 @@ private:
   double cpu0_;
 };
 
-}  // namespace ctr::plan
+}  // namespace ctr::planner

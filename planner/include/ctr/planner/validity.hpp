@@ -14,7 +14,7 @@
 
 #include "ctr/planner/state_space.hpp"
 
-namespace ctr::plan {
+namespace ctr::planner {
 
 /// @brief Result of checking one configuration.
 struct ConfigurationCheck {
@@ -62,4 +62,4 @@ private:
   const CtrStateSpace* space_;
 };
 
-}  // namespace ctr::plan
+}  // namespace ctr::planner

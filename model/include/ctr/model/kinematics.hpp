@@ -13,6 +13,11 @@
 
 namespace ctr {
 
+namespace detail {
+struct SolutionAccess;   // model/src/access.hpp: the solver's internal fields
+struct WorkspaceAccess;  // model/src/access.hpp: the solver's buffers
+}  // namespace detail
+
 /// @brief Kind of a place where a concentrated bending moment acts.
 enum class MomentKind {
   TubeEnd,                 ///< Distal end of a tube.
@@ -172,7 +177,6 @@ struct Solution {
   std::vector<BackbonePoint> backbone;
   std::vector<ConcentratedMoment> moments;   ///< Every tube end and curvature discontinuity at s > 0.
   std::vector<ContactResult> contacts;       ///< Contact sites with friction unknowns (empty if frictionless).
-  Eigen::VectorXd contact_unknowns;          ///< Internal: scaled torques of the contacts (warm start).
   bool loaded = false;  ///< Solved by the loaded (Cosserat-rod) solver (external loads, or loaded_model).
   /// Internal force and moment at s = 0 (base frame): the reaction the actuation unit must supply (with opposite
   /// sign). Zero for load-free solutions. base_moment.z() = sum_i k_it u_iz(0).
@@ -184,6 +188,10 @@ struct Solution {
   Eigen::Vector3d tipTangent() const { return tip_frame.col(2); }
   /// @brief Length of the robot outside the actuation unit (tip arc length, m).
   double tipArcLength() const { return backbone.empty() ? 0.0 : backbone.back().s; }
+
+private:
+  friend struct detail::SolutionAccess;
+  Eigen::VectorXd contact_unknowns_;  ///< The solver's scaled contact torques (warm start of later solves).
 };
 
 /// @brief Mutable per-thread buffers of the solver. Reuse one per thread; never share between threads.
@@ -195,10 +203,10 @@ public:
   Workspace& operator=(Workspace&&) noexcept;
   Workspace(const Workspace&) = delete;
   Workspace& operator=(const Workspace&) = delete;
-  struct Impl;
-  Impl& impl() { return *impl_; }
 
 private:
+  friend struct detail::WorkspaceAccess;
+  struct Impl;
   std::unique_ptr<Impl> impl_;
 };
 

@@ -191,9 +191,9 @@ TEST(EnvironmentYaml, BadInputs) {
   expectInputError([&] { load("p.yaml", "procedural: {type: kidney}\n"); },
                    {"p.yaml:1", "unknown procedural type 'kidney'", "intracardiac"});
   // 11. Unknown procedural parameter.
-  expectInputError([&] { load("p2.yaml", "procedural: {type: airway, branches: 3}\n"); }, {"key 'branches'"});
+  expectInputError([&] { load("p2.yaml", "procedural: {type: airway, branches: 3}\n"); }, {"p2.yaml:1", "key 'procedural.branches'", "unknown key for procedural type 'airway'"});
   // 12. Bad unit.
-  expectInputError([&] { load("u.yaml", "obstacles: [{mesh: tri.obj, units: inch}]\n"); }, {"key 'units'", "inch"});
+  expectInputError([&] { load("u.yaml", "obstacles: [{mesh: tri.obj, units: inch}]\n"); }, {"u.yaml:1", "key 'obstacles[0].units'", "unknown unit 'inch'"});
   // 13. Nothing to map.
   expectInputError([&] { load("z.yaml", "name: nothing\n"); }, {"nothing to map"});
   // 14. Unknown start referenced by base_pose.
@@ -216,16 +216,33 @@ TEST(EnvironmentYaml, BadInputs) {
   // 18. Point cloud as a stay-inside region.
   writeXyz(dir.file("p.xyz"), {Eigen::Vector3d::Zero()});
   expectInputError([&] { load("pi.yaml", "stay_inside: {points: p.xyz}\n"); }, {"cannot be a stay_inside"});
+  // 19. Keys inside sources, poses and targets are named by their path in the document.
+  expectInputError([&] { load("sk.yaml", "obstacles:\n  - nifti: v.nii\n    lable: 2\n"); },
+                   {"sk.yaml:3", "key 'obstacles[0].lable'", "unknown key", "label"});
+  expectInputError([&] { load("tv.yaml", "obstacles: [{nifti: v.nii}]\ntargets: {a: [0, x, 0]}\n"); },
+                   {"tv.yaml:2", "key 'targets.a[1]'", "'x' is not a number"});
+  expectInputError(
+      [&] { load("pv.yaml", "obstacles: [{nifti: v.nii}]\nstarts: {s: {position: [0, 0], direction: [0, 0, 1]}}\n"); },
+      {"pv.yaml:2", "key 'starts.s.position'", "3 numbers"});
+  // 20. A flag that is not true or false.
+  expectInputError([&] { load("b.yaml", "obstacles: [{nifti: v.nii}]\nmark_free: maybe\n"); },
+                   {"b.yaml:2", "key 'mark_free'", "must be true or false"});
 }
 
-// Found by fuzz_environment_yaml: a mapping key that is not a scalar escaped as YAML::TypedBadConversion.
+// Found by fuzz_environment_yaml: a mapping key that is not a scalar escaped as YAML::TypedBadConversion. Now refused by
+// the reader with the key's line.
 TEST(EnvironmentYaml, NonScalarKeysAreInputErrors) {
   for (const char* text : {"{{type: nope}}\n", "{[1, 2]: 3}\n", "procedural: {type: airway, [1]: 2}\n",
                            "procedural: {type: airway}\nstarts: {[a]: {position: [0, 0, 0], direction: [0, 0, 1]}}\n",
                            "procedural: {type: airway}\ntargets: {{a: 1}: [0, 0, 0]}\n",
                            "procedural: {type: airway}\ncollision: {{x: 1}: 2}\n"}) {
     SCOPED_TRACE(text);
-    EXPECT_THROW(parseEnvironmentDescription(text, "keys.yaml", "."), io::InputError);
+    try {
+      (void)parseEnvironmentDescription(text, "keys.yaml", ".");
+      ADD_FAILURE() << "expected ctr::io::InputError";
+    } catch (const io::InputError& e) {
+      EXPECT_GT(e.line(), 0) << e.what();  // the shared YAML reader names the line of the key
+    }
   }
 }
 

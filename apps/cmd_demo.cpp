@@ -73,12 +73,12 @@ void registerDemo(CLI::App& app, Action& action) {
 #ifdef CTR_WITH_PLANNER
 int planningDemo(const std::string& path_csv) {
   const Robot robot = io::parseRobot(demo::kRobot, "embedded:robots/proc_intracardiac.yaml");
-  const environments::EnvironmentDescription d =
-      environments::parseEnvironmentDescription(demo::kEnvironment, "embedded:environments/proc_intracardiac.yaml", ".");
+  const environments::EnvironmentDescription d = environments::parseEnvironmentDescription(
+      demo::kEnvironment, "embedded:environments/proc_intracardiac.yaml", ".");
   const planner::Query q = planner::parseQuery(demo::kQuery, "embedded:queries/proc_intracardiac.yaml", ".", false);
-  std::cout << "ctr demo: " << robot.size() << "-tube robot in a procedural right atrium, mode " << planner::toString(q.mode)
-            << ", planner " << q.planner << ", mu' = " << (q.friction ? q.friction->boundary : robot.friction().boundary)
-            << "\n";
+  std::cout << "ctr demo: " << robot.size() << "-tube robot in a procedural right atrium, mode "
+            << planner::toString(q.mode) << ", planner " << q.planner
+            << ", mu' = " << (q.friction ? q.friction->boundary : robot.friction().boundary) << "\n";
   planner::CtrPlanner p(q, robot, environments::buildEnvironment(d));
   const planner::PlanResult r = p.solve();
   nlohmann::json j = {{"solved", r.solved},

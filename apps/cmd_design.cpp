@@ -84,8 +84,8 @@ int runDesign(const DesignOpts& o, const CLI::App* sub) {
     if (!o.planner.empty()) {
       const auto known = planner::plannerNames(q.mode);
       if (o.planner != "default" && std::find(known.begin(), known.end(), o.planner) == known.end())
-        throw UsageError("--planner: unknown planner '" + o.planner + "' for mode " + planner::toString(q.mode) + " of " +
-                         f);
+        throw UsageError("--planner: unknown planner '" + o.planner + "' for mode " + planner::toString(q.mode) +
+                         " of " + f);
     }
     queries.push_back(std::move(q));
   }

@@ -10,8 +10,8 @@
 #include <octomap/OcTree.h>
 
 #include "commands.hpp"
-#include "ctr/environments/environment_json.hpp"
 #include "ctr/environments/collision.hpp"
+#include "ctr/environments/environment_json.hpp"
 #include "ctr/environments/environment_yaml.hpp"
 #include "ctr/io/robot_yaml.hpp"
 #include "ctr/model/kinematics.hpp"
@@ -23,7 +23,9 @@ namespace {
 
 using Json = nlohmann::json;
 
-Json vec(const Eigen::Vector3d& v) { return Json::array({v.x(), v.y(), v.z()}); }
+Json vec(const Eigen::Vector3d& v) {
+  return Json::array({v.x(), v.y(), v.z()});
+}
 
 std::string fmtMm(const Eigen::Vector3d& v) {
   std::ostringstream os;
@@ -91,15 +93,15 @@ void printInfo(std::ostream& os, const environments::Environment& e) {
   os << "build time   " << e.buildSeconds() << " s\n";
   for (const auto& s : e.sources()) os << "source       " << s << "\n";
   os << "base pose    " << e.basePoseSource() << ": position " << fmtMm(e.basePose().translation()) << ", direction "
-     << e.basePose().linear().col(2).transpose() << " (" << environments::toString(e.occupancy(e.basePose().translation()))
-     << ")\n";
+     << e.basePose().linear().col(2).transpose() << " ("
+     << environments::toString(e.occupancy(e.basePose().translation())) << ")\n";
   for (const auto& s : e.starts())
     os << "start        " << s.name << ": position " << fmtMm(s.pose.translation()) << ", direction "
        << s.pose.linear().col(2).transpose() << "\n";
   for (const auto& t : e.targets())
-    os << "target       " << t.name << ": " << fmtMm(t.position) << " (" << environments::toString(e.occupancy(t.position))
-       << ", " << std::setprecision(4) << (t.position - e.basePose().translation()).norm() * 1e3
-       << " mm from the base)\n";
+    os << "target       " << t.name << ": " << fmtMm(t.position) << " ("
+       << environments::toString(e.occupancy(t.position)) << ", " << std::setprecision(4)
+       << (t.position - e.basePose().translation()).norm() * 1e3 << " mm from the base)\n";
   os << "collision    safety margin " << e.collisionDefaults().safety_margin * 1e3 << " mm, unknown space "
      << environments::toString(e.collisionDefaults().unknown_space);
   if (e.collisionDefaults().exclude_proximal > 0)
@@ -116,8 +118,9 @@ void registerEnv(CLI::App& app, Action& action) {
   // ctr env info
   {
     auto o = std::make_shared<EnvOptions>();
-    CLI::App* sub = env->add_subcommand("info", "Build an environment and print bounds, resolution, occupied volume, "
-                                                "base pose, starts, targets and build time");
+    CLI::App* sub = env->add_subcommand("info",
+                                        "Build an environment and print bounds, resolution, occupied volume, "
+                                        "base pose, starts, targets and build time");
     addEnvOptions(sub, *o);
     sub->add_flag("--json", o->json, "Print one JSON object");
     sub->callback([o, &action]() {
@@ -144,7 +147,7 @@ void registerEnv(CLI::App& app, Action& action) {
       action = [o, out]() {
         const std::string& path = *out;
         const bool ok_ext = (path.size() > 3 && (path.compare(path.size() - 3, 3, ".bt") == 0 ||
-                                                  path.compare(path.size() - 3, 3, ".ot") == 0));
+                                                 path.compare(path.size() - 3, 3, ".ot") == 0));
         if (!ok_ext) throw UsageError("-o: the output must end in .bt or .ot");
         checkOutputPath("-o", path, {{"ENV", o->file}});
         Progress progress("env build", 0, "steps", o->quiet);
@@ -158,8 +161,7 @@ void registerEnv(CLI::App& app, Action& action) {
         progress.finish();
         const environments::OccupancyStats st = e.stats();
         std::cout << "wrote " << path << ": " << st.nodes << " nodes, resolution " << e.resolution() * 1e3
-                  << " mm, occupied " << st.occupied_volume * 1e6 << " cm^3, built in " << e.buildSeconds()
-                  << " s\n";
+                  << " mm, occupied " << st.occupied_volume * 1e6 << " cm^3, built in " << e.buildSeconds() << " s\n";
         return static_cast<int>(kOk);
       };
     });

@@ -29,7 +29,8 @@ void registerPlan(CLI::App& app, Action& action) {
   sub->add_option("--mode", o->mode, "Override the mode: exact, robust, frictionless");
   sub->add_option("--time", o->time, "Override the time limit (s)")->check(finitePositive());
   sub->add_option("--seed", o->seed, "Override the seed")->check(finiteNonNegative());
-  sub->add_flag("--cpu-time", o->cpu_time, "Time limit and planning time in CPU seconds of the process (reproducible on a loaded machine)");
+  sub->add_flag("--cpu-time", o->cpu_time,
+                "Time limit and planning time in CPU seconds of the process (reproducible on a loaded machine)");
   sub->callback([o, &action]() {
     action = [o]() {
       checkOutputPath("--json", o->json, {{"query", o->query}});

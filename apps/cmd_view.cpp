@@ -70,7 +70,8 @@ void registerView(CLI::App& app, Action& action) {
         auto e = std::make_shared<const environments::Environment>(std::move(environment));
         planner::ContextOptions co;
         co.friction.kinematics.record_backbone = true;
-        ctx = std::make_shared<const planner::Context>(robot, e, co, environments::CollisionOptions::fromEnvironment(*e));
+        ctx =
+            std::make_shared<const planner::Context>(robot, e, co, environments::CollisionOptions::fromEnvironment(*e));
       }
       reports::PlanningViewOptions vo;
       if (planner) {

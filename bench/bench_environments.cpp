@@ -71,7 +71,8 @@ Scene& lungScene() {
     s.env = std::make_shared<const environments::Environment>(std::move(e));
     s.robot = std::make_unique<Robot>(io::loadRobot(kExamples + "/robots/medmpd_lung.yaml"));
     const auto t0 = Clock::now();
-    s.checker = std::make_unique<environments::CollisionChecker>(s.env, *s.robot, environments::CollisionOptions::fromEnvironment(*s.env));
+    s.checker = std::make_unique<environments::CollisionChecker>(
+        s.env, *s.robot, environments::CollisionOptions::fromEnvironment(*s.env));
     s.checker_seconds = std::chrono::duration<double>(Clock::now() - t0).count();
     s.shapes = randomShapes(*s.robot, 500, 1);
     return s;
@@ -85,7 +86,8 @@ Scene& heartScene() {
     s.env = std::make_shared<const environments::Environment>(environments::loadEnvironment(kHeart));
     s.robot = std::make_unique<Robot>(io::loadRobot(kExamples + "/robots/proc_intracardiac.yaml"));
     const auto t0 = Clock::now();
-    s.checker = std::make_unique<environments::CollisionChecker>(s.env, *s.robot, environments::CollisionOptions::fromEnvironment(*s.env));
+    s.checker = std::make_unique<environments::CollisionChecker>(
+        s.env, *s.robot, environments::CollisionOptions::fromEnvironment(*s.env));
     s.checker_seconds = std::chrono::duration<double>(Clock::now() - t0).count();
     s.shapes = randomShapes(*s.robot, 500, 2);
     return s;

@@ -76,8 +76,6 @@ ctr::KinematicsOptions planningSteps() {
   return o;
 }
 
-
-
 // Tip-only solves of the Dupont-lab robot along a sweep (0.5 deg per solve of tubes 2 and 3), each warm-started from
 // the previous one: a controller or a planner's motion check. (BM_SolveWarm above alternates between two fixed
 // configurations, so its warm start never moves: 1 Newton iteration instead of 2.) A full turn restarts cold, untimed.
@@ -118,13 +116,17 @@ void coldSolves(benchmark::State& st, const ctr::Robot& robot, ctr::KinematicsOp
 }
 
 // Cold solves of the Dupont-lab robot with the planner's settings.
-void BM_SolveColdPlanning(benchmark::State& st) { coldSolves(st, loadExample("dupont_lab_3tube.yaml"), planningSteps()); }
+void BM_SolveColdPlanning(benchmark::State& st) {
+  coldSolves(st, loadExample("dupont_lab_3tube.yaml"), planningSteps());
+}
 
 // kPlanning: 0 library default, 1 the planner's settings, 2 the planner's steps only.
 template <int kPlanning>
 void BM_SolveSweep(benchmark::State& st) {
   sweepSolves(st, loadExample("dupont_lab_3tube.yaml"),
-              kPlanning == 1 ? planningSteps() : kPlanning == 2 ? planningStepsOnly() : ctr::KinematicsOptions{});
+              kPlanning == 1   ? planningSteps()
+              : kPlanning == 2 ? planningStepsOnly()
+                               : ctr::KinematicsOptions{});
 }
 
 // One stick-slip step (1 deg) of the 3-tube robot with mu' = 0.1, warm (the state from the previous step).
@@ -172,7 +174,9 @@ void BM_LoadedSweep(benchmark::State& st) {
 }
 
 // The same loaded sweep with the planner's settings (a planning query with loads).
-void BM_LoadedSweepPlanning(benchmark::State& st) { sweepSolves(st, loadedDupont(), planningSteps()); }
+void BM_LoadedSweepPlanning(benchmark::State& st) {
+  sweepSolves(st, loadedDupont(), planningSteps());
+}
 
 // The loaded sweep at library default integration and tolerance with the path predictor
 // (KinematicsOptions::extrapolate_warm_start): what a controller following a path can ask for.
@@ -182,7 +186,9 @@ void BM_LoadedSweepPredictor(benchmark::State& st) {
   sweepSolves(st, loadedDupont(), o);
 }
 
-void BM_LoadedCold(benchmark::State& st) { coldSolves(st, loadedDupont(), ctr::KinematicsOptions{}); }
+void BM_LoadedCold(benchmark::State& st) {
+  coldSolves(st, loadedDupont(), ctr::KinematicsOptions{});
+}
 
 // Exact tip Jacobian (6 x 6 actuation) with / without the 6 x 6 compliance at a loaded equilibrium.
 template <bool kCompliance>

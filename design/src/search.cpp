@@ -201,7 +201,8 @@ void Sampler::update(const std::vector<Candidate>& ranked) {
 // ---------------------------------------------------------------------------------------------------------------
 // Designer
 
-Designer::Designer(std::vector<planner::Query> queries, std::optional<DesignSpace> space) : queries_(std::move(queries)) {
+Designer::Designer(std::vector<planner::Query> queries, std::optional<DesignSpace> space)
+    : queries_(std::move(queries)) {
   if (queries_.empty()) throw std::invalid_argument("design: no query");
   for (const planner::Query& q : queries_) {
     if (!q.tip_goal)

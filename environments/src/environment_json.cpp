@@ -7,7 +7,9 @@ namespace {
 
 using Json = nlohmann::json;
 
-Json vec(const Eigen::Vector3d& v) { return Json::array({v.x(), v.y(), v.z()}); }
+Json vec(const Eigen::Vector3d& v) {
+  return Json::array({v.x(), v.y(), v.z()});
+}
 
 Json poseJson(const Eigen::Isometry3d& T) {
   Json m = Json::array();

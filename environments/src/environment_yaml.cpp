@@ -75,8 +75,6 @@ struct Ctx : io::YamlReader {
   }
 };
 
-int lineOf(const YAML::Node& n) { return io::YamlReader::lineOf(n); }
-
 // A pose entry: {start: NAME} (base_pose only), {medmpd_start: FILE}, {matrix: 4x4, units}, or
 // {position: [..], direction: [..], x_axis: [..], units}. `what` is its key ("base_pose", "starts.NAME").
 NamedPose parsePose(const Ctx& c, const YAML::Node& n, const std::string& what, const std::string& name,
@@ -92,8 +90,9 @@ NamedPose parsePose(const Ctx& c, const YAML::Node& n, const std::string& what, 
   const int forms = (n["start"] ? 1 : 0) + (n["medmpd_start"] ? 1 : 0) + (n["matrix"] ? 1 : 0) +
                     (n["position"] || n["direction"] ? 1 : 0);
   if (forms != 1)
-    c.fail(n, what, "give exactly one of: " + std::string(start_ref ? "start, " : "") +
-                        "medmpd_start, matrix, position + direction");
+    c.fail(n, what,
+           "give exactly one of: " + std::string(start_ref ? "start, " : "") +
+               "medmpd_start, matrix, position + direction");
   if (n["start"]) {
     *start_ref = c.text(n["start"], at + "start");
     p.source = "start " + *start_ref;
@@ -162,7 +161,7 @@ SourceSpec parseSource(const Ctx& c, const YAML::Node& n, const std::string& wha
   if (!n.IsMap()) c.fail(n, what, "a source is a mapping with one of the keys nifti, mesh, points, octomap");
   const std::string at = what + ".";
   SourceSpec s;
-  s.line = lineOf(n);
+  s.line = Ctx::lineOf(n);
   s.where = c.file + ":" + std::to_string(s.line);
   const int kinds = (n["nifti"] ? 1 : 0) + (n["mesh"] ? 1 : 0) + (n["points"] ? 1 : 0) + (n["octomap"] ? 1 : 0);
   if (kinds != 1) c.fail(n, what, "give exactly one of the keys nifti, mesh, points, octomap");
@@ -328,7 +327,7 @@ EnvironmentDescription parseDescription(const std::string& text_in, const std::s
     if (d.stay_inside) c.fail(root["procedural"], "procedural", "cannot be combined with stay_inside");
     SourceSpec s;
     s.kind = SourceSpec::Kind::Procedural;
-    s.line = lineOf(root["procedural"]);
+    s.line = Ctx::lineOf(root["procedural"]);
     s.where = source + ":" + std::to_string(s.line);
     s.procedural = parseProcedural(c, root["procedural"]);
     d.stay_inside = s;
@@ -427,7 +426,7 @@ struct Loaded {
   std::vector<Eigen::Vector3d> points;
   std::shared_ptr<octomap::OcTree> tree;
   ProceduralAnatomy anatomy;
-  Aabb extent;        // region the source describes (known space)
+  Aabb extent;  // region the source describes (known space)
   std::string note;
 };
 
@@ -456,8 +455,7 @@ Loaded load(const SourceSpec& s, bool stay, double res) {
     case SourceSpec::Kind::Mesh: {
       l.mesh = loadMesh(s.path, s.scale, s.transform);
       l.extent = l.mesh.extent().inflated(stay ? 2.0 * res : 0.0);
-      note << "mesh " << s.path << " (" << l.mesh.triangles.size() << " triangles" << (s.fill ? ", filled" : "")
-           << ")";
+      note << "mesh " << s.path << " (" << l.mesh.triangles.size() << " triangles" << (s.fill ? ", filled" : "") << ")";
       break;
     }
     case SourceSpec::Kind::Points: {
@@ -494,16 +492,23 @@ Loaded load(const SourceSpec& s, bool stay, double res) {
 void rasterizeObstacle(const Loaded& l, VoxelGrid& grid) {
   const SourceSpec& s = *l.spec;
   switch (s.kind) {
-    case SourceSpec::Kind::Nifti: rasterizeNifti(l.vol, l.mask, grid, VoxelGrid::kOccupied, s.sampling); break;
+    case SourceSpec::Kind::Nifti:
+      rasterizeNifti(l.vol, l.mask, grid, VoxelGrid::kOccupied, s.sampling);
+      break;
     case SourceSpec::Kind::Mesh:
       if (s.fill)
         voxelizeSolid(l.mesh, grid, VoxelGrid::kOccupied, false, s.path);
       else
         voxelizeSurface(l.mesh, grid, VoxelGrid::kOccupied);
       break;
-    case SourceSpec::Kind::Points: rasterizePoints(l.points, grid, s.point_radius, VoxelGrid::kOccupied); break;
-    case SourceSpec::Kind::OcTree: rasterizeOcTree(*l.tree, grid, false); break;
-    case SourceSpec::Kind::Procedural: break;
+    case SourceSpec::Kind::Points:
+      rasterizePoints(l.points, grid, s.point_radius, VoxelGrid::kOccupied);
+      break;
+    case SourceSpec::Kind::OcTree:
+      rasterizeOcTree(*l.tree, grid, false);
+      break;
+    case SourceSpec::Kind::Procedural:
+      break;
   }
 }
 
@@ -511,7 +516,9 @@ void rasterizeObstacle(const Loaded& l, VoxelGrid& grid) {
 void rasterizeStay(const Loaded& l, VoxelGrid& grid) {
   const SourceSpec& s = *l.spec;
   switch (s.kind) {
-    case SourceSpec::Kind::Nifti: rasterizeNiftiInside(l.vol, l.mask, grid); break;
+    case SourceSpec::Kind::Nifti:
+      rasterizeNiftiInside(l.vol, l.mask, grid);
+      break;
     case SourceSpec::Kind::Mesh:
       std::fill(grid.data().begin(), grid.data().end(), VoxelGrid::kOccupied);
       voxelizeSolid(l.mesh, grid, VoxelGrid::kFree, true, s.path);
@@ -525,8 +532,11 @@ void rasterizeStay(const Loaded& l, VoxelGrid& grid) {
       grid.paint(tmp, VoxelGrid::kOccupied, VoxelGrid::kOccupied);
       break;
     }
-    case SourceSpec::Kind::Procedural: rasterizeProcedural(l.anatomy, grid); break;
-    case SourceSpec::Kind::Points: break;
+    case SourceSpec::Kind::Procedural:
+      rasterizeProcedural(l.anatomy, grid);
+      break;
+    case SourceSpec::Kind::Points:
+      break;
   }
 }
 

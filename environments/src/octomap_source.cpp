@@ -16,7 +16,7 @@ namespace {
 
 // Captures std::cerr (where OctoMap reports problems) for the lifetime of the object.
 class CerrCapture {
-public:
+ public:
   CerrCapture() : old_(std::cerr.rdbuf(buf_.rdbuf())) {}
   ~CerrCapture() { std::cerr.rdbuf(old_); }
   std::string text() const {
@@ -27,7 +27,7 @@ public:
     return s;
   }
 
-private:
+ private:
   std::ostringstream buf_;
   std::streambuf* old_;
 };

@@ -7,7 +7,7 @@
 namespace ctr::environments::detail {
 
 class TreeBuilder : public octomap::OcTree {
-public:
+ public:
   using octomap::OcTree::OcTree;
   /// Root node, created (as a leaf) if the tree is empty.
   octomap::OcTreeNode* makeRoot() {

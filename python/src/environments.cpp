@@ -5,8 +5,8 @@
 #include <iostream>
 
 #include "common.hpp"
-#include "ctr/environments/environment_json.hpp"
 #include "ctr/environments/collision.hpp"
+#include "ctr/environments/environment_json.hpp"
 #include "ctr/environments/environment_yaml.hpp"
 
 namespace ctr::py {
@@ -99,14 +99,17 @@ pyb::dict clearanceDict(const environments::ClearanceResult& cl) {
 }  // namespace
 
 void registerEnvironments(pyb::module_& m) {
-  pyb::class_<environments::Environment, EnvPtr>(m, "Environment",
-                                        "An anatomy environment: occupancy octree (world frame, m), base pose, named "
-                                        "starts and targets. Load with ctr.load_environment(path).")
+  pyb::class_<environments::Environment, EnvPtr>(
+      m, "Environment",
+      "An anatomy environment: occupancy octree (world frame, m), base pose, named "
+      "starts and targets. Load with ctr.load_environment(path).")
       .def_property_readonly("name", &environments::Environment::name)
       .def_property_readonly("resolution", &environments::Environment::resolution, "Octree leaf size (m).")
       .def_property_readonly(
           "bounds",
-          [](const environments::Environment& e) { return pyb::make_tuple(array3(e.bounds().min), array3(e.bounds().max)); },
+          [](const environments::Environment& e) {
+            return pyb::make_tuple(array3(e.bounds().min), array3(e.bounds().max));
+          },
           "(min, max) corners of the mapped region (m).")
       .def_property_readonly(
           "base_pose", [](const environments::Environment& e) { return Eigen::Matrix4d(e.basePose().matrix()); },
@@ -195,7 +198,8 @@ void registerEnvironments(pyb::module_& m) {
            })
       .def("info", &infoDict, "The `ctr env info --json` object.")
       .def(
-          "write", [](const environments::Environment& e, const std::filesystem::path& path) { e.write(path.string()); },
+          "write",
+          [](const environments::Environment& e, const std::filesystem::path& path) { e.write(path.string()); },
           arg("path"), "Writes the octree (.bt or .ot) atomically.")
       .def("__repr__", [](const environments::Environment& e) {
         return "<ctr.Environment '" + e.name() + "', resolution " +

@@ -1,8 +1,8 @@
 // Bindings of ctr::planner: queries, CtrPlanner(...).solve() and the result with its path and replay report.
 #include "ctr/planner/planner.hpp"
-#include "ctr/planner/result_json.hpp"
 #include "common.hpp"
 #include "ctr/io/input_error.hpp"
+#include "ctr/planner/result_json.hpp"
 
 namespace ctr::py {
 
@@ -57,9 +57,9 @@ Configuration configurationFromTuple(const pyb::handle& h, const std::string& wh
 
 void registerPlanner(pyb::module_& m) {
   pyb::class_<planner::Query>(m, "Query",
-                           "A planning query (docs/planning.md): robot, environment, start and its history, goal, "
-                           "mode, planner, time limit, seed. Load with ctr.load_query(path); fields can be changed "
-                           "before planning (the CLI's --mode, --planner, --time, --seed, --cpu-time).")
+                              "A planning query (docs/planning.md): robot, environment, start and its history, goal, "
+                              "mode, planner, time limit, seed. Load with ctr.load_query(path); fields can be changed "
+                              "before planning (the CLI's --mode, --planner, --time, --seed, --cpu-time).")
       .def_readonly("file", &planner::Query::file)
       .def_readwrite("name", &planner::Query::name)
       .def_readwrite("robot", &planner::Query::robot, "Robot YAML path.")
@@ -166,8 +166,10 @@ void registerPlanner(pyb::module_& m) {
                 frame = f == "environment" ? planner::Query::LoadsFrame::Environment : planner::Query::LoadsFrame::Base;
                 continue;
               }
-              Eigen::Vector3d* dst = k == "gravity" ? &l.gravity : k == "tip_force" ? &l.tip_force
-                                                   : k == "tip_moment" ? &l.tip_moment : nullptr;
+              Eigen::Vector3d* dst = k == "gravity"      ? &l.gravity
+                                     : k == "tip_force"  ? &l.tip_force
+                                     : k == "tip_moment" ? &l.tip_moment
+                                                         : nullptr;
               if (!dst)
                 throw pyb::value_error("loads: unknown key '" + k + "' (gravity, tip_force, tip_moment, frame)");
               const Eigen::VectorXd x = toVector(kv.second, "loads " + k);
@@ -332,20 +334,21 @@ void registerPlanner(pyb::module_& m) {
       });
 
   pyb::class_<planner::CtrPlanner>(m, "CtrPlanner",
-                                "A planning problem built from a query (robot, environment, collision checker, OMPL "
-                                "set-up). solve() plans within the time limit, then replays the path through the "
-                                "friction model. One solve at a time per planner (build one planner per thread). "
-                                "OMPL's random seed is the first planner's query seed, set once per process.")
+                                   "A planning problem built from a query (robot, environment, collision checker, OMPL "
+                                   "set-up). solve() plans within the time limit, then replays the path through the "
+                                   "friction model. One solve at a time per planner (build one planner per thread). "
+                                   "OMPL's random seed is the first planner's query seed, set once per process.")
       .def(pyb::init([](const planner::Query& q) {
              pyb::gil_scoped_release release;
              return std::make_unique<planner::CtrPlanner>(q);
            }),
            arg("query"), "Loads the query's robot and environment (ctr.InputError for bad files); no GIL.")
-      .def(pyb::init([](const planner::Query& q, const Robot& robot, const std::shared_ptr<environments::Environment>& e) {
-             if (!e) throw pyb::value_error("environment: None");
-             pyb::gil_scoped_release release;
-             return std::make_unique<planner::CtrPlanner>(q, robot, *e);
-           }),
+      .def(pyb::init(
+               [](const planner::Query& q, const Robot& robot, const std::shared_ptr<environments::Environment>& e) {
+                 if (!e) throw pyb::value_error("environment: None");
+                 pyb::gil_scoped_release release;
+                 return std::make_unique<planner::CtrPlanner>(q, robot, *e);
+               }),
            arg("query"), arg("robot"), arg("environment"),
            "With a robot and an environment already loaded (the query's paths are then ignored).")
       .def_property_readonly("query", &planner::CtrPlanner::query, "The query as planned (start projected).")

@@ -39,8 +39,8 @@ json shapePoints(const Solution& sol, const Eigen::Isometry3d& world_T_base, int
 }
 
 // Occupied leaves with a non-occupied 6-neighbour, coarsened until at most max_voxels remain: flat x, y, z, size.
-json surfaceVoxels(const environments::Environment& env, const Eigen::Vector3d& lo, const Eigen::Vector3d& hi, bool crop,
-                   int max_voxels, json& meta) {
+json surfaceVoxels(const environments::Environment& env, const Eigen::Vector3d& lo, const Eigen::Vector3d& hi,
+                   bool crop, int max_voxels, json& meta) {
   const octomap::OcTree& tree = env.tree();
   std::vector<std::array<double, 4>> surf;
   std::size_t occupied = 0;

@@ -92,7 +92,8 @@ TEST(VoxelGrid, GridToOcTreeMatchesCells) {
 
   // Without known free space only occupied cells exist.
   auto sparse = gridToOcTree(g, false);
-  for (auto it = sparse->begin_leafs(), end = sparse->end_leafs(); it != end; ++it) EXPECT_TRUE(sparse->isNodeOccupied(*it));
+  for (auto it = sparse->begin_leafs(), end = sparse->end_leafs(); it != end; ++it)
+    EXPECT_TRUE(sparse->isNodeOccupied(*it));
 }
 
 TEST(VoxelGrid, RasterizeAndFillUnknown) {

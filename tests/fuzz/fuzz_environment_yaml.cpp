@@ -1,5 +1,5 @@
-// Fuzz target: environment description YAML (ctr::environments::parseEnvironmentDescription), and building of descriptions
-// whose only source is procedural, with a bounded grid.
+// Fuzz target: environment description YAML (ctr::environments::parseEnvironmentDescription), and building of
+// descriptions whose only source is procedural, with a bounded grid.
 //
 // Relative paths resolve against an empty private scratch folder; inputs containing '/' or '\\' (absolute paths,
 // "../") are skipped so that the parser never opens files outside it (Med-MPD start/target files are opened at
@@ -19,7 +19,8 @@ CTR_FUZZ_TARGET(environment_yaml) {
         ctr::environments::parseEnvironmentDescription(text, "fuzz.yaml", ctr::fuzz::scratchDir().string());
     // Build only self-contained descriptions (procedural), coarse and with a small cell cap: building has to stay
     // bounded by BuildOptions::max_cells whatever the description says.
-    if (d.obstacles.empty() && d.stay_inside && d.stay_inside->kind == ctr::environments::SourceSpec::Kind::Procedural) {
+    if (d.obstacles.empty() && d.stay_inside &&
+        d.stay_inside->kind == ctr::environments::SourceSpec::Kind::Procedural) {
       ctr::environments::BuildOptions options;
       options.resolution = 4e-3;
       options.max_cells = 100000;

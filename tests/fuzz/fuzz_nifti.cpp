@@ -1,5 +1,5 @@
-// Fuzz target: NIfTI loading through the project's wrapper (ctr::environments::readNifti + selectVoxels + selectedExtent).
-// The bytes go to a temporary .nii (or .nii.gz when they start with the gzip magic) file.
+// Fuzz target: NIfTI loading through the project's wrapper (ctr::environments::readNifti + selectVoxels +
+// selectedExtent). The bytes go to a temporary .nii (or .nii.gz when they start with the gzip magic) file.
 #include <string>
 
 #include "ctr/environments/nifti_source.hpp"

@@ -12,8 +12,8 @@
 
 #include "ctr/environments/robot_geometry.hpp"
 #include "ctr/io/input_error.hpp"
-#include "ctr/model/jacobian.hpp"
 #include "ctr/io/robot_yaml.hpp"
+#include "ctr/model/jacobian.hpp"
 #include "ctr/planner/goal.hpp"
 #include "ctr/planner/planner.hpp"
 
@@ -496,8 +496,8 @@ void expectReplayRecomputesThePlannersStates(const CtrPlanner& p, const PlanResu
     ASSERT_TRUE(st->cache && st->cache->hysteresis.valid);
     const HysteresisState& h = st->cache->hysteresis;
     // The replay point commanded exactly at this state's command (after the previous match: paths may revisit).
-    while (next < r.replay.points.size() && !(r.replay.points[next].q.alpha == h.q.alpha &&
-                                                 r.replay.points[next].q.beta == h.q.beta))
+    while (next < r.replay.points.size() &&
+           !(r.replay.points[next].q.alpha == h.q.alpha && r.replay.points[next].q.beta == h.q.beta))
       ++next;
     ASSERT_LT(next, r.replay.points.size()) << "path state " << k << " is not a replay step";
     const ReplayPoint& rp = r.replay.points[next];

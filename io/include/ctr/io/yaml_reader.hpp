@@ -30,7 +30,8 @@ struct YamlReader {
   /// @brief Refuses any key of `map` not in `keys` (named `where.key`), listing the known ones.
   void allowOnly(const YAML::Node& map, const std::string& where, const std::set<std::string>& keys) const {
     for (const auto& kv : map) {
-      if (kv.first.IsSequence() || kv.first.IsMap()) fail(kv.first, where, "a key must be a name, not a list or a mapping");
+      if (kv.first.IsSequence() || kv.first.IsMap())
+        fail(kv.first, where, "a key must be a name, not a list or a mapping");
       const std::string k = kv.first.as<std::string>("");
       if (!keys.count(k)) {
         std::string known;

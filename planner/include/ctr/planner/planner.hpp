@@ -19,23 +19,23 @@ namespace ctr::planner {
 
 /// @brief Result of planning + replay.
 struct PlanResult {
-  bool solved = false;            ///< Planner found a path AND the replay succeeded (collision-free, stable, goal).
-  bool planner_solved = false;    ///< The planner reported an (exact) solution.
+  bool solved = false;          ///< Planner found a path AND the replay succeeded (collision-free, stable, goal).
+  bool planner_solved = false;  ///< The planner reported an (exact) solution.
   Mode mode = Mode::Exact;
   std::string planner;
-  double planning_time = 0.0;     ///< Seconds in the planner (including goal sampling), on the query's clock.
+  double planning_time = 0.0;       ///< Seconds in the planner (including goal sampling), on the query's clock.
   double planning_wall_time = 0.0;  ///< The same in wall-clock seconds.
   double replay_time = 0.0;
-  double path_length = 0.0;       ///< Joint-space length of the path (state-space metric).
-  std::size_t goal_pool = 0;      ///< Goal configurations found by IK (sampleable goal), at the end of planning.
+  double path_length = 0.0;         ///< Joint-space length of the path (state-space metric).
+  std::size_t goal_pool = 0;        ///< Goal configurations found by IK (sampleable goal), at the end of planning.
   std::vector<Configuration> path;  ///< Waypoints, unwrapped, from the start.
   ReplayReport replay;
-  std::string message;            ///< Why not solved.
+  std::string message;  ///< Why not solved.
 };
 
 /// @brief Planning problem built from a query: contexts, OMPL set-ups, planner selection.
 class CtrPlanner {
-public:
+ public:
   /// @brief Loads robot and environment (throws ctr::io::InputError for bad files) and sets everything up.
   explicit CtrPlanner(const Query& query);
   /// @brief With a robot and an environment already loaded (query.robot / query.environment are ignored).
@@ -67,7 +67,7 @@ public:
   /// @brief Replays an OMPL solution path of the current set-up.
   PlanResult replaySolution(const std::string& planner, double planning_time, bool exact);
 
-private:
+ private:
   void init(Robot robot, environments::Environment e);
   Query query_;
   std::shared_ptr<const environments::Environment> env_;

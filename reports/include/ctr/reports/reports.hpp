@@ -74,13 +74,13 @@ std::string diagnosisHtml(const diagnosis::DiagnosisReport& report, const io::Re
 /// @brief Options of the planning viewer.
 struct PlanningViewOptions {
   std::string title = "ctr planning viewer";
-  int max_voxels = 60000;     ///< Surface voxels drawn at most (coarsened beyond).
-  int max_shape_points = 48;  ///< Backbone points per waypoint shape.
-  int band_waypoints = 120;   ///< Waypoints with a friction band (evenly spaced, every one if fewer; 0 = none).
-  int band_shape_points = 16; ///< Backbone points per ghost shape of a band.
-  int band_samples = 0;       ///< FrictionBandOptions::interior_samples.
-  double crop_margin = 0.0;   ///< > 0: only voxels within this distance of the path's bounding box (m).
-  std::string info_json;      ///< Optional JSON object shown in the side panel (e.g. the plan result).
+  int max_voxels = 60000;      ///< Surface voxels drawn at most (coarsened beyond).
+  int max_shape_points = 48;   ///< Backbone points per waypoint shape.
+  int band_waypoints = 120;    ///< Waypoints with a friction band (evenly spaced, every one if fewer; 0 = none).
+  int band_shape_points = 16;  ///< Backbone points per ghost shape of a band.
+  int band_samples = 0;        ///< FrictionBandOptions::interior_samples.
+  double crop_margin = 0.0;    ///< > 0: only voxels within this distance of the path's bounding box (m).
+  std::string info_json;       ///< Optional JSON object shown in the side panel (e.g. the plan result).
   /// Hysteresis state the robot arrived with (e.g. the query's start history); without it the replay starts from
   /// a rest state (no friction torque) at the first waypoint.
   std::optional<HysteresisState> start;

@@ -202,7 +202,7 @@ Campaign loadCampaign(const std::string& path) {
     if (qp.is_relative()) qp = base / qp;
     qp = qp.lexically_normal();
     if (!fs::exists(qp)) throw InputError(path, lineOf(qn[i]), key, "query file not found: " + qp.string());
-    const plan::Query q = plan::loadQuery(qp.string());
+    const planner::Query q = planner::loadQuery(qp.string());
     if (!plainName(q.name))
       throw InputError(path, lineOf(qn[i]), key,
                        "query name '" + q.name + "' must consist of letters, digits, '_', '-' or '.'");
@@ -219,7 +219,7 @@ Campaign loadCampaign(const std::string& path) {
   c.modes = stringList(path, root["modes"], "modes");
   for (std::size_t i = 0; i < c.modes.size(); ++i) {
     try {
-      plan::parseMode(c.modes[i]);
+      planner::parseMode(c.modes[i]);
     } catch (const std::exception&) {
       throw InputError(path, lineOf(root["modes"][i]), "modes[" + std::to_string(i) + "]",
                        "unknown mode '" + c.modes[i] + "' (exact, robust, frictionless)");
@@ -231,7 +231,7 @@ Campaign loadCampaign(const std::string& path) {
       throw InputError(path, lineOf(root["planners"][i]), "planners[" + std::to_string(i) + "]",
                        "must be a planner name");
     for (const auto& m : c.modes) {
-      const auto ok = plan::plannerNames(plan::parseMode(m));
+      const auto ok = planner::plannerNames(planner::parseMode(m));
       if (c.planners[i] != "default" && std::find(ok.begin(), ok.end(), c.planners[i]) == ok.end()) {
         std::string list;
         for (const auto& x : ok) list += (list.empty() ? "" : ", ") + x;

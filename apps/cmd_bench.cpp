@@ -55,7 +55,7 @@ class CpuLimited : public ob::Planner {
   }
   ob::PlannerStatus solve(const ob::PlannerTerminationCondition& ptc) override {
     checkValidity();
-    const plan::Stopwatch watch(true);
+    const planner::Stopwatch watch(true);
     const double limit = seconds_;
     const ob::PlannerTerminationCondition cpu([&watch, limit] { return watch.seconds() >= limit; });
     inner_->setProblemDefinition(pdef_);
@@ -112,7 +112,7 @@ std::string hostName() {
   return buf;
 }
 
-json replayJson(const plan::PlanResult& r) {
+json replayJson(const planner::PlanResult& r) {
   return {{"solved", r.solved},
           {"completed", r.replay.completed},
           {"collision_free", r.replay.collision_free},
@@ -127,7 +127,7 @@ json replayJson(const plan::PlanResult& r) {
 }
 
 // Replay properties added to every OMPL run (solved or not, so every run has the same columns).
-void addReplayProperties(ompl::tools::Benchmark::RunProperties& run, const plan::PlanResult* r) {
+void addReplayProperties(ompl::tools::Benchmark::RunProperties& run, const planner::PlanResult* r) {
   run["replay_solved BOOLEAN"] = r && r->solved ? "1" : "0";
   run["replay_collision_free BOOLEAN"] = r && r->replay.collision_free ? "1" : "0";
   run["replay_collisions INTEGER"] = std::to_string(r ? r->replay.collisions : 0);
@@ -176,9 +176,9 @@ struct BenchOpts {
 };
 
 int benchQuery(const BenchOpts& b) {
-  plan::Query q = plan::loadQuery(b.input);
-  if (!b.mode.empty()) q.mode = plan::parseMode(b.mode);
-  plan::CtrPlanner p(q);
+  planner::Query q = planner::loadQuery(b.input);
+  if (!b.mode.empty()) q.mode = planner::parseMode(b.mode);
+  planner::CtrPlanner p(q);
   p.checkStart();
   std::vector<std::string> names;
   if (b.planners.empty()) {
@@ -204,7 +204,7 @@ int benchQuery(const BenchOpts& b) {
     if (s.is_null()) s = json::object();
     s["runs"] = s.value("runs", 0) + 1;
     if (has) {
-      const plan::PlanResult r = p.replaySolution(planner->getName(), std::stod(run["time REAL"]), true);
+      const planner::PlanResult r = p.replaySolution(planner->getName(), std::stod(run["time REAL"]), true);
       addReplayProperties(run, &r);
       s["planner_solved"] = s.value("planner_solved", 0) + 1;
       s["replay_solved"] = s.value("replay_solved", 0) + (r.solved ? 1 : 0);
@@ -217,7 +217,7 @@ int benchQuery(const BenchOpts& b) {
     progress.advance();
   };
   ompl::tools::Benchmark::Request req(b.time, 4096.0, static_cast<unsigned int>(b.runs), 0.5, false, false, false);
-  const std::string logfile = (fs::path(b.out) / (q.name + "_" + plan::toString(q.mode) + ".log")).string();
+  const std::string logfile = (fs::path(b.out) / (q.name + "_" + planner::toString(q.mode) + ".log")).string();
   auto runBench = [&](auto& setup) {
     ompl::tools::Benchmark bench(setup, q.name);
     for (auto& pl : planners) bench.addPlanner(pl);
@@ -235,7 +235,7 @@ int benchQuery(const BenchOpts& b) {
   for (auto& [name, s] : per) {
     const int runs = s.value("runs", 0), solved = s.value("planner_solved", 0);
     json row = {{"planner", name},
-                {"mode", plan::toString(q.mode)},
+                {"mode", planner::toString(q.mode)},
                 {"runs", runs},
                 {"planner_success_rate", runs ? double(solved) / runs : 0.0},
                 {"replay_success_rate", runs ? double(s.value("replay_solved", 0)) / runs : 0.0},
@@ -257,13 +257,13 @@ constexpr const char* kUnitFormat = "ctr-bench-unit/1";
 struct LoadedQuery {
   std::string file;
   std::optional<Robot> robot;
-  std::optional<env::Environment> environment;
+  std::optional<environments::Environment> environment;
 };
 
 json runUnit(const Campaign& c, const CampaignUnit& u, LoadedQuery& cache, const std::string& shard_label,
              Progress& progress) {
-  plan::Query q = plan::loadQuery(c.queries[u.query].file);
-  q.mode = plan::parseMode(u.mode);
+  planner::Query q = planner::loadQuery(c.queries[u.query].file);
+  q.mode = planner::parseMode(u.mode);
   q.planner = u.planner;
   q.seed = u.seed;
   q.time_limit = c.time_limit;
@@ -271,18 +271,18 @@ json runUnit(const Campaign& c, const CampaignUnit& u, LoadedQuery& cache, const
   if (cache.file != q.file) {  // units are sorted by query: each shard loads a query's robot and map once
     cache.file.clear();
     cache.environment.reset();
-    env::BuildOptions bo;
+    environments::BuildOptions bo;
     if (q.env_resolution > 0) bo.resolution = q.env_resolution;
     cache.robot = io::loadRobot(q.robot);
-    cache.environment = env::loadEnvironment(q.environment, bo);
+    cache.environment = environments::loadEnvironment(q.environment, bo);
     cache.file = q.file;
   }
   reseedOmpl(u.seed);
-  plan::CtrPlanner p(q, *cache.robot, *cache.environment);
+  planner::CtrPlanner p(q, *cache.robot, *cache.environment);
   p.checkStart();
   ob::PlannerPtr planner = p.makePlanner(u.planner);
   if (c.cpu_time) planner = std::make_shared<CpuLimited>(planner, c.time_limit);
-  const plan::Stopwatch unit_watch;
+  const planner::Stopwatch unit_watch;
   const std::size_t pool = p.prepareGoal(c.time_limit);
   json runs = json::array();
   double cpu0 = 0.0;
@@ -298,7 +298,7 @@ json runUnit(const Campaign& c, const CampaignUnit& u, LoadedQuery& cache, const
     const bool has = run.count("solved BOOLEAN") && run["solved BOOLEAN"] == "1";
     json replay = nullptr;
     if (has) {
-      const plan::PlanResult r = p.replaySolution(pl->getName(), std::stod(run["time REAL"]), true);
+      const planner::PlanResult r = p.replaySolution(pl->getName(), std::stod(run["time REAL"]), true);
       addReplayProperties(run, &r);
       replay = replayJson(r);
     } else {
@@ -407,7 +407,7 @@ int benchCampaign(const BenchOpts& b) {
   Progress progress("bench shard " + shard_label, total_runs, "runs", b.quiet);
   progress.advance(kept * static_cast<std::size_t>(c.runs_per_seed));
   LoadedQuery cache;
-  const plan::Stopwatch watch;
+  const planner::Stopwatch watch;
   json ran = json::array();
   for (std::size_t k = 0; k < units.size(); ++k) {
     if (done[k]) continue;

@@ -73,16 +73,16 @@ void registerDemo(CLI::App& app, Action& action) {
 #ifdef CTR_WITH_PLANNER
 int planningDemo(const std::string& path_csv) {
   const Robot robot = io::parseRobot(demo::kRobot, "embedded:robots/proc_intracardiac.yaml");
-  const env::EnvironmentDescription d =
-      env::parseEnvironmentDescription(demo::kEnvironment, "embedded:environments/proc_intracardiac.yaml", ".");
-  const plan::Query q = plan::parseQuery(demo::kQuery, "embedded:queries/proc_intracardiac.yaml", ".", false);
-  std::cout << "ctr demo: " << robot.size() << "-tube robot in a procedural right atrium, mode " << plan::toString(q.mode)
-            << ", planner " << q.planner << ", mu' = " << (q.friction ? q.friction->boundary : robot.friction().boundary)
-            << "\n";
-  plan::CtrPlanner p(q, robot, env::buildEnvironment(d));
-  const plan::PlanResult r = p.solve();
+  const environments::EnvironmentDescription d = environments::parseEnvironmentDescription(
+      demo::kEnvironment, "embedded:environments/proc_intracardiac.yaml", ".");
+  const planner::Query q = planner::parseQuery(demo::kQuery, "embedded:queries/proc_intracardiac.yaml", ".", false);
+  std::cout << "ctr demo: " << robot.size() << "-tube robot in a procedural right atrium, mode "
+            << planner::toString(q.mode) << ", planner " << q.planner
+            << ", mu' = " << (q.friction ? q.friction->boundary : robot.friction().boundary) << "\n";
+  planner::CtrPlanner p(q, robot, environments::buildEnvironment(d));
+  const planner::PlanResult r = p.solve();
   nlohmann::json j = {{"solved", r.solved},
-                      {"mode", plan::toString(r.mode)},
+                      {"mode", planner::toString(r.mode)},
                       {"planner", r.planner},
                       {"planning_time", r.planning_time},
                       {"path_length", r.path_length},
@@ -96,7 +96,7 @@ int planningDemo(const std::string& path_csv) {
   if (!r.message.empty()) j["message"] = r.message;
   std::cout << j.dump(2) << "\n";
   if (!r.replay.points.empty()) {
-    io::writeFileAtomic(path_csv, plan::replayCsv(p.context()->robot(), r.replay));
+    io::writeFileAtomic(path_csv, planner::replayCsv(p.context()->robot(), r.replay));
     std::cout << "replayed path (" << r.replay.points.size() << " steps, with the hysteresis state) written to "
               << path_csv << "\n";
   }

@@ -110,9 +110,9 @@ void writeDesignReport(const std::string& dir) {
     // The viewer: the designed query (queries/STEM.yaml) and the path's joint values.
     const fs::path qfile = fs::path(dir) / "queries" / (stem + ".yaml");
     if (fs::exists(qfile)) {
-      const plan::Query pq = plan::loadQuery(qfile.string());
-      plan::CtrPlanner planner(pq);
-      const int n = planner.context()->robot().size();
+      const planner::Query pq = planner::loadQuery(qfile.string());
+      planner::CtrPlanner designed(pq);
+      const int n = designed.context()->robot().size();
       std::vector<Configuration> wps;
       for (std::size_t k = 0; k < tx->second.size(); ++k) {
         Configuration c = Configuration::zeros(n);
@@ -126,14 +126,14 @@ void writeDesignReport(const std::string& dir) {
         wps.push_back(c);
       }
       reports::PlanningViewOptions vo;
-      vo.title = "Design: " + name + " (" + plan::toString(pq.mode) + ")";
+      vo.title = "Design: " + name + " (" + planner::toString(pq.mode) + ")";
       if (q.contains("plan") && !q["plan"].is_null()) vo.info_json = q["plan"].dump();
-      const auto start = plan::startCache(*planner.context(), planner.query().start, pq.history);
+      const auto start = planner::startCache(*designed.context(), designed.query().start, pq.history);
       if (start && start->physics_ok) vo.start = start->hysteresis;
       const fs::path vdir = fs::path(dir) / "viewers";
       fs::create_directories(vdir);
       reports::writeHtml((vdir / (stem + ".html")).string(),
-                         reports::planningHtml(*planner.context(), wps, viewGoal(planner.query()), vo));
+                         reports::planningHtml(*designed.context(), wps, viewGoal(designed.query()), vo));
       p.viewer = "viewers/" + stem + ".html";
     }
     plots.push_back(std::move(p));
@@ -185,17 +185,17 @@ int runDesign(const DesignOpts& o, const CLI::App* sub) {
   }
   const std::string shard_label = std::to_string(index) + "/" + std::to_string(count);
   // Every input is checked before any work or output.
-  std::vector<plan::Query> queries;
+  std::vector<planner::Query> queries;
   std::set<std::string> names;
   for (const std::string& f : o.queries) {
-    plan::Query q = plan::loadQuery(f);
+    planner::Query q = planner::loadQuery(f);
     if (!names.insert(q.name).second)
       throw io::InputError(f, q.lineOf("name"), "name", "two queries are named '" + q.name + "'");
     if (!o.planner.empty()) {
-      const auto known = plan::plannerNames(q.mode);
+      const auto known = planner::plannerNames(q.mode);
       if (o.planner != "default" && std::find(known.begin(), known.end(), o.planner) == known.end())
-        throw UsageError("--planner: unknown planner '" + o.planner + "' for mode " + plan::toString(q.mode) + " of " +
-                         f);
+        throw UsageError("--planner: unknown planner '" + o.planner + "' for mode " + planner::toString(q.mode) +
+                         " of " + f);
     }
     queries.push_back(std::move(q));
   }

@@ -10,8 +10,8 @@
 #include <octomap/OcTree.h>
 
 #include "commands.hpp"
-#include "ctr/environments/environment_json.hpp"
 #include "ctr/environments/collision.hpp"
+#include "ctr/environments/environment_json.hpp"
 #include "ctr/environments/environment_yaml.hpp"
 #include "ctr/io/robot_yaml.hpp"
 #include "ctr/model/kinematics.hpp"
@@ -23,7 +23,9 @@ namespace {
 
 using Json = nlohmann::json;
 
-Json vec(const Eigen::Vector3d& v) { return Json::array({v.x(), v.y(), v.z()}); }
+Json vec(const Eigen::Vector3d& v) {
+  return Json::array({v.x(), v.y(), v.z()});
+}
 
 std::string fmtMm(const Eigen::Vector3d& v) {
   std::ostringstream os;
@@ -50,10 +52,10 @@ void addEnvOptions(CLI::App* sub, EnvOptions& o) {
 
 // With `progress`: its total is set to the build's steps (load each source, rasterise, + one step left to the
 // caller, e.g. writing the octree), and each step is counted as it starts.
-env::Environment buildFrom(const EnvOptions& o, Progress* progress = nullptr) {
-  env::BuildOptions bo;
+environments::Environment buildFrom(const EnvOptions& o, Progress* progress = nullptr) {
+  environments::BuildOptions bo;
   if (o.resolution > 0.0) bo.resolution = o.resolution;
-  const env::EnvironmentDescription desc = env::loadEnvironmentDescription(o.file);
+  const environments::EnvironmentDescription desc = environments::loadEnvironmentDescription(o.file);
   std::size_t step = 0;
   if (progress) progress->setTotal(desc.obstacles.size() + (desc.stay_inside ? 1 : 0) + 2);
   if (o.verbose || progress)
@@ -66,7 +68,7 @@ env::Environment buildFrom(const EnvOptions& o, Progress* progress = nullptr) {
         std::cerr << "  " << m << "\n";
       }
     };
-  env::Environment e = env::buildEnvironment(desc, bo);
+  environments::Environment e = environments::buildEnvironment(desc, bo);
   if (!o.start.empty()) {
     try {
       e.useStart(o.start);
@@ -77,8 +79,8 @@ env::Environment buildFrom(const EnvOptions& o, Progress* progress = nullptr) {
   return e;
 }
 
-void printInfo(std::ostream& os, const env::Environment& e) {
-  const env::OccupancyStats st = e.stats();
+void printInfo(std::ostream& os, const environments::Environment& e) {
+  const environments::OccupancyStats st = e.stats();
   const Eigen::Vector3d sz = e.bounds().size();
   os << "environment  " << e.name() << "\n";
   os << "resolution   " << e.resolution() * 1e3 << " mm\n";
@@ -91,17 +93,17 @@ void printInfo(std::ostream& os, const env::Environment& e) {
   os << "build time   " << e.buildSeconds() << " s\n";
   for (const auto& s : e.sources()) os << "source       " << s << "\n";
   os << "base pose    " << e.basePoseSource() << ": position " << fmtMm(e.basePose().translation()) << ", direction "
-     << e.basePose().linear().col(2).transpose() << " (" << env::toString(e.occupancy(e.basePose().translation()))
-     << ")\n";
+     << e.basePose().linear().col(2).transpose() << " ("
+     << environments::toString(e.occupancy(e.basePose().translation())) << ")\n";
   for (const auto& s : e.starts())
     os << "start        " << s.name << ": position " << fmtMm(s.pose.translation()) << ", direction "
        << s.pose.linear().col(2).transpose() << "\n";
   for (const auto& t : e.targets())
-    os << "target       " << t.name << ": " << fmtMm(t.position) << " (" << env::toString(e.occupancy(t.position))
-       << ", " << std::setprecision(4) << (t.position - e.basePose().translation()).norm() * 1e3
-       << " mm from the base)\n";
+    os << "target       " << t.name << ": " << fmtMm(t.position) << " ("
+       << environments::toString(e.occupancy(t.position)) << ", " << std::setprecision(4)
+       << (t.position - e.basePose().translation()).norm() * 1e3 << " mm from the base)\n";
   os << "collision    safety margin " << e.collisionDefaults().safety_margin * 1e3 << " mm, unknown space "
-     << env::toString(e.collisionDefaults().unknown_space);
+     << environments::toString(e.collisionDefaults().unknown_space);
   if (e.collisionDefaults().exclude_proximal > 0)
     os << ", first " << e.collisionDefaults().exclude_proximal * 1e3 << " mm excluded";
   os << "\n";
@@ -116,15 +118,16 @@ void registerEnv(CLI::App& app, Action& action) {
   // ctr env info
   {
     auto o = std::make_shared<EnvOptions>();
-    CLI::App* sub = env->add_subcommand("info", "Build an environment and print bounds, resolution, occupied volume, "
-                                                "base pose, starts, targets and build time");
+    CLI::App* sub = env->add_subcommand("info",
+                                        "Build an environment and print bounds, resolution, occupied volume, "
+                                        "base pose, starts, targets and build time");
     addEnvOptions(sub, *o);
     sub->add_flag("--json", o->json, "Print one JSON object");
     sub->callback([o, &action]() {
       action = [o]() {
-        const env::Environment e = buildFrom(*o);
+        const environments::Environment e = buildFrom(*o);
         if (o->json)
-          std::cout << env::infoJson(e, 2) << "\n";
+          std::cout << environments::infoJson(e, 2) << "\n";
         else
           printInfo(std::cout, e);
         return static_cast<int>(kOk);
@@ -144,11 +147,11 @@ void registerEnv(CLI::App& app, Action& action) {
       action = [o, out]() {
         const std::string& path = *out;
         const bool ok_ext = (path.size() > 3 && (path.compare(path.size() - 3, 3, ".bt") == 0 ||
-                                                  path.compare(path.size() - 3, 3, ".ot") == 0));
+                                                 path.compare(path.size() - 3, 3, ".ot") == 0));
         if (!ok_ext) throw UsageError("-o: the output must end in .bt or .ot");
         checkOutputPath("-o", path, {{"ENV", o->file}});
         Progress progress("env build", 0, "steps", o->quiet);
-        const env::Environment e = buildFrom(*o, &progress);
+        const environments::Environment e = buildFrom(*o, &progress);
         const std::size_t steps = progress.total();
         progress.set(steps - 1);  // loaded and rasterised; the last step writes the octree
         progress.setDetail("writing " + path);
@@ -156,10 +159,9 @@ void registerEnv(CLI::App& app, Action& action) {
         progress.setDetail("");
         progress.set(steps);
         progress.finish();
-        const env::OccupancyStats st = e.stats();
+        const environments::OccupancyStats st = e.stats();
         std::cout << "wrote " << path << ": " << st.nodes << " nodes, resolution " << e.resolution() * 1e3
-                  << " mm, occupied " << st.occupied_volume * 1e6 << " cm^3, built in " << e.buildSeconds()
-                  << " s\n";
+                  << " mm, occupied " << st.occupied_volume * 1e6 << " cm^3, built in " << e.buildSeconds() << " s\n";
         return static_cast<int>(kOk);
       };
     });
@@ -192,7 +194,7 @@ void registerEnv(CLI::App& app, Action& action) {
       action = [o]() {
         const Robot robot = io::loadRobot(o->robot);
         const Configuration q = o->config.resolve(robot);
-        auto e = std::make_shared<const env::Environment>(buildFrom(o->env));
+        auto e = std::make_shared<const environments::Environment>(buildFrom(o->env));
         Workspace ws;
         KinematicsOptions ko;
         ko.record_backbone = true;
@@ -203,18 +205,18 @@ void registerEnv(CLI::App& app, Action& action) {
           std::cerr << "error: the model did not converge: " << sol.summary.message << "\n";
           return static_cast<int>(kRuntimeFailure);
         }
-        env::CollisionOptions co = env::CollisionOptions::fromEnvironment(*e);
+        environments::CollisionOptions co = environments::CollisionOptions::fromEnvironment(*e);
         if (o->margin >= 0.0) co.geometry.safety_margin = o->margin;
-        if (!o->unknown.empty()) co.unknown_space = env::parseUnknownSpace(o->unknown);
+        if (!o->unknown.empty()) co.unknown_space = environments::parseUnknownSpace(o->unknown);
         co.max_distance = o->max_distance;
         const auto t0 = std::chrono::steady_clock::now();
-        env::CollisionChecker checker(e, robot, co);
+        environments::CollisionChecker checker(e, robot, co);
         const double t_checker = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
         auto query = checker.query();
         const auto t1 = std::chrono::steady_clock::now();
-        const env::CollisionResult col = checker.check(sol, query);
+        const environments::CollisionResult col = checker.check(sol, query);
         const auto t2 = std::chrono::steady_clock::now();
-        const env::ClearanceResult cl = checker.clearance(sol, query);
+        const environments::ClearanceResult cl = checker.clearance(sol, query);
         const auto t3 = std::chrono::steady_clock::now();
         const double us_col = std::chrono::duration<double, std::micro>(t2 - t1).count();
         const double us_cl = std::chrono::duration<double, std::micro>(t3 - t2).count();

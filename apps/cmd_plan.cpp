@@ -29,30 +29,31 @@ void registerPlan(CLI::App& app, Action& action) {
   sub->add_option("--mode", o->mode, "Override the mode: exact, robust, frictionless");
   sub->add_option("--time", o->time, "Override the time limit (s)")->check(finitePositive());
   sub->add_option("--seed", o->seed, "Override the seed")->check(finiteNonNegative());
-  sub->add_flag("--cpu-time", o->cpu_time, "Time limit and planning time in CPU seconds of the process (reproducible on a loaded machine)");
+  sub->add_flag("--cpu-time", o->cpu_time,
+                "Time limit and planning time in CPU seconds of the process (reproducible on a loaded machine)");
   sub->callback([o, &action]() {
     action = [o]() {
       checkOutputPath("--json", o->json, {{"query", o->query}});
       checkOutputPath("--path", o->path, {{"query", o->query}, {"--json", o->json}});
       requireHtmlReports(o->html);
       checkOutputPath("--html", o->html, {{"query", o->query}, {"--json", o->json}, {"--path", o->path}});
-      plan::Query q = plan::loadQuery(o->query);
-      if (!o->mode.empty()) q.mode = plan::parseMode(o->mode);
+      planner::Query q = planner::loadQuery(o->query);
+      if (!o->mode.empty()) q.mode = planner::parseMode(o->mode);
       if (!o->planner.empty()) q.planner = o->planner;
       if (o->time > 0) q.time_limit = o->time;
       if (o->seed >= 0) q.seed = static_cast<std::uint64_t>(o->seed);
       if (o->cpu_time) q.cpu_time_limit = true;
-      plan::CtrPlanner p(q);
+      planner::CtrPlanner p(q);
       p.checkStart();
       p.makePlanner(q.planner);  // unknown planner: usage error before planning
-      std::cerr << "planning '" << q.name << "' (" << plan::toString(q.mode) << ", " << q.planner << ", "
+      std::cerr << "planning '" << q.name << "' (" << planner::toString(q.mode) << ", " << q.planner << ", "
                 << q.time_limit << " s)...\n";
-      const plan::PlanResult r = p.solve();
-      const std::string j = plan::resultJson(q, r);
+      const planner::PlanResult r = p.solve();
+      const std::string j = planner::resultJson(q, r);
       std::cout << j << "\n";
       if (!o->json.empty()) io::writeFileAtomic(o->json, j + "\n");
       if (!o->path.empty() && !r.replay.points.empty())
-        io::writeFileAtomic(o->path, plan::replayCsv(p.context()->robot(), r.replay));
+        io::writeFileAtomic(o->path, planner::replayCsv(p.context()->robot(), r.replay));
 #ifdef CTR_WITH_REPORTS
       if (!o->html.empty()) {
         std::vector<Configuration> wps;
@@ -60,9 +61,9 @@ void registerPlan(CLI::App& app, Action& action) {
         if (wps.empty()) wps = r.path;
         if (wps.empty()) wps.push_back(p.query().start);  // projected onto the admissible set
         reports::PlanningViewOptions vo;
-        vo.title = "Plan: " + q.name + " (" + plan::toString(q.mode) + ")";
-        vo.info_json = plan::resultJson(q, r, -1);
-        const auto start = plan::startCache(*p.context(), p.query().start, q.history);
+        vo.title = "Plan: " + q.name + " (" + planner::toString(q.mode) + ")";
+        vo.info_json = planner::resultJson(q, r, -1);
+        const auto start = planner::startCache(*p.context(), p.query().start, q.history);
         if (start && start->physics_ok) vo.start = start->hysteresis;
         // p.query(): the goal with a named target resolved to its position in the environment.
         reports::writeHtml(o->html, reports::planningHtml(*p.context(), wps, viewGoal(p.query()), vo));

@@ -48,16 +48,16 @@ void registerView(CLI::App& app, Action& action) {
           throw io::InputError(o->path, rec.lineOf(k), "",
                                "row " + std::to_string(k + 1) + " is not admissible: " + a.message);
       }
-      env::BuildOptions bo;
+      environments::BuildOptions bo;
       if (o->env_resolution > 0) bo.resolution = o->env_resolution;
-      env::Environment environment = env::loadEnvironment(o->env, bo);
+      environments::Environment environment = environments::loadEnvironment(o->env, bo);
       std::optional<reports::ViewGoal> goal;
-      std::shared_ptr<const plan::Context> ctx;
-      std::unique_ptr<plan::CtrPlanner> planner;
+      std::shared_ptr<const planner::Context> ctx;
+      std::unique_ptr<planner::CtrPlanner> planner;
       if (!o->query.empty()) {
-        plan::Query q = plan::loadQuery(o->query);
+        planner::Query q = planner::loadQuery(o->query);
         q.start = rec.commands.front();
-        planner = std::make_unique<plan::CtrPlanner>(q, robot, std::move(environment));
+        planner = std::make_unique<planner::CtrPlanner>(q, robot, std::move(environment));
         ctx = planner->context();
         goal = viewGoal(planner->query());
       } else {
@@ -67,15 +67,16 @@ void registerView(CLI::App& app, Action& action) {
           g.name = environment.targets()[0].name;
           goal = g;
         }
-        auto e = std::make_shared<const env::Environment>(std::move(environment));
-        plan::ContextOptions co;
+        auto e = std::make_shared<const environments::Environment>(std::move(environment));
+        planner::ContextOptions co;
         co.friction.kinematics.record_backbone = true;
-        ctx = std::make_shared<const plan::Context>(robot, e, co, env::CollisionOptions::fromEnvironment(*e));
+        ctx =
+            std::make_shared<const planner::Context>(robot, e, co, environments::CollisionOptions::fromEnvironment(*e));
       }
       reports::PlanningViewOptions vo;
       if (planner) {
         // The query's start history (the path's first row is the start configuration).
-        const auto start = plan::startCache(*ctx, rec.commands.front(), planner->query().history);
+        const auto start = planner::startCache(*ctx, rec.commands.front(), planner->query().history);
         if (start && start->physics_ok) vo.start = start->hysteresis;
       }
       vo.title = "Path: " + o->path;

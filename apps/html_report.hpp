@@ -29,7 +29,7 @@ inline void requireHtmlReports(const std::string& html) {
 namespace ctr::cli {
 
 /// The goal of a query as shown by the planning viewer (none without a tip goal).
-inline std::optional<reports::ViewGoal> viewGoal(const plan::Query& q) {
+inline std::optional<reports::ViewGoal> viewGoal(const planner::Query& q) {
   if (!q.tip_goal) return std::nullopt;
   reports::ViewGoal g;
   for (int d = 0; d < 3; ++d) g.position[static_cast<std::size_t>(d)] = q.tip_goal->position[d];

@@ -31,9 +31,9 @@ bool haveLung() {
 }
 
 struct Scene {
-  std::shared_ptr<const env::Environment> env;
+  std::shared_ptr<const environments::Environment> env;
   std::unique_ptr<Robot> robot;
-  std::unique_ptr<env::CollisionChecker> checker;
+  std::unique_ptr<environments::CollisionChecker> checker;
   std::vector<Solution> shapes;
   double checker_seconds = 0.0;
 };
@@ -66,12 +66,13 @@ std::vector<Solution> randomShapes(const Robot& robot, int count, unsigned seed)
 Scene& lungScene() {
   static Scene scene = [] {
     Scene s;
-    env::Environment e = env::loadEnvironment(kLung);
+    environments::Environment e = environments::loadEnvironment(kLung);
     e.useStart("start3");  // a start pose with room around it (see docs/environments.md)
-    s.env = std::make_shared<const env::Environment>(std::move(e));
+    s.env = std::make_shared<const environments::Environment>(std::move(e));
     s.robot = std::make_unique<Robot>(io::loadRobot(kExamples + "/robots/medmpd_lung.yaml"));
     const auto t0 = Clock::now();
-    s.checker = std::make_unique<env::CollisionChecker>(s.env, *s.robot, env::CollisionOptions::fromEnvironment(*s.env));
+    s.checker = std::make_unique<environments::CollisionChecker>(
+        s.env, *s.robot, environments::CollisionOptions::fromEnvironment(*s.env));
     s.checker_seconds = std::chrono::duration<double>(Clock::now() - t0).count();
     s.shapes = randomShapes(*s.robot, 500, 1);
     return s;
@@ -82,10 +83,11 @@ Scene& lungScene() {
 Scene& heartScene() {
   static Scene scene = [] {
     Scene s;
-    s.env = std::make_shared<const env::Environment>(env::loadEnvironment(kHeart));
+    s.env = std::make_shared<const environments::Environment>(environments::loadEnvironment(kHeart));
     s.robot = std::make_unique<Robot>(io::loadRobot(kExamples + "/robots/proc_intracardiac.yaml"));
     const auto t0 = Clock::now();
-    s.checker = std::make_unique<env::CollisionChecker>(s.env, *s.robot, env::CollisionOptions::fromEnvironment(*s.env));
+    s.checker = std::make_unique<environments::CollisionChecker>(
+        s.env, *s.robot, environments::CollisionOptions::fromEnvironment(*s.env));
     s.checker_seconds = std::chrono::duration<double>(Clock::now() - t0).count();
     s.shapes = randomShapes(*s.robot, 500, 2);
     return s;
@@ -107,12 +109,12 @@ void BM_LungCollision(benchmark::State& state, bool prefilter) {
     return;
   }
   Scene& s = lungScene();
-  env::CollisionOptions opt = s.checker->options();
-  std::unique_ptr<env::CollisionChecker> own;
-  const env::CollisionChecker* checker = s.checker.get();
+  environments::CollisionOptions opt = s.checker->options();
+  std::unique_ptr<environments::CollisionChecker> own;
+  const environments::CollisionChecker* checker = s.checker.get();
   if (!prefilter) {
     opt.distance_field = false;
-    own = std::make_unique<env::CollisionChecker>(s.env, *s.robot, opt);
+    own = std::make_unique<environments::CollisionChecker>(s.env, *s.robot, opt);
     checker = own.get();
   }
   auto q = checker->query();
@@ -121,7 +123,7 @@ void BM_LungCollision(benchmark::State& state, bool prefilter) {
   for (auto _ : state) {
     const Solution& sol = s.shapes[i++ % s.shapes.size()];
     const auto t0 = Clock::now();
-    const env::CollisionResult r = checker->check(sol, q);
+    const environments::CollisionResult r = checker->check(sol, q);
     us.push_back(std::chrono::duration<double, std::micro>(Clock::now() - t0).count());
     benchmark::DoNotOptimize(r.collision);
     collisions += r.collision;
@@ -184,7 +186,7 @@ void BM_LungBuild1mm(benchmark::State& state) {
     return;
   }
   for (auto _ : state) {
-    const env::Environment e = env::loadEnvironment(kLung);
+    const environments::Environment e = environments::loadEnvironment(kLung);
     benchmark::DoNotOptimize(e.tree().size());
     state.counters["nodes"] = static_cast<double>(e.tree().size());
   }
@@ -199,7 +201,7 @@ void BM_LungCheckerBuild(benchmark::State& state) {
   }
   Scene& s = lungScene();
   for (auto _ : state) {
-    env::CollisionChecker c(s.env, *s.robot, env::CollisionOptions::fromEnvironment(*s.env));
+    environments::CollisionChecker c(s.env, *s.robot, environments::CollisionOptions::fromEnvironment(*s.env));
     state.counters["field_cells"] = static_cast<double>(c.distanceField()->cells());
   }
 }
@@ -207,17 +209,17 @@ BENCHMARK(BM_LungCheckerBuild)->Unit(benchmark::kMillisecond)->Iterations(2);
 
 void BM_IntracardiacBuild(benchmark::State& state) {
   for (auto _ : state) {
-    const env::Environment e = env::loadEnvironment(kHeart);
+    const environments::Environment e = environments::loadEnvironment(kHeart);
     benchmark::DoNotOptimize(e.tree().size());
   }
 }
 BENCHMARK(BM_IntracardiacBuild)->Unit(benchmark::kMillisecond)->Iterations(10);
 
 void BM_IntracardiacChecker(benchmark::State& state) {
-  auto e = std::make_shared<const env::Environment>(env::loadEnvironment(kHeart));
+  auto e = std::make_shared<const environments::Environment>(environments::loadEnvironment(kHeart));
   const Robot robot = io::loadRobot(kExamples + "/robots/proc_intracardiac.yaml");
   for (auto _ : state) {
-    env::CollisionChecker c(e, robot, env::CollisionOptions::fromEnvironment(*e));
+    environments::CollisionChecker c(e, robot, environments::CollisionOptions::fromEnvironment(*e));
     benchmark::DoNotOptimize(c.distanceField());
   }
 }

@@ -59,7 +59,7 @@ void BM_SolveCold(benchmark::State& st) {
   }
 }
 
-// The planner's solver settings (ctr::plan::planningKinematicsOptions(); the planner is not linked here): RK4 steps
+// The planner's solver settings (ctr::planner::planningKinematicsOptions(); the planner is not linked here): RK4 steps
 // of at most 40 mm and 0.3 rad of bending instead of the library default (10 mm / 0.12 rad), tolerance 1e-8 and the
 // secant warm-start predictor.
 // The planner's steps only (library tolerance, no predictor): what the planning settings gain from each part.

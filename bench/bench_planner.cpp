@@ -16,19 +16,19 @@ namespace {
 using namespace ctr;
 
 // The planning context of Med-MPD lung patient `patient` with the lung robot (null without ../shared/data/med-mpd).
-std::shared_ptr<const plan::Context> makeLungContext(int patient) {
+std::shared_ptr<const planner::Context> makeLungContext(int patient) {
   const std::string envf =
       std::string(CTR_SOURCE_DIR) + "/examples/environments/medmpd_lung_patient" + std::to_string(patient) + ".yaml";
   if (!std::filesystem::exists(std::string(CTR_SHARED_DIR) + "/data/med-mpd")) return nullptr;
-  auto env = std::make_shared<const env::Environment>(env::loadEnvironment(envf));
+  auto env = std::make_shared<const environments::Environment>(environments::loadEnvironment(envf));
   Robot r = io::loadRobot(std::string(CTR_SOURCE_DIR) + "/examples/robots/medmpd_lung.yaml").withFriction({0.1, 0.0});
-  plan::ContextOptions co;
+  planner::ContextOptions co;
   co.friction.kinematics.record_backbone = true;
-  return std::make_shared<const plan::Context>(r, env, co, env::CollisionOptions::fromEnvironment(*env));
+  return std::make_shared<const planner::Context>(r, env, co, environments::CollisionOptions::fromEnvironment(*env));
 }
 
-std::shared_ptr<const plan::Context> lungContext() {
-  static std::shared_ptr<const plan::Context> ctx = makeLungContext(1);
+std::shared_ptr<const planner::Context> lungContext() {
+  static std::shared_ptr<const planner::Context> ctx = makeLungContext(1);
   return ctx;
 }
 
@@ -45,7 +45,7 @@ void BM_ValidityCold(benchmark::State& st) {
   std::vector<Configuration> qs;
   for (int k = 0; k < 512; ++k) qs.push_back(sampleConfiguration(ctx->robot(), ctx->translationSampler(), g));
   std::size_t k = 0, valid = 0;
-  for (auto _ : st) valid += plan::checkFrictionless(*ctx, qs[k++ % qs.size()], plan::scratch()).ok;
+  for (auto _ : st) valid += planner::checkFrictionless(*ctx, qs[k++ % qs.size()], planner::scratch()).ok;
   reportValidity(st, valid);
 }
 
@@ -54,14 +54,14 @@ void BM_ValidityAlongMotion(benchmark::State& st) {
   if (!ctx) return st.SkipWithError("../shared/data/med-mpd not found");
   std::mt19937_64 g(2);
   Configuration q = sampleConfiguration(ctx->robot(), ctx->translationSampler(), g);
-  plan::ConfigurationCheck prev = plan::checkFrictionless(*ctx, q, plan::scratch());
+  planner::ConfigurationCheck prev = planner::checkFrictionless(*ctx, q, planner::scratch());
   int k = 0;
   std::size_t valid = 0;
   for (auto _ : st) {
     const int i = k % q.size();
     q.alpha[i] += ((k / 200) % 2 ? -1 : 1) * 0.0087;  // 0.5 deg steps, as the motion validator
     ++k;
-    prev = plan::checkFrictionless(*ctx, q, plan::scratch(), prev.shape.converged() ? &prev.shape : nullptr);
+    prev = planner::checkFrictionless(*ctx, q, planner::scratch(), prev.shape.converged() ? &prev.shape : nullptr);
     valid += prev.ok;
   }
   reportValidity(st, valid);
@@ -74,9 +74,9 @@ void BM_ValidityAlongMotion(benchmark::State& st) {
 // configuration below), at 0.5 deg / 0.5 mm, checked forth and back, each check warm-started from the previous shape;
 // every shape is collision-free, so the whole capsule chain is checked.
 void BM_ValidityAlongPlannedPath(benchmark::State& st) {
-  static std::shared_ptr<const plan::Context> ctx_holder = makeLungContext(2);
+  static std::shared_ptr<const planner::Context> ctx_holder = makeLungContext(2);
   if (!ctx_holder) return st.SkipWithError("../shared/data/med-mpd not found");
-  const plan::Context& ctx = *ctx_holder;
+  const planner::Context& ctx = *ctx_holder;
   const Configuration a(Eigen::Vector3d(0.0, 0.0, 0.0), Eigen::Vector3d(-0.118, -0.218, -0.318));
   const Configuration b(Eigen::Vector3d(-0.537556, -1.836102, -2.506250),
                         Eigen::Vector3d(-0.096936, -0.150559, -0.250559));
@@ -87,14 +87,14 @@ void BM_ValidityAlongPlannedPath(benchmark::State& st) {
     const double t = k / n;
     qs.emplace_back((1 - t) * a.alpha + t * b.alpha, (1 - t) * a.beta + t * b.beta);
   }
-  plan::ConfigurationCheck prev = plan::checkFrictionless(ctx, qs[0], plan::scratch());
+  planner::ConfigurationCheck prev = planner::checkFrictionless(ctx, qs[0], planner::scratch());
   std::size_t k = 0, valid = 0;
   const std::size_t period = 2 * (qs.size() - 1);
   for (auto _ : st) {
     const std::size_t j = k % period;
     const Configuration& q = qs[j < qs.size() ? j : period - j];
     ++k;
-    prev = plan::checkFrictionless(ctx, q, plan::scratch(), prev.shape.converged() ? &prev.shape : nullptr);
+    prev = planner::checkFrictionless(ctx, q, planner::scratch(), prev.shape.converged() ? &prev.shape : nullptr);
     valid += prev.ok;
   }
   reportValidity(st, valid);
@@ -105,16 +105,16 @@ void BM_FrictionMotionStep(benchmark::State& st) {
   auto ctx = lungContext();
   if (!ctx) return st.SkipWithError("../shared/data/med-mpd not found");
   const Configuration q0(Eigen::Vector3d(0.0, 0.5, -0.5), Eigen::Vector3d(-0.118, -0.218, -0.318));
-  const std::shared_ptr<const plan::StateCache> start = plan::startCache(*ctx, q0, plan::StartHistory{});
+  const std::shared_ptr<const planner::StateCache> start = planner::startCache(*ctx, q0, planner::StartHistory{});
   if (!start->physics_ok) return st.SkipWithError(("start not valid: " + start->why).c_str());
-  std::shared_ptr<const plan::StateCache> cur = start;
+  std::shared_ptr<const planner::StateCache> cur = start;
   int k = 0;
   for (auto _ : st) {
     if (!cur->physics_ok) cur = start;
     Configuration q = cur->hysteresis.q;
     q.alpha[1] += ((k++ / 100) % 2 ? -1 : 1) * 0.0087;  // one 0.5 deg quasi-static step with collision check
-    cur = plan::propagateCache(*ctx, *cur, q);
-    benchmark::DoNotOptimize(plan::checkShape(*ctx, cur->solution, plan::scratch()).ok);
+    cur = planner::propagateCache(*ctx, *cur, q);
+    benchmark::DoNotOptimize(planner::checkShape(*ctx, cur->solution, planner::scratch()).ok);
   }
   st.counters["steps/s"] = benchmark::Counter(static_cast<double>(st.iterations()), benchmark::Counter::kIsRate);
 }
@@ -138,7 +138,7 @@ void BM_InverseKinematics(benchmark::State& st) {
   for (auto _ : st) {
     const auto& c = cases[k++ % cases.size()];
     Configuration q = c.first;
-    reached += plan::inverseKinematics(*ctx, c.second, q, static_cast<int>(st.range(0))) < 1e-4;
+    reached += planner::inverseKinematics(*ctx, c.second, q, static_cast<int>(st.range(0))) < 1e-4;
   }
   st.counters["reached_fraction"] = static_cast<double>(reached) / static_cast<double>(st.iterations());
 }

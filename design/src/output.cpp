@@ -171,7 +171,7 @@ std::string resultJson(const Designer& d, const DesignResult& r, const DesignOpt
   j["space"] = spaceToYaml(d.space());
   json queries = json::array();
   for (std::size_t k = 0; k < d.queries().size(); ++k) {
-    const plan::Query& q = d.queries()[k];
+    const planner::Query& q = d.queries()[k];
     json e = {{"query", q.name}, {"file", fs::absolute(q.file).lexically_normal().string()}};
     if (r.best && k < r.best->queries.size()) {
       const QueryOutcome& b = r.best->queries[k];

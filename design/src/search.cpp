@@ -324,16 +324,17 @@ std::vector<Evaluation> searchStart(const DesignSpace& space, int start, const D
 // ---------------------------------------------------------------------------------------------------------------
 // Designer
 
-Designer::Designer(std::vector<plan::Query> queries, std::optional<DesignSpace> space) : queries_(std::move(queries)) {
+Designer::Designer(std::vector<planner::Query> queries, std::optional<DesignSpace> space)
+    : queries_(std::move(queries)) {
   if (queries_.empty()) throw std::invalid_argument("design: no query");
-  for (const plan::Query& q : queries_) {
+  for (const planner::Query& q : queries_) {
     if (!q.tip_goal)
       throw io::InputError(q.file, q.lineOf("goal"), "goal",
                            "a design needs a tip goal (target or position), not a goal configuration");
     bases_.push_back(io::loadRobot(q.robot));
-    env::BuildOptions bo;
+    environments::BuildOptions bo;
     if (q.env_resolution > 0) bo.resolution = q.env_resolution;
-    env::Environment e = env::loadEnvironment(q.environment, bo);
+    environments::Environment e = environments::loadEnvironment(q.environment, bo);
     if (!q.base_start.empty()) {
       try {
         e.useStart(q.base_start);
@@ -341,7 +342,7 @@ Designer::Designer(std::vector<plan::Query> queries, std::optional<DesignSpace> 
         throw io::InputError(q.file, q.lineOf("base_start"), "base_start", ex.what());
       }
     }
-    envs_.push_back(std::make_shared<const env::Environment>(std::move(e)));
+    envs_.push_back(std::make_shared<const environments::Environment>(std::move(e)));
   }
   if (space) {
     space_ = std::move(*space);
@@ -375,14 +376,14 @@ Evaluation Designer::evaluate(const Candidate& c, std::uint64_t seed, const Desi
   const Robot robot = robotOf(c);
   ev.robot_yaml = io::robotToYaml(robot);
   using St = QueryOutcome::Stage;
-  std::vector<std::unique_ptr<plan::CtrPlanner>> planners(queries_.size());
-  std::vector<plan::Query> qs(queries_.size());
+  std::vector<std::unique_ptr<planner::CtrPlanner>> planners(queries_.size());
+  std::vector<planner::Query> qs(queries_.size());
   ev.queries.resize(queries_.size());
   bool all_goals = true;
   for (std::size_t k = 0; k < queries_.size(); ++k) {
     const auto tq = Clock::now();
     QueryOutcome& out = ev.queries[k];
-    plan::Query q = queries_[k];
+    planner::Query q = queries_[k];
     q.base_start.clear();  // the environment is already at its base pose
     q.seed = mix(seed, k);
     if (o.plan_time > 0) q.time_limit = o.plan_time;
@@ -397,7 +398,7 @@ Evaluation Designer::evaluate(const Candidate& c, std::uint64_t seed, const Desi
     q.start = start;
     out.start = start;
     try {
-      planners[k] = std::make_unique<plan::CtrPlanner>(q, robot, *envs_[k]);
+      planners[k] = std::make_unique<planner::CtrPlanner>(q, robot, *envs_[k]);
       {
         std::lock_guard<std::mutex> lock(keep_mutex_);
         keep_[k] = planners[k]->context();
@@ -414,18 +415,18 @@ Evaluation Designer::evaluate(const Candidate& c, std::uint64_t seed, const Desi
     qs[k] = planners[k]->query();
     // Goal probe: inverse kinematics from random configurations, as the planner's goal pool does, keeping what the
     // score needs (closest tip distance, best clearance on the target).
-    const plan::Context& ctx = *planners[k]->context();
-    const plan::TipGoalSpec& goal = *qs[k].tip_goal;
+    const planner::Context& ctx = *planners[k]->context();
+    const planner::TipGoalSpec& goal = *qs[k].tip_goal;
     std::mt19937_64 gen(mix(seed, 1000 + k));
-    plan::ThreadScratch& t = plan::scratch();
+    planner::ThreadScratch& t = planner::scratch();
     const auto tp = Clock::now();
     while (out.ik_tried < o.probe_candidates && out.valid_goals < o.probe_goals && since(tp) < o.probe_time) {
       Configuration cq = sampleConfiguration(ctx.robot(), ctx.translationSampler(), gen);
-      const double err = plan::inverseKinematics(ctx, goal.position, cq);
+      const double err = planner::inverseKinematics(ctx, goal.position, cq);
       ++out.ik_tried;
       if (std::isfinite(err)) out.closest = std::min(out.closest, err);
       if (!(err < 0.5 * goal.tolerance)) continue;
-      const plan::ConfigurationCheck chk = plan::checkFrictionless(ctx, cq, t);
+      const planner::ConfigurationCheck chk = planner::checkFrictionless(ctx, cq, t);
       if (!chk.shape.converged()) continue;
       const Eigen::Vector3d tip = ctx.basePose() * chk.shape.tip_position;
       bool on = (tip - goal.position).norm() <= goal.tolerance;
@@ -436,10 +437,10 @@ Evaluation Designer::evaluate(const Candidate& c, std::uint64_t seed, const Desi
       if (!on) continue;
       ++out.ik_on_target;
       bool ok = chk.ok;
-      if (ok && qs[k].mode == plan::Mode::Robust) ok = plan::checkRobust(ctx, cq, t).ok;
+      if (ok && qs[k].mode == planner::Mode::Robust) ok = planner::checkRobust(ctx, cq, t).ok;
       if (ok) ++out.valid_goals;
       if (chk.shape.summary.stable && ctx.checker().distanceField()) {
-        const env::ClearanceResult cr = ctx.checker().clearance(chk.shape, t.query);
+        const environments::ClearanceResult cr = ctx.checker().clearance(chk.shape, t.query);
         const double cl = chk.ok ? std::max(cr.clearance, 0.0) : std::min(cr.clearance, 0.0);
         out.goal_clearance = std::max(out.goal_clearance, cl);
       }
@@ -450,8 +451,8 @@ Evaluation Designer::evaluate(const Candidate& c, std::uint64_t seed, const Desi
         std::vector<int> tubes;
         if (!chk.ok) {
           ctx.checker().check(chk.shape, t.query);
-          const std::vector<env::Capsule> caps = t.query.capsules();
-          for (const env::Capsule& cap : caps)
+          const std::vector<environments::Capsule> caps = t.query.capsules();
+          for (const environments::Capsule& cap : caps)
             if (ctx.checker().capsuleCollidesFcl(cap, t.query)) {
               len += (cap.b - cap.a).norm();
               if (std::find(tubes.begin(), tubes.end(), cap.tube + 1) == tubes.end()) tubes.push_back(cap.tube + 1);
@@ -491,10 +492,10 @@ Evaluation Designer::evaluate(const Candidate& c, std::uint64_t seed, const Desi
     for (std::size_t k = 0; k < queries_.size(); ++k) {
       const auto tq = Clock::now();
       QueryOutcome& out = ev.queries[k];
-      const plan::PlanResult r = planners[k]->solve();
+      const planner::PlanResult r = planners[k]->solve();
       ++out.plans;
-      out.plan_json = plan::resultJson(qs[k], r);
-      if (!r.replay.points.empty()) out.path_csv = plan::replayCsv(planners[k]->context()->robot(), r.replay);
+      out.plan_json = planner::resultJson(qs[k], r);
+      if (!r.replay.points.empty()) out.path_csv = planner::replayCsv(planners[k]->context()->robot(), r.replay);
       if (r.solved) {
         ++out.plans_solved;
         out.min_clearance = r.replay.min_clearance;
@@ -511,10 +512,10 @@ Evaluation Designer::evaluate(const Candidate& c, std::uint64_t seed, const Desi
       for (std::size_t k = 0; k < queries_.size() && all_solved; ++k) {
         const auto tq = Clock::now();
         QueryOutcome& out = ev.queries[k];
-        plan::Query q = qs[k];
+        planner::Query q = qs[k];
         q.seed = mix(seed, 7919 * static_cast<std::uint64_t>(s) + k);
-        plan::CtrPlanner p(q, robot, *envs_[k]);
-        const plan::PlanResult r = p.solve();
+        planner::CtrPlanner p(q, robot, *envs_[k]);
+        const planner::PlanResult r = p.solve();
         ++out.plans;
         if (r.solved) {
           ++out.plans_solved;
@@ -596,7 +597,7 @@ DesignResult Designer::run(const DesignOptions& o) const {
   return res;
 }
 
-DesignResult designRobot(std::vector<plan::Query> queries, std::optional<DesignSpace> space,
+DesignResult designRobot(std::vector<planner::Query> queries, std::optional<DesignSpace> space,
                          const DesignOptions& options) {
   const Designer d(std::move(queries), std::move(space));
   return d.run(options);

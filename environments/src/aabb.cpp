@@ -1,6 +1,6 @@
 #include "ctr/environments/aabb.hpp"
 
-namespace ctr::env {
+namespace ctr::environments {
 
 double distance(const Aabb& box, const Eigen::Vector3d& p) {
   if (box.empty()) return std::numeric_limits<double>::infinity();
@@ -8,4 +8,4 @@ double distance(const Aabb& box, const Eigen::Vector3d& p) {
   return d.norm();
 }
 
-}  // namespace ctr::env
+}  // namespace ctr::environments

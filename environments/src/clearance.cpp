@@ -11,7 +11,7 @@
 
 #include "ctr/environments/voxel_grid.hpp"
 
-namespace ctr::env {
+namespace ctr::environments {
 
 DistanceField::DistanceField(const octomap::OcTree& tree, const Aabb& region, const DistanceFieldOptions& options)
     : res_(tree.getResolution()), max_distance_(options.max_distance) {
@@ -103,7 +103,8 @@ const std::vector<float>& boxBound() {
           if (v < best[static_cast<std::size_t>(n)]) best[static_cast<std::size_t>(n)] = v;
         }
     for (int n = nmax - 1; n >= 0; --n)  // suffix minimum: any offset with |d|^2 >= n
-      best[static_cast<std::size_t>(n)] = std::min(best[static_cast<std::size_t>(n)], best[static_cast<std::size_t>(n) + 1]);
+      best[static_cast<std::size_t>(n)] =
+          std::min(best[static_cast<std::size_t>(n)], best[static_cast<std::size_t>(n) + 1]);
     return best;
   }();
   return table;
@@ -111,9 +112,9 @@ const std::vector<float>& boxBound() {
 
 }  // namespace
 
-
 std::size_t DistanceField::cells() const {
-  return static_cast<std::size_t>(dims_.x()) * static_cast<std::size_t>(dims_.y()) * static_cast<std::size_t>(dims_.z());
+  return static_cast<std::size_t>(dims_.x()) * static_cast<std::size_t>(dims_.y()) *
+         static_cast<std::size_t>(dims_.z());
 }
 
 bool DistanceField::cellOf(const Eigen::Vector3d& p, int& x, int& y, int& z) const {
@@ -194,4 +195,4 @@ double DistanceField::lowerBound(const Eigen::Vector3d& p) const {
   return probe(p, lb, occ) ? lb : -1.0;
 }
 
-}  // namespace ctr::env
+}  // namespace ctr::environments

@@ -18,7 +18,7 @@
 
 #include "ctr/environments/voxel_grid.hpp"
 
-namespace ctr::env {
+namespace ctr::environments {
 
 CollisionOptions CollisionOptions::fromEnvironment(const Environment& env) {
   CollisionOptions o;
@@ -306,4 +306,4 @@ ClearanceResult CollisionChecker::clearance(const Solution& solution, Query& que
   return clearanceCapsules(query.capsules_);
 }
 
-}  // namespace ctr::env
+}  // namespace ctr::environments

@@ -3,10 +3,10 @@
 #include <octomap/AbstractOcTree.h>
 #include <octomap/OcTree.h>
 
-#include <Eigen/SVD>
-#include <cmath>
 #include <fcntl.h>
 #include <unistd.h>
+#include <Eigen/SVD>
+#include <cmath>
 
 #include <cstdio>
 #include <sstream>
@@ -15,9 +15,11 @@
 #include "ctr/environments/voxel_grid.hpp"
 #include "ctr/io/input_error.hpp"
 
-namespace ctr::env {
+namespace ctr::environments {
 
-const char* toString(UnknownSpace u) { return u == UnknownSpace::Free ? "free" : "occupied"; }
+const char* toString(UnknownSpace u) {
+  return u == UnknownSpace::Free ? "free" : "occupied";
+}
 
 const char* toString(Occupancy o) {
   switch (o) {
@@ -72,7 +74,9 @@ Environment::Environment(std::string name, std::shared_ptr<const octomap::OcTree
   bounds_.extend(treeBounds(*tree_));
 }
 
-double Environment::resolution() const { return tree_->getResolution(); }
+double Environment::resolution() const {
+  return tree_->getResolution();
+}
 
 void Environment::setBasePose(const Eigen::Isometry3d& world_T_base, std::string source) {
   base_pose_ = world_T_base;
@@ -91,8 +95,8 @@ void Environment::addStart(NamedPose p) {
 const NamedPose& Environment::start(const std::string& name) const {
   for (const auto& s : starts_)
     if (s.name == name) return s;
-  throw std::invalid_argument("environment '" + name_ + "' has no start pose '" + name + "' (known: " +
-                              nameList(starts_) + ")");
+  throw std::invalid_argument("environment '" + name_ + "' has no start pose '" + name +
+                              "' (known: " + nameList(starts_) + ")");
 }
 
 void Environment::useStart(const std::string& name) {
@@ -112,8 +116,8 @@ void Environment::addTarget(NamedTarget t) {
 const NamedTarget& Environment::target(const std::string& name) const {
   for (const auto& t : targets_)
     if (t.name == name) return t;
-  throw std::invalid_argument("environment '" + name_ + "' has no target '" + name + "' (known: " +
-                              nameList(targets_) + ")");
+  throw std::invalid_argument("environment '" + name_ + "' has no target '" + name + "' (known: " + nameList(targets_) +
+                              ")");
 }
 
 Occupancy Environment::occupancy(const Eigen::Vector3d& p) const {
@@ -147,7 +151,9 @@ OccupancyStats Environment::stats() const {
   return st;
 }
 
-void Environment::write(const std::string& path) const { writeOcTree(*tree_, path); }
+void Environment::write(const std::string& path) const {
+  writeOcTree(*tree_, path);
+}
 
 void writeOcTree(const octomap::OcTree& tree, const std::string& path) {
   auto endsWith = [&](const char* ext) {
@@ -238,4 +244,4 @@ Eigen::Isometry3d poseFromMatrix(const Eigen::Matrix4d& m, double tolerance) {
   return T;
 }
 
-}  // namespace ctr::env
+}  // namespace ctr::environments

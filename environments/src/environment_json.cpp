@@ -2,12 +2,14 @@
 
 #include <nlohmann/json.hpp>
 
-namespace ctr::env {
+namespace ctr::environments {
 namespace {
 
 using Json = nlohmann::json;
 
-Json vec(const Eigen::Vector3d& v) { return Json::array({v.x(), v.y(), v.z()}); }
+Json vec(const Eigen::Vector3d& v) {
+  return Json::array({v.x(), v.y(), v.z()});
+}
 
 Json poseJson(const Eigen::Isometry3d& T) {
   Json m = Json::array();
@@ -60,4 +62,4 @@ std::string infoJson(const Environment& e, int indent) {
   return j.dump(indent);
 }
 
-}  // namespace ctr::env
+}  // namespace ctr::environments

@@ -16,257 +16,227 @@
 #include "ctr/environments/pointcloud_source.hpp"
 #include "ctr/environments/voxel_grid.hpp"
 #include "ctr/io/input_error.hpp"
+#include "ctr/io/yaml_reader.hpp"
 
-namespace ctr::env {
+namespace ctr::environments {
 
 namespace fs = std::filesystem;
 
 namespace {
 
 // ---------------------------------------------------------------------------------------------------------------
-// YAML helpers with file/line/key errors.
+// Reading a description: the checked YAML reader of ctr::io (file/line/key messages) and the environment's own types.
+// Keys are named by their path in the document ("obstacles[0].units", "starts.side.position").
 
-struct Ctx {
-  std::string file;
+struct Ctx : io::YamlReader {
   std::string base_dir;
-  [[noreturn]] void fail(const YAML::Node& n, const std::string& key, const std::string& msg) const {
-    const int line = n.IsDefined() && n.Mark().line >= 0 ? n.Mark().line + 1 : 0;
-    throw io::InputError(file, line, key, msg);
-  }
+
   std::string resolve(const std::string& p) const {
-    fs::path path(p);
-    if (path.is_relative()) path = fs::path(base_dir) / path;
-    return path.lexically_normal().string();
+    fs::path fp(p);
+    if (fp.is_relative()) fp = fs::path(base_dir) / fp;
+    return fp.lexically_normal().string();
+  }
+  /// A mapping with only the keys `allowed`.
+  void mapping(const YAML::Node& map, const std::string& where, const std::set<std::string>& allowed) const {
+    if (!map.IsMap()) fail(map, where, "must be a mapping");
+    allowOnly(map, where, allowed);
+  }
+  Eigen::Vector3d vec3(const YAML::Node& n, const std::string& key) const {
+    if (!n.IsSequence() || n.size() != 3) fail(n, key, "must be a list of 3 numbers [x, y, z]");
+    return Eigen::Vector3d(number(n[0], key + "[0]"), number(n[1], key + "[1]"), number(n[2], key + "[2]"));
+  }
+  Eigen::Matrix4d mat4(const YAML::Node& n, const std::string& key) const {
+    Eigen::Matrix4d m;
+    if (n.IsSequence() && n.size() == 4 && n[0].IsSequence()) {
+      for (int r = 0; r < 4; ++r) {
+        const std::string row = key + "[" + std::to_string(r) + "]";
+        if (!n[r].IsSequence() || n[r].size() != 4) fail(n[r], row, "must be a row of 4 numbers");
+        for (int k = 0; k < 4; ++k) m(r, k) = number(n[r][k], row + "[" + std::to_string(k) + "]");
+      }
+    } else if (n.IsSequence() && n.size() == 16) {
+      for (int i = 0; i < 16; ++i) m(i / 4, i % 4) = number(n[i], key + "[" + std::to_string(i) + "]");
+    } else {
+      fail(n, key, "must be a 4x4 matrix (4 rows of 4 numbers, or 16 numbers row by row)");
+    }
+    return m;
+  }
+  double unitScale(const YAML::Node& n, const std::string& key) const {
+    const std::string u = text(n, key);
+    if (u == "m") return 1.0;
+    if (u == "mm") return 1e-3;
+    if (u == "cm") return 1e-2;
+    if (u == "um") return 1e-6;
+    fail(n, key, "unknown unit '" + u + "' (m, cm, mm, um)");
+  }
+  std::string path(const YAML::Node& n, const std::string& key) const {
+    const std::string p = text(n, key);
+    if (p.empty()) fail(n, key, "empty path");
+    return resolve(p);
   }
 };
 
-int lineOf(const YAML::Node& n) { return n.IsDefined() && n.Mark().line >= 0 ? n.Mark().line + 1 : 0; }
-
-void checkKeys(const Ctx& c, const YAML::Node& map, const std::string& what, const std::set<std::string>& allowed) {
-  if (!map.IsMap()) c.fail(map, what, "must be a mapping");
-  for (const auto& kv : map) {
-    const std::string k = kv.first.as<std::string>();
-    if (allowed.count(k) == 0) {
-      std::string list;
-      for (const auto& a : allowed) list += (list.empty() ? "" : ", ") + a;
-      c.fail(kv.first, k, "unknown key in " + what + " (allowed: " + list + ")");
-    }
-  }
-}
-
-double number(const Ctx& c, const YAML::Node& n, const std::string& key) {
-  if (!n.IsScalar()) c.fail(n, key, "must be a number");
-  try {
-    const double v = n.as<double>();
-    if (!std::isfinite(v)) c.fail(n, key, "must be finite");
-    return v;
-  } catch (const YAML::Exception&) {
-    c.fail(n, key, "'" + n.Scalar() + "' is not a number");
-  }
-}
-
-bool boolean(const Ctx& c, const YAML::Node& n, const std::string& key) {
-  try {
-    return n.as<bool>();
-  } catch (const YAML::Exception&) {
-    c.fail(n, key, "must be true or false");
-  }
-}
-
-std::string text(const Ctx& c, const YAML::Node& n, const std::string& key) {
-  if (!n.IsScalar()) c.fail(n, key, "must be a string");
-  return n.Scalar();
-}
-
-Eigen::Vector3d vec3(const Ctx& c, const YAML::Node& n, const std::string& key) {
-  if (!n.IsSequence() || n.size() != 3) c.fail(n, key, "must be a list of 3 numbers [x, y, z]");
-  return Eigen::Vector3d(number(c, n[0], key), number(c, n[1], key), number(c, n[2], key));
-}
-
-Eigen::Matrix4d mat4(const Ctx& c, const YAML::Node& n, const std::string& key) {
-  Eigen::Matrix4d m;
-  if (n.IsSequence() && n.size() == 4 && n[0].IsSequence()) {
-    for (int r = 0; r < 4; ++r) {
-      if (!n[r].IsSequence() || n[r].size() != 4) c.fail(n, key, "must be 4 rows of 4 numbers");
-      for (int k = 0; k < 4; ++k) m(r, k) = number(c, n[r][k], key);
-    }
-  } else if (n.IsSequence() && n.size() == 16) {
-    for (int i = 0; i < 16; ++i) m(i / 4, i % 4) = number(c, n[i], key);
-  } else {
-    c.fail(n, key, "must be a 4x4 matrix (4 rows of 4 numbers, or 16 numbers row by row)");
-  }
-  return m;
-}
-
-double unitScale(const Ctx& c, const YAML::Node& n, const std::string& key) {
-  const std::string u = text(c, n, key);
-  if (u == "m") return 1.0;
-  if (u == "mm") return 1e-3;
-  if (u == "cm") return 1e-2;
-  if (u == "um") return 1e-6;
-  c.fail(n, key, "unknown unit '" + u + "' (m, cm, mm, um)");
-}
-
-std::string fileKey(const Ctx& c, const YAML::Node& n, const std::string& key) {
-  const std::string p = text(c, n, key);
-  if (p.empty()) c.fail(n, key, "empty path");
-  return c.resolve(p);
-}
-
 // A pose entry: {start: NAME} (base_pose only), {medmpd_start: FILE}, {matrix: 4x4, units}, or
-// {position: [..], direction: [..], x_axis: [..], units}.
+// {position: [..], direction: [..], x_axis: [..], units}. `what` is its key ("base_pose", "starts.NAME").
 NamedPose parsePose(const Ctx& c, const YAML::Node& n, const std::string& what, const std::string& name,
                     std::string* start_ref) {
   if (!n.IsMap()) c.fail(n, what, "must be a mapping (medmpd_start, matrix, or position + direction)");
   std::set<std::string> allowed = {"medmpd_start", "matrix", "position", "direction", "x_axis", "units"};
   if (start_ref) allowed.insert("start");
-  checkKeys(c, n, what, allowed);
+  c.allowOnly(n, what, allowed);
+  const std::string at = what + ".";
   NamedPose p;
   p.name = name;
-  const double units = n["units"] ? unitScale(c, n["units"], "units") : 1.0;
+  const double units = n["units"] ? c.unitScale(n["units"], at + "units") : 1.0;
   const int forms = (n["start"] ? 1 : 0) + (n["medmpd_start"] ? 1 : 0) + (n["matrix"] ? 1 : 0) +
                     (n["position"] || n["direction"] ? 1 : 0);
   if (forms != 1)
-    c.fail(n, what, "give exactly one of: " + std::string(start_ref ? "start, " : "") +
-                        "medmpd_start, matrix, position + direction");
+    c.fail(n, what,
+           "give exactly one of: " + std::string(start_ref ? "start, " : "") +
+               "medmpd_start, matrix, position + direction");
   if (n["start"]) {
-    *start_ref = text(c, n["start"], "start");
+    *start_ref = c.text(n["start"], at + "start");
     p.source = "start " + *start_ref;
     return p;
   }
   if (n["medmpd_start"]) {
-    const std::string f = fileKey(c, n["medmpd_start"], "medmpd_start");
+    const std::string f = c.path(n["medmpd_start"], at + "medmpd_start");
     p.pose = readMedMpdStart(f);
     p.source = f;
     return p;
   }
   if (n["matrix"]) {
-    Eigen::Matrix4d m = mat4(c, n["matrix"], "matrix");
+    Eigen::Matrix4d m = c.mat4(n["matrix"], at + "matrix");
     m.topRightCorner<3, 1>() *= units;
     try {
       p.pose = poseFromMatrix(m);
     } catch (const std::invalid_argument& e) {
-      c.fail(n["matrix"], "matrix", e.what());
+      c.fail(n["matrix"], at + "matrix", e.what());
     }
     p.source = "matrix";
     return p;
   }
   if (!n["position"] || !n["direction"]) c.fail(n, what, "position and direction must be given together");
-  const Eigen::Vector3d pos = vec3(c, n["position"], "position") * units;
-  const Eigen::Vector3d dir = vec3(c, n["direction"], "direction");
+  const Eigen::Vector3d pos = c.vec3(n["position"], at + "position") * units;
+  const Eigen::Vector3d dir = c.vec3(n["direction"], at + "direction");
   Eigen::Vector3d hint;
   const bool has_hint = static_cast<bool>(n["x_axis"]);
-  if (has_hint) hint = vec3(c, n["x_axis"], "x_axis");
+  if (has_hint) hint = c.vec3(n["x_axis"], at + "x_axis");
   try {
     p.pose = poseFromDirection(pos, dir, has_hint ? &hint : nullptr);
   } catch (const std::invalid_argument& e) {
-    c.fail(n["direction"], "direction", e.what());
+    c.fail(n["direction"], at + "direction", e.what());
   }
   p.source = "position + direction";
   return p;
 }
 
-NamedTarget parseTarget(const Ctx& c, const YAML::Node& n, const std::string& name) {
+// A target: [x, y, z] (m), {position: [..], units} or {medmpd_target: FILE}. `what` is its key ("targets.NAME").
+NamedTarget parseTarget(const Ctx& c, const YAML::Node& n, const std::string& what, const std::string& name) {
   NamedTarget t;
   t.name = name;
   if (n.IsSequence()) {
-    t.position = vec3(c, n, name);
+    t.position = c.vec3(n, what);
     t.source = "position";
     return t;
   }
-  if (!n.IsMap()) c.fail(n, name, "a target is [x, y, z] (m), {position: [..], units: mm} or {medmpd_target: FILE}");
-  checkKeys(c, n, "target '" + name + "'", {"medmpd_target", "position", "units"});
-  if (n["medmpd_target"] && n["position"]) c.fail(n, name, "give either medmpd_target or position");
+  if (!n.IsMap()) c.fail(n, what, "a target is [x, y, z] (m), {position: [..], units: mm} or {medmpd_target: FILE}");
+  c.allowOnly(n, what, {"medmpd_target", "position", "units"});
+  const std::string at = what + ".";
+  if (n["medmpd_target"] && n["position"]) c.fail(n, what, "give either medmpd_target or position");
   if (n["medmpd_target"]) {
-    const std::string f = fileKey(c, n["medmpd_target"], "medmpd_target");
+    const std::string f = c.path(n["medmpd_target"], at + "medmpd_target");
     t.position = readMedMpdTarget(f);
     t.source = f;
     return t;
   }
-  if (!n["position"]) c.fail(n, name, "missing key 'position' or 'medmpd_target'");
-  const double units = n["units"] ? unitScale(c, n["units"], "units") : 1.0;
-  t.position = vec3(c, n["position"], "position") * units;
+  if (!n["position"]) c.fail(n, what, "missing key 'position' or 'medmpd_target'");
+  const double units = n["units"] ? c.unitScale(n["units"], at + "units") : 1.0;
+  t.position = c.vec3(n["position"], at + "position") * units;
   t.source = "position";
   return t;
 }
 
+// A source of obstacles or the stay-inside region. `what` is its key ("obstacles[0]", "stay_inside").
 SourceSpec parseSource(const Ctx& c, const YAML::Node& n, const std::string& what, bool stay) {
   if (!n.IsMap()) c.fail(n, what, "a source is a mapping with one of the keys nifti, mesh, points, octomap");
+  const std::string at = what + ".";
   SourceSpec s;
-  s.line = lineOf(n);
+  s.line = Ctx::lineOf(n);
   s.where = c.file + ":" + std::to_string(s.line);
   const int kinds = (n["nifti"] ? 1 : 0) + (n["mesh"] ? 1 : 0) + (n["points"] ? 1 : 0) + (n["octomap"] ? 1 : 0);
   if (kinds != 1) c.fail(n, what, "give exactly one of the keys nifti, mesh, points, octomap");
   if (n["nifti"]) {
-    checkKeys(c, n, what, {"nifti", "label", "labels", "threshold", "affine", "sampling", "name"});
+    c.allowOnly(n, what, {"nifti", "label", "labels", "threshold", "affine", "sampling", "name"});
     s.kind = SourceSpec::Kind::Nifti;
-    s.path = fileKey(c, n["nifti"], "nifti");
-    if (n["label"]) s.selection.labels.push_back(number(c, n["label"], "label"));
+    s.path = c.path(n["nifti"], at + "nifti");
+    if (n["label"]) s.selection.labels.push_back(c.number(n["label"], at + "label"));
     if (n["labels"]) {
-      if (!n["labels"].IsSequence() || n["labels"].size() == 0) c.fail(n["labels"], "labels", "must be a non-empty list");
-      for (const auto& l : n["labels"]) s.selection.labels.push_back(number(c, l, "labels"));
+      const YAML::Node l = n["labels"];
+      if (!l.IsSequence() || l.size() == 0) c.fail(l, at + "labels", "must be a non-empty list");
+      for (std::size_t i = 0; i < l.size(); ++i)
+        s.selection.labels.push_back(c.number(l[i], at + "labels[" + std::to_string(i) + "]"));
     }
-    if (n["threshold"]) s.selection.threshold = number(c, n["threshold"], "threshold");
+    if (n["threshold"]) s.selection.threshold = c.number(n["threshold"], at + "threshold");
     if (n["affine"]) {
-      const std::string a = text(c, n["affine"], "affine");
+      const std::string a = c.text(n["affine"], at + "affine");
       bool known = false;
       for (NiftiAffine f : {NiftiAffine::Auto, NiftiAffine::Sform, NiftiAffine::Qform})
         if (a == toString(f)) {
           s.affine = f;
           known = true;
         }
-      if (!known) c.fail(n["affine"], "affine", "must be auto, sform or qform");
+      if (!known) c.fail(n["affine"], at + "affine", "must be auto, sform or qform, not '" + a + "'");
     }
     if (n["sampling"]) {
-      const std::string a = text(c, n["sampling"], "sampling");
+      const std::string a = c.text(n["sampling"], at + "sampling");
       if (a == toString(NiftiSampling::Conservative))
         s.sampling = NiftiSampling::Conservative;
       else if (a == toString(NiftiSampling::Centre) || a == "center")
         s.sampling = NiftiSampling::Centre;
       else
-        c.fail(n["sampling"], "sampling", "must be conservative or centre");
+        c.fail(n["sampling"], at + "sampling", "must be conservative or centre, not '" + a + "'");
     }
     return s;
   }
   auto scaleAndTransform = [&]() {
-    if (n["units"] && n["scale"]) c.fail(n, "scale", "give either units or scale");
-    if (n["units"]) s.scale = unitScale(c, n["units"], "units");
+    if (n["units"] && n["scale"]) c.fail(n, at + "scale", "give either units or scale");
+    if (n["units"]) s.scale = c.unitScale(n["units"], at + "units");
     if (n["scale"]) {
-      s.scale = number(c, n["scale"], "scale");
-      if (!(s.scale > 0)) c.fail(n["scale"], "scale", "must be > 0");
+      s.scale = c.number(n["scale"], at + "scale");
+      if (!(s.scale > 0)) c.fail(n["scale"], at + "scale", "must be > 0");
     }
     if (n["transform"]) {
       try {
-        s.transform = poseFromMatrix(mat4(c, n["transform"], "transform"));
+        s.transform = poseFromMatrix(c.mat4(n["transform"], at + "transform"));
       } catch (const std::invalid_argument& e) {
-        c.fail(n["transform"], "transform", e.what());
+        c.fail(n["transform"], at + "transform", e.what());
       }
     }
   };
   if (n["mesh"]) {
-    checkKeys(c, n, what, {"mesh", "units", "scale", "transform", "fill", "name"});
+    c.allowOnly(n, what, {"mesh", "units", "scale", "transform", "fill", "name"});
     s.kind = SourceSpec::Kind::Mesh;
-    s.path = fileKey(c, n["mesh"], "mesh");
+    s.path = c.path(n["mesh"], at + "mesh");
     scaleAndTransform();
-    if (n["fill"]) s.fill = boolean(c, n["fill"], "fill");
+    if (n["fill"]) s.fill = c.boolean(n["fill"], at + "fill");
     if (stay) s.fill = true;
     return s;
   }
   if (n["points"]) {
-    if (stay) c.fail(n, "points", "a point cloud cannot be a stay_inside region");
-    checkKeys(c, n, what, {"points", "units", "scale", "transform", "radius", "name"});
+    if (stay) c.fail(n, at + "points", "a point cloud cannot be a stay_inside region");
+    c.allowOnly(n, what, {"points", "units", "scale", "transform", "radius", "name"});
     s.kind = SourceSpec::Kind::Points;
-    s.path = fileKey(c, n["points"], "points");
+    s.path = c.path(n["points"], at + "points");
     scaleAndTransform();
     if (n["radius"]) {
-      s.point_radius = number(c, n["radius"], "radius");
-      if (s.point_radius < 0) c.fail(n["radius"], "radius", "must be >= 0");
+      s.point_radius = c.number(n["radius"], at + "radius");
+      if (s.point_radius < 0) c.fail(n["radius"], at + "radius", "must be >= 0");
     }
     return s;
   }
-  checkKeys(c, n, what, {"octomap", "name"});
+  c.allowOnly(n, what, {"octomap", "name"});
   s.kind = SourceSpec::Kind::OcTree;
-  s.path = fileKey(c, n["octomap"], "octomap");
+  s.path = c.path(n["octomap"], at + "octomap");
   return s;
 }
 
@@ -274,28 +244,31 @@ ProceduralSpec parseProcedural(const Ctx& c, const YAML::Node& n) {
   if (!n.IsMap()) c.fail(n, "procedural", "must be a mapping {type: ..., seed: ...}");
   ProceduralSpec p;
   if (!n["type"]) c.fail(n, "procedural", "missing key 'type'");
-  p.type = text(c, n["type"], "type");
+  p.type = c.text(n["type"], "procedural.type");
   std::map<std::string, std::pair<double, std::string>> defs;
   try {
     defs = proceduralParameters(p.type);
   } catch (const std::invalid_argument& e) {
-    c.fail(n["type"], "type", e.what());
+    c.fail(n["type"], "procedural.type", e.what());
   }
   for (const auto& kv : n) {
-    const std::string k = kv.first.as<std::string>();
+    if (kv.first.IsSequence() || kv.first.IsMap())
+      c.fail(kv.first, "procedural", "a key must be a name, not a list or a mapping");
+    const std::string k = kv.first.as<std::string>("");
+    const std::string key = "procedural." + k;
     if (k == "type") continue;
     if (k == "seed") {
-      const double v = number(c, kv.second, "seed");
-      if (v < 0 || v != std::floor(v) || v > 9.007e15) c.fail(kv.second, "seed", "must be a non-negative integer");
+      const double v = c.number(kv.second, key);
+      if (v < 0 || v != std::floor(v) || v > 9.007e15) c.fail(kv.second, key, "must be a non-negative integer");
       p.seed = static_cast<std::uint64_t>(v);
     } else if (k == "scale") {
-      p.scale = number(c, kv.second, "scale");
+      p.scale = c.number(kv.second, key);
     } else if (defs.count(k)) {
-      p.params[k] = number(c, kv.second, k);
+      p.params[k] = c.number(kv.second, key);
     } else {
       std::string known = "type, seed, scale";
       for (const auto& d : defs) known += ", " + d.first;
-      c.fail(kv.first, k, "unknown key for procedural type '" + p.type + "' (allowed: " + known + ")");
+      c.fail(kv.first, key, "unknown key for procedural type '" + p.type + "' (known: " + known + ")");
     }
   }
   try {
@@ -306,12 +279,11 @@ ProceduralSpec parseProcedural(const Ctx& c, const YAML::Node& n) {
   return p;
 }
 
-}  // namespace
-
-namespace {
 EnvironmentDescription parseDescription(const std::string& text_in, const std::string& source,
                                         const std::string& base_dir) {
-  Ctx c{source, base_dir};
+  Ctx c;
+  c.file = source;
+  c.base_dir = base_dir;
   YAML::Node root;
   try {
     root = YAML::Load(text_in);
@@ -319,29 +291,29 @@ EnvironmentDescription parseDescription(const std::string& text_in, const std::s
     throw io::InputError(source, e.mark.line >= 0 ? e.mark.line + 1 : 0, "", "malformed YAML: " + e.msg);
   }
   if (!root.IsMap()) throw io::InputError(source, 0, "", "an environment description must be a YAML mapping");
-  checkKeys(c, root, "the environment",
-            {"name", "resolution", "padding", "bounds", "mark_free", "obstacles", "stay_inside", "procedural",
-             "base_pose", "starts", "targets", "collision", "check_targets", "description"});
+  c.allowOnly(root, "",
+              {"name", "resolution", "padding", "bounds", "mark_free", "obstacles", "stay_inside", "procedural",
+               "base_pose", "starts", "targets", "collision", "check_targets", "description"});
   EnvironmentDescription d;
   d.file = source;
-  d.name = root["name"] ? text(c, root["name"], "name") : fs::path(source).stem().string();
+  d.name = root["name"] ? c.text(root["name"], "name") : fs::path(source).stem().string();
   if (root["resolution"]) {
-    d.resolution = number(c, root["resolution"], "resolution");
+    d.resolution = c.number(root["resolution"], "resolution");
     if (!(d.resolution >= 1e-5 && d.resolution <= 0.1))
       c.fail(root["resolution"], "resolution", "must be in [1e-5, 0.1] m (it is a leaf size in metres)");
   }
   if (root["padding"]) {
-    d.padding = number(c, root["padding"], "padding");
+    d.padding = c.number(root["padding"], "padding");
     if (d.padding < 0) c.fail(root["padding"], "padding", "must be >= 0");
   }
-  if (root["mark_free"]) d.mark_free = boolean(c, root["mark_free"], "mark_free");
-  if (root["check_targets"]) d.check_targets = boolean(c, root["check_targets"], "check_targets");
+  if (root["mark_free"]) d.mark_free = c.boolean(root["mark_free"], "mark_free");
+  if (root["check_targets"]) d.check_targets = c.boolean(root["check_targets"], "check_targets");
   if (root["bounds"]) {
     const YAML::Node b = root["bounds"];
-    checkKeys(c, b, "bounds", {"min", "max", "units"});
+    c.mapping(b, "bounds", {"min", "max", "units"});
     if (!b["min"] || !b["max"]) c.fail(b, "bounds", "needs min and max");
-    const double u = b["units"] ? unitScale(c, b["units"], "units") : 1.0;
-    d.crop = Aabb(vec3(c, b["min"], "min") * u, vec3(c, b["max"], "max") * u);
+    const double u = b["units"] ? c.unitScale(b["units"], "bounds.units") : 1.0;
+    d.crop = Aabb(c.vec3(b["min"], "bounds.min") * u, c.vec3(b["max"], "bounds.max") * u);
     if (d.crop.empty()) c.fail(b, "bounds", "min must be <= max on every axis");
   }
   if (root["obstacles"]) {
@@ -355,7 +327,7 @@ EnvironmentDescription parseDescription(const std::string& text_in, const std::s
     if (d.stay_inside) c.fail(root["procedural"], "procedural", "cannot be combined with stay_inside");
     SourceSpec s;
     s.kind = SourceSpec::Kind::Procedural;
-    s.line = lineOf(root["procedural"]);
+    s.line = Ctx::lineOf(root["procedural"]);
     s.where = source + ":" + std::to_string(s.line);
     s.procedural = parseProcedural(c, root["procedural"]);
     d.stay_inside = s;
@@ -366,7 +338,7 @@ EnvironmentDescription parseDescription(const std::string& text_in, const std::s
     const YAML::Node s = root["starts"];
     if (!s.IsMap()) c.fail(s, "starts", "must be a mapping NAME: pose");
     for (const auto& kv : s) {
-      const std::string name = kv.first.as<std::string>();
+      const std::string name = c.text(kv.first, "starts");
       d.starts.push_back(parsePose(c, kv.second, "starts." + name, name, nullptr));
     }
   }
@@ -381,7 +353,7 @@ EnvironmentDescription parseDescription(const std::string& text_in, const std::s
       if (!found && !procedural_start) {
         std::string known;
         for (const auto& s : d.starts) known += (known.empty() ? "" : ", ") + s.name;
-        c.fail(root["base_pose"]["start"], "start",
+        c.fail(root["base_pose"]["start"], "base_pose.start",
                "no start pose named '" + ref + "' (known: " + (known.empty() ? "none" : known) + ")");
       }
     } else {
@@ -391,29 +363,34 @@ EnvironmentDescription parseDescription(const std::string& text_in, const std::s
   if (root["targets"]) {
     const YAML::Node t = root["targets"];
     if (!t.IsMap()) c.fail(t, "targets", "must be a mapping NAME: target");
-    for (const auto& kv : t) d.targets.push_back(parseTarget(c, kv.second, kv.first.as<std::string>()));
+    for (const auto& kv : t) {
+      const std::string name = c.text(kv.first, "targets");
+      d.targets.push_back(parseTarget(c, kv.second, "targets." + name, name));
+    }
   }
   if (root["collision"]) {
     const YAML::Node col = root["collision"];
-    checkKeys(c, col, "collision", {"safety_margin", "unknown_space", "exclude_proximal"});
+    c.mapping(col, "collision", {"safety_margin", "unknown_space", "exclude_proximal"});
     if (col["exclude_proximal"]) {
-      d.collision.exclude_proximal = number(c, col["exclude_proximal"], "exclude_proximal");
-      if (d.collision.exclude_proximal < 0) c.fail(col["exclude_proximal"], "exclude_proximal", "must be >= 0");
+      d.collision.exclude_proximal = c.number(col["exclude_proximal"], "collision.exclude_proximal");
+      if (d.collision.exclude_proximal < 0)
+        c.fail(col["exclude_proximal"], "collision.exclude_proximal", "must be >= 0");
     }
     if (col["safety_margin"]) {
-      d.collision.safety_margin = number(c, col["safety_margin"], "safety_margin");
-      if (d.collision.safety_margin < 0) c.fail(col["safety_margin"], "safety_margin", "must be >= 0");
+      d.collision.safety_margin = c.number(col["safety_margin"], "collision.safety_margin");
+      if (d.collision.safety_margin < 0) c.fail(col["safety_margin"], "collision.safety_margin", "must be >= 0");
     }
     if (col["unknown_space"]) {
       try {
-        d.collision.unknown_space = parseUnknownSpace(text(c, col["unknown_space"], "unknown_space"));
+        d.collision.unknown_space = parseUnknownSpace(c.text(col["unknown_space"], "collision.unknown_space"));
       } catch (const std::invalid_argument& e) {
-        c.fail(col["unknown_space"], "unknown_space", e.what());
+        c.fail(col["unknown_space"], "collision.unknown_space", e.what());
       }
     }
   }
   return d;
 }
+
 }  // namespace
 
 EnvironmentDescription parseEnvironmentDescription(const std::string& text_in, const std::string& source,
@@ -449,7 +426,7 @@ struct Loaded {
   std::vector<Eigen::Vector3d> points;
   std::shared_ptr<octomap::OcTree> tree;
   ProceduralAnatomy anatomy;
-  Aabb extent;        // region the source describes (known space)
+  Aabb extent;  // region the source describes (known space)
   std::string note;
 };
 
@@ -478,8 +455,7 @@ Loaded load(const SourceSpec& s, bool stay, double res) {
     case SourceSpec::Kind::Mesh: {
       l.mesh = loadMesh(s.path, s.scale, s.transform);
       l.extent = l.mesh.extent().inflated(stay ? 2.0 * res : 0.0);
-      note << "mesh " << s.path << " (" << l.mesh.triangles.size() << " triangles" << (s.fill ? ", filled" : "")
-           << ")";
+      note << "mesh " << s.path << " (" << l.mesh.triangles.size() << " triangles" << (s.fill ? ", filled" : "") << ")";
       break;
     }
     case SourceSpec::Kind::Points: {
@@ -516,16 +492,23 @@ Loaded load(const SourceSpec& s, bool stay, double res) {
 void rasterizeObstacle(const Loaded& l, VoxelGrid& grid) {
   const SourceSpec& s = *l.spec;
   switch (s.kind) {
-    case SourceSpec::Kind::Nifti: rasterizeNifti(l.vol, l.mask, grid, VoxelGrid::kOccupied, s.sampling); break;
+    case SourceSpec::Kind::Nifti:
+      rasterizeNifti(l.vol, l.mask, grid, VoxelGrid::kOccupied, s.sampling);
+      break;
     case SourceSpec::Kind::Mesh:
       if (s.fill)
         voxelizeSolid(l.mesh, grid, VoxelGrid::kOccupied, false, s.path);
       else
         voxelizeSurface(l.mesh, grid, VoxelGrid::kOccupied);
       break;
-    case SourceSpec::Kind::Points: rasterizePoints(l.points, grid, s.point_radius, VoxelGrid::kOccupied); break;
-    case SourceSpec::Kind::OcTree: rasterizeOcTree(*l.tree, grid, false); break;
-    case SourceSpec::Kind::Procedural: break;
+    case SourceSpec::Kind::Points:
+      rasterizePoints(l.points, grid, s.point_radius, VoxelGrid::kOccupied);
+      break;
+    case SourceSpec::Kind::OcTree:
+      rasterizeOcTree(*l.tree, grid, false);
+      break;
+    case SourceSpec::Kind::Procedural:
+      break;
   }
 }
 
@@ -533,7 +516,9 @@ void rasterizeObstacle(const Loaded& l, VoxelGrid& grid) {
 void rasterizeStay(const Loaded& l, VoxelGrid& grid) {
   const SourceSpec& s = *l.spec;
   switch (s.kind) {
-    case SourceSpec::Kind::Nifti: rasterizeNiftiInside(l.vol, l.mask, grid); break;
+    case SourceSpec::Kind::Nifti:
+      rasterizeNiftiInside(l.vol, l.mask, grid);
+      break;
     case SourceSpec::Kind::Mesh:
       std::fill(grid.data().begin(), grid.data().end(), VoxelGrid::kOccupied);
       voxelizeSolid(l.mesh, grid, VoxelGrid::kFree, true, s.path);
@@ -547,8 +532,11 @@ void rasterizeStay(const Loaded& l, VoxelGrid& grid) {
       grid.paint(tmp, VoxelGrid::kOccupied, VoxelGrid::kOccupied);
       break;
     }
-    case SourceSpec::Kind::Procedural: rasterizeProcedural(l.anatomy, grid); break;
-    case SourceSpec::Kind::Points: break;
+    case SourceSpec::Kind::Procedural:
+      rasterizeProcedural(l.anatomy, grid);
+      break;
+    case SourceSpec::Kind::Points:
+      break;
   }
 }
 
@@ -643,4 +631,4 @@ Environment loadEnvironment(const std::string& path, const BuildOptions& options
   return buildEnvironment(loadEnvironmentDescription(path), options);
 }
 
-}  // namespace ctr::env
+}  // namespace ctr::environments

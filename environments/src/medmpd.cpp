@@ -9,7 +9,7 @@
 #include "ctr/environments/environment.hpp"
 #include "ctr/io/input_error.hpp"
 
-namespace ctr::env {
+namespace ctr::environments {
 
 namespace {
 
@@ -78,4 +78,4 @@ Eigen::Vector3d readMedMpdTarget(const std::string& path) {
   return Eigen::Vector3d(nums[0].value, nums[1].value, nums[2].value) * 1e-3;
 }
 
-}  // namespace ctr::env
+}  // namespace ctr::environments

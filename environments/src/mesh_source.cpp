@@ -1,8 +1,8 @@
 #include "ctr/environments/mesh_source.hpp"
 
-#include <assimp/Importer.hpp>
 #include <assimp/postprocess.h>
 #include <assimp/scene.h>
+#include <assimp/Importer.hpp>
 
 #include <algorithm>
 #include <cmath>
@@ -15,7 +15,7 @@
 #include "ctr/io/input_error.hpp"
 #include "ply_validation.hpp"
 
-namespace ctr::env {
+namespace ctr::environments {
 
 Aabb TriangleMesh::extent() const {
   Aabb b;
@@ -99,8 +99,9 @@ void checkOff(const std::string& path, const std::string& b) {
     while (zeros + 1 < d.size() && d[zeros] == '0') ++zeros;
     d.erase(0, zeros);
     if (d.size() > 18 || (!d.empty() && std::stoull(d) > n))
-      throw io::InputError(path, lineOf(a), "", "the header declares " + d + " elements but the file has only " +
-                                                    std::to_string(n) + " bytes");
+      throw io::InputError(
+          path, lineOf(a), "",
+          "the header declares " + d + " elements but the file has only " + std::to_string(n) + " bytes");
   };
   nextToken();
   if (i + 2 < end && at(i) == 'S' && at(i + 1) == 'T') i += 2;
@@ -324,4 +325,4 @@ void writeStl(const std::string& path, const TriangleMesh& mesh) {
   out << "endsolid mesh\n";
 }
 
-}  // namespace ctr::env
+}  // namespace ctr::environments

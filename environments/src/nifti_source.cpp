@@ -15,7 +15,7 @@
 
 #include "ctr/io/input_error.hpp"
 
-namespace ctr::env {
+namespace ctr::environments {
 
 const char* toString(NiftiAffine affine) {
   switch (affine) {
@@ -40,7 +40,9 @@ struct NimDeleter {
 };
 using NimPtr = std::unique_ptr<nifti_image, NimDeleter>;
 
-[[noreturn]] void fail(const std::string& path, const std::string& msg) { throw io::InputError(path, 0, "", msg); }
+[[noreturn]] void fail(const std::string& path, const std::string& msg) {
+  throw io::InputError(path, 0, "", msg);
+}
 
 Eigen::Matrix4d toEigen(const nifti_dmat44& m) {
   Eigen::Matrix4d r;
@@ -77,35 +79,69 @@ void forEachRaw(const NiftiVolume& vol, F&& f) {
     }
   };
   switch (vol.datatype) {
-    case DT_UINT8: loop(std::uint8_t{}); break;
-    case DT_INT8: loop(std::int8_t{}); break;
-    case DT_INT16: loop(std::int16_t{}); break;
-    case DT_UINT16: loop(std::uint16_t{}); break;
-    case DT_INT32: loop(std::int32_t{}); break;
-    case DT_UINT32: loop(std::uint32_t{}); break;
-    case DT_INT64: loop(std::int64_t{}); break;
-    case DT_UINT64: loop(std::uint64_t{}); break;
-    case DT_FLOAT32: loop(float{}); break;
-    case DT_FLOAT64: loop(double{}); break;
-    default: break;
+    case DT_UINT8:
+      loop(std::uint8_t{});
+      break;
+    case DT_INT8:
+      loop(std::int8_t{});
+      break;
+    case DT_INT16:
+      loop(std::int16_t{});
+      break;
+    case DT_UINT16:
+      loop(std::uint16_t{});
+      break;
+    case DT_INT32:
+      loop(std::int32_t{});
+      break;
+    case DT_UINT32:
+      loop(std::uint32_t{});
+      break;
+    case DT_INT64:
+      loop(std::int64_t{});
+      break;
+    case DT_UINT64:
+      loop(std::uint64_t{});
+      break;
+    case DT_FLOAT32:
+      loop(float{});
+      break;
+    case DT_FLOAT64:
+      loop(double{});
+      break;
+    default:
+      break;
   }
 }
 
-bool scaled(const NiftiVolume& v) { return v.scl_slope != 0.0 && !(v.scl_slope == 1.0 && v.scl_inter == 0.0); }
+bool scaled(const NiftiVolume& v) {
+  return v.scl_slope != 0.0 && !(v.scl_slope == 1.0 && v.scl_inter == 0.0);
+}
 
 const char* typeName(int dt) {
   switch (dt) {
-    case DT_UINT8: return "uint8";
-    case DT_INT8: return "int8";
-    case DT_INT16: return "int16";
-    case DT_UINT16: return "uint16";
-    case DT_INT32: return "int32";
-    case DT_UINT32: return "uint32";
-    case DT_INT64: return "int64";
-    case DT_UINT64: return "uint64";
-    case DT_FLOAT32: return "float32";
-    case DT_FLOAT64: return "float64";
-    default: return nullptr;
+    case DT_UINT8:
+      return "uint8";
+    case DT_INT8:
+      return "int8";
+    case DT_INT16:
+      return "int16";
+    case DT_UINT16:
+      return "uint16";
+    case DT_INT32:
+      return "int32";
+    case DT_UINT32:
+      return "uint32";
+    case DT_INT64:
+      return "int64";
+    case DT_UINT64:
+      return "uint64";
+    case DT_FLOAT32:
+      return "float32";
+    case DT_FLOAT64:
+      return "float64";
+    default:
+      return nullptr;
   }
 }
 
@@ -115,17 +151,38 @@ double NiftiVolume::value(std::size_t v) const {
   const std::uint8_t* p = raw.get();
   double x = 0.0;
   switch (datatype) {
-    case DT_UINT8: x = rawAt<std::uint8_t>(p, v); break;
-    case DT_INT8: x = rawAt<std::int8_t>(p, v); break;
-    case DT_INT16: x = rawAt<std::int16_t>(p, v); break;
-    case DT_UINT16: x = rawAt<std::uint16_t>(p, v); break;
-    case DT_INT32: x = rawAt<std::int32_t>(p, v); break;
-    case DT_UINT32: x = rawAt<std::uint32_t>(p, v); break;
-    case DT_INT64: x = rawAt<std::int64_t>(p, v); break;
-    case DT_UINT64: x = rawAt<std::uint64_t>(p, v); break;
-    case DT_FLOAT32: x = rawAt<float>(p, v); break;
-    case DT_FLOAT64: x = rawAt<double>(p, v); break;
-    default: break;
+    case DT_UINT8:
+      x = rawAt<std::uint8_t>(p, v);
+      break;
+    case DT_INT8:
+      x = rawAt<std::int8_t>(p, v);
+      break;
+    case DT_INT16:
+      x = rawAt<std::int16_t>(p, v);
+      break;
+    case DT_UINT16:
+      x = rawAt<std::uint16_t>(p, v);
+      break;
+    case DT_INT32:
+      x = rawAt<std::int32_t>(p, v);
+      break;
+    case DT_UINT32:
+      x = rawAt<std::uint32_t>(p, v);
+      break;
+    case DT_INT64:
+      x = rawAt<std::int64_t>(p, v);
+      break;
+    case DT_UINT64:
+      x = rawAt<std::uint64_t>(p, v);
+      break;
+    case DT_FLOAT32:
+      x = rawAt<float>(p, v);
+      break;
+    case DT_FLOAT64:
+      x = rawAt<double>(p, v);
+      break;
+    default:
+      break;
   }
   return scaled(*this) ? x * scl_slope + scl_inter : x;
 }
@@ -150,7 +207,9 @@ Aabb NiftiVolume::extent() const {
   return box;
 }
 
-Eigen::Vector3d NiftiVolume::spacing() const { return ijk_to_world.topLeftCorner<3, 3>().colwise().norm().transpose(); }
+Eigen::Vector3d NiftiVolume::spacing() const {
+  return ijk_to_world.topLeftCorner<3, 3>().colwise().norm().transpose();
+}
 
 NiftiVolume readNifti(const std::string& path, NiftiAffine affine) {
   {
@@ -173,8 +232,7 @@ NiftiVolume readNifti(const std::string& path, NiftiAffine affine) {
   for (int d = 4; d <= ndim; ++d)
     if (h.dim[d] != 1) {
       std::ostringstream os;
-      os << "the image is " << ndim << "-D with dim[" << d << "] = " << h.dim[d]
-         << "; a single 3-D volume is required";
+      os << "the image is " << ndim << "-D with dim[" << d << "] = " << h.dim[d] << "; a single 3-D volume is required";
       fail(path, os.str());
     }
   for (int d = 1; d <= 3; ++d)
@@ -195,9 +253,15 @@ NiftiVolume readNifti(const std::string& path, NiftiAffine affine) {
   vol.scl_slope = std::isfinite(h.scl_slope) ? h.scl_slope : 0.0;
   vol.scl_inter = std::isfinite(h.scl_inter) ? h.scl_inter : 0.0;
   switch (XYZT_TO_SPACE(h.xyz_units)) {
-    case NIFTI_UNITS_METER: vol.unit_to_metre = 1.0; break;
-    case NIFTI_UNITS_MICRON: vol.unit_to_metre = 1e-6; break;
-    default: vol.unit_to_metre = 1e-3; break;  // mm, and "unknown" by convention
+    case NIFTI_UNITS_METER:
+      vol.unit_to_metre = 1.0;
+      break;
+    case NIFTI_UNITS_MICRON:
+      vol.unit_to_metre = 1e-6;
+      break;
+    default:
+      vol.unit_to_metre = 1e-3;
+      break;  // mm, and "unknown" by convention
   }
   // Affine.
   Eigen::Matrix4d A;
@@ -315,8 +379,8 @@ Aabb selectedExtent(const NiftiVolume& vol, const std::vector<std::uint8_t>& mas
   return box;
 }
 
-void rasterizeNifti(const NiftiVolume& vol, const std::vector<std::uint8_t>& mask, VoxelGrid& grid,
-                    std::uint8_t value, NiftiSampling sampling) {
+void rasterizeNifti(const NiftiVolume& vol, const std::vector<std::uint8_t>& mask, VoxelGrid& grid, std::uint8_t value,
+                    NiftiSampling sampling) {
   const Eigen::Matrix3d A = vol.ijk_to_world.topLeftCorner<3, 3>();
   const Eigen::Vector3d t = vol.ijk_to_world.topRightCorner<3, 1>();
   if (sampling == NiftiSampling::Conservative) {
@@ -429,4 +493,4 @@ void writeNifti(const std::string& path, const Eigen::Vector3i& dims, const std:
   if (!check) fail(path, "writeNifti: the file was not written");
 }
 
-}  // namespace ctr::env
+}  // namespace ctr::environments

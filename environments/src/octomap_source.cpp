@@ -10,13 +10,13 @@
 
 #include "ctr/io/input_error.hpp"
 
-namespace ctr::env {
+namespace ctr::environments {
 
 namespace {
 
 // Captures std::cerr (where OctoMap reports problems) for the lifetime of the object.
 class CerrCapture {
-public:
+ public:
   CerrCapture() : old_(std::cerr.rdbuf(buf_.rdbuf())) {}
   ~CerrCapture() { std::cerr.rdbuf(old_); }
   std::string text() const {
@@ -27,7 +27,7 @@ public:
     return s;
   }
 
-private:
+ private:
   std::ostringstream buf_;
   std::streambuf* old_;
 };
@@ -112,4 +112,4 @@ std::shared_ptr<octomap::OcTree> loadOcTreeFile(const std::string& path) {
   return tree;
 }
 
-}  // namespace ctr::env
+}  // namespace ctr::environments

@@ -12,7 +12,7 @@
 
 #include "ctr/io/input_error.hpp"
 
-namespace ctr::env::detail {
+namespace ctr::environments::detail {
 namespace {
 
 enum class Type { Char, UChar, Short, UShort, Int, UInt, Float, Double };
@@ -49,8 +49,7 @@ constexpr TypeTraits kTraits[] = {{"char", 1, true, INT8_MIN, INT8_MAX},
                                   {"uint", 4, true, 0, UINT32_MAX},
                                   {"float", 4, false, 0, 0},
                                   {"double", 8, false, 0, 0}};
-static_assert(sizeof(kTraits) / sizeof(kTraits[0]) == static_cast<std::size_t>(Type::Double) + 1,
-              "one row per Type");
+static_assert(sizeof(kTraits) / sizeof(kTraits[0]) == static_cast<std::size_t>(Type::Double) + 1, "one row per Type");
 const TypeTraits& traits(Type t) {
   return kTraits[static_cast<std::size_t>(t)];
 }
@@ -613,4 +612,4 @@ std::size_t validatePly(const std::string& path, const std::string& bytes) {
   return Validator(path, bytes).run();
 }
 
-}  // namespace ctr::env::detail
+}  // namespace ctr::environments::detail

@@ -8,7 +8,7 @@
 #include <cstddef>
 #include <string>
 
-namespace ctr::env::detail {
+namespace ctr::environments::detail {
 
 /// Upper bound on the length of any list property (face vertex indices included); larger counts are refused
 /// before anything is allocated. Polygons with more vertices than this do not occur in anatomy meshes, and
@@ -34,4 +34,4 @@ constexpr std::size_t kPlyMaxListLength = 1024;
 /// the caller must give assimp a copy with '\r' inserted there.
 std::size_t validatePly(const std::string& path, const std::string& bytes);
 
-}  // namespace ctr::env::detail
+}  // namespace ctr::environments::detail

@@ -8,7 +8,7 @@
 
 #include "ctr/io/input_error.hpp"
 
-namespace ctr::env {
+namespace ctr::environments {
 
 namespace {
 
@@ -173,9 +173,10 @@ std::vector<Eigen::Vector3d> readPly(const std::string& path) {
     std::vector<char> buf(static_cast<std::size_t>(stride));
     for (long long v = 0; v < nvert; ++v) {
       if (!in.read(buf.data(), stride)) fail(path, 0, "the PLY file ends before all vertices were read");
-      pts.emplace_back(readBinary(buf.data() + off[static_cast<std::size_t>(ix)], props[static_cast<std::size_t>(ix)].type, swap),
-                       readBinary(buf.data() + off[static_cast<std::size_t>(iy)], props[static_cast<std::size_t>(iy)].type, swap),
-                       readBinary(buf.data() + off[static_cast<std::size_t>(iz)], props[static_cast<std::size_t>(iz)].type, swap));
+      pts.emplace_back(
+          readBinary(buf.data() + off[static_cast<std::size_t>(ix)], props[static_cast<std::size_t>(ix)].type, swap),
+          readBinary(buf.data() + off[static_cast<std::size_t>(iy)], props[static_cast<std::size_t>(iy)].type, swap),
+          readBinary(buf.data() + off[static_cast<std::size_t>(iz)], props[static_cast<std::size_t>(iz)].type, swap));
     }
   } else {
     fail(path, 0, "unknown PLY format '" + format + "'");
@@ -236,4 +237,4 @@ void writeXyz(const std::string& path, const std::vector<Eigen::Vector3d>& point
   for (const auto& p : points) out << p.x() << " " << p.y() << " " << p.z() << "\n";
 }
 
-}  // namespace ctr::env
+}  // namespace ctr::environments

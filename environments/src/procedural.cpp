@@ -6,7 +6,7 @@
 #include <sstream>
 #include <stdexcept>
 
-namespace ctr::env {
+namespace ctr::environments {
 
 // ---------------------------------------------------------------------------------------------------------------
 // Primitives.
@@ -39,8 +39,7 @@ double Primitive::g(const Eigen::Vector3d& p) const {
       break;
     }
     case Kind::Box: {  // rounded by `radius` (0: sharp)
-      const Eigen::Vector3d q =
-          (rotation.transpose() * (p - centre)).cwiseAbs() - (radii.array() - radius).matrix();
+      const Eigen::Vector3d q = (rotation.transpose() * (p - centre)).cwiseAbs() - (radii.array() - radius).matrix();
       v = q.cwiseMax(0.0).norm() + std::min(q.maxCoeff(), 0.0) - radius;
       break;
     }
@@ -90,7 +89,7 @@ namespace {
 
 // SplitMix64: a fully specified generator, so anatomies are identical on every platform.
 class Rng {
-public:
+ public:
   explicit Rng(std::uint64_t seed) : s_(seed * 0x2545F4914F6CDD1Dull + 0x9E3779B97F4A7C15ull) {}
   std::uint64_t next() {
     std::uint64_t z = (s_ += 0x9E3779B97F4A7C15ull);
@@ -103,7 +102,7 @@ public:
   /// 1 + a * U(-1, 1)
   double jitter(double a) { return 1.0 + a * (2.0 * uniform() - 1.0); }
 
-private:
+ private:
   std::uint64_t s_;
 };
 
@@ -176,7 +175,9 @@ double param(const ProceduralSpec& spec, const std::string& key) {
   return it != spec.params.end() ? it->second : defs.at(key).first;
 }
 
-NamedTarget target(std::string name, const Eigen::Vector3d& p) { return NamedTarget{std::move(name), p, "procedural"}; }
+NamedTarget target(std::string name, const Eigen::Vector3d& p) {
+  return NamedTarget{std::move(name), p, "procedural"};
+}
 
 // ---------------------------------------------------------------------------------------------------------------
 // Intracardiac: right atrium entered from the inferior vena cava, left atrium behind the interatrial septum
@@ -218,8 +219,8 @@ ProceduralAnatomy intracardiac(const ProceduralSpec& spec) {
   const Eigen::Vector3d fo(xs, rng.range(-2, 6), rng.range(-2, 8));
   const double fo_r = 4.0 * rng.jitter(0.12);
   Primitive septum = box("interatrial_septum", V(xs, 0, 0), V(1.5, 80, 80));
-  septum.holes.push_back(cylinder("foramen_ovale", (fo - Eigen::Vector3d(5, 0, 0)) * s,
-                                  (fo + Eigen::Vector3d(5, 0, 0)) * s, fo_r * s));
+  septum.holes.push_back(
+      cylinder("foramen_ovale", (fo - Eigen::Vector3d(5, 0, 0)) * s, (fo + Eigen::Vector3d(5, 0, 0)) * s, fo_r * s));
   a.obstacles.push_back(septum);
 
   // Tricuspid valve: a wall between atrium and ventricle with the orifice, the annulus, leaflets and chordae.
@@ -315,8 +316,8 @@ ProceduralAnatomy airway(const ProceduralSpec& spec) {
   a.start.pose.linear() = frameFromZ(-Eigen::Vector3d::UnitZ());
   a.start.pose.translation() = Eigen::Vector3d(0, 0, 62) * s;
   std::ostringstream d;
-  d << "airway (seed " << spec.seed << "): trachea radius " << r0 << " mm, " << generations << " generations, "
-    << leaf << " terminal branches";
+  d << "airway (seed " << spec.seed << "): trachea radius " << r0 << " mm, " << generations << " generations, " << leaf
+    << " terminal branches";
   a.description = d.str();
   return a;
 }
@@ -390,7 +391,9 @@ ProceduralAnatomy sinus(const ProceduralSpec& spec) {
 
 }  // namespace
 
-std::vector<std::string> proceduralTypes() { return {"intracardiac", "airway", "sinus"}; }
+std::vector<std::string> proceduralTypes() {
+  return {"intracardiac", "airway", "sinus"};
+}
 
 std::map<std::string, std::pair<double, std::string>> proceduralParameters(const std::string& type) {
   if (type == "intracardiac") return {};
@@ -415,8 +418,7 @@ ProceduralAnatomy makeProcedural(const ProceduralSpec& spec) {
     }
     if (!std::isfinite(kv.second)) throw std::invalid_argument("parameter '" + kv.first + "' must be finite");
   }
-  if (!(spec.scale > 0.05 && spec.scale < 20.0))
-    throw std::invalid_argument("key 'scale' must be in (0.05, 20)");
+  if (!(spec.scale > 0.05 && spec.scale < 20.0)) throw std::invalid_argument("key 'scale' must be in (0.05, 20)");
   if (spec.type == "airway") {
     const double g = param(spec, "generations");
     if (g < 1 || g > 7 || g != std::round(g)) throw std::invalid_argument("key 'generations' must be an integer 1..7");
@@ -466,4 +468,4 @@ void rasterizeProcedural(const ProceduralAnatomy& anatomy, VoxelGrid& grid) {
     d[id] = (lumen[id] < -half_diag && !hit[id]) ? VoxelGrid::kFree : VoxelGrid::kOccupied;
 }
 
-}  // namespace ctr::env
+}  // namespace ctr::environments

@@ -4,7 +4,7 @@
 #include <cmath>
 #include <stdexcept>
 
-namespace ctr::env {
+namespace ctr::environments {
 
 namespace {
 
@@ -184,4 +184,4 @@ std::vector<Capsule> robotCapsules(const Robot& robot, const Solution& solution,
   return out;
 }
 
-}  // namespace ctr::env
+}  // namespace ctr::environments

@@ -4,10 +4,10 @@
 
 #include <octomap/OcTree.h>
 
-namespace ctr::env::detail {
+namespace ctr::environments::detail {
 
 class TreeBuilder : public octomap::OcTree {
-public:
+ public:
   using octomap::OcTree::OcTree;
   /// Root node, created (as a leaf) if the tree is empty.
   octomap::OcTreeNode* makeRoot() {
@@ -20,4 +20,4 @@ public:
   }
 };
 
-}  // namespace ctr::env::detail
+}  // namespace ctr::environments::detail

@@ -10,7 +10,7 @@
 
 #include "tree_builder.hpp"
 
-namespace ctr::env {
+namespace ctr::environments {
 
 namespace {
 constexpr int kKeyOffset = 32768;
@@ -22,7 +22,9 @@ int coordToKey(double c, double resolution) {
   return static_cast<int>(std::floor((1.0 / resolution) * c)) + kKeyOffset;
 }
 
-double keyToCoord(int key, double resolution) { return (static_cast<double>(key - kKeyOffset) + 0.5) * resolution; }
+double keyToCoord(int key, double resolution) {
+  return (static_cast<double>(key - kKeyOffset) + 0.5) * resolution;
+}
 
 VoxelGrid::VoxelGrid(double resolution, const Aabb& region, std::uint8_t fill, std::size_t max_cells)
     : res_(resolution) {
@@ -50,8 +52,8 @@ VoxelGrid::VoxelGrid(double resolution, const Aabb& region, std::uint8_t fill, s
   if (n > static_cast<double>(max_cells)) {
     std::ostringstream os;
     os << "the map would need " << dims_.x() << " x " << dims_.y() << " x " << dims_.z() << " = "
-       << static_cast<long long>(n) << " cells at resolution " << resolution
-       << " m (limit " << max_cells << "); choose a coarser resolution or smaller bounds";
+       << static_cast<long long>(n) << " cells at resolution " << resolution << " m (limit " << max_cells
+       << "); choose a coarser resolution or smaller bounds";
     throw std::invalid_argument(os.str());
   }
   data_.assign(static_cast<std::size_t>(n), fill);
@@ -159,7 +161,7 @@ struct Level {
 };
 
 class Pyramid {
-public:
+ public:
   Pyramid(const VoxelGrid& g, bool free_as_known) : grid_(g), free_known_(free_as_known) {
     levels_.resize(kDepth + 1);
     for (int l = 1; l <= kDepth; ++l) {
@@ -196,7 +198,7 @@ public:
     return levels_[static_cast<std::size_t>(level)].get(x, y, z);
   }
 
-private:
+ private:
   const VoxelGrid& grid_;
   bool free_known_;
   std::vector<Level> levels_;
@@ -341,4 +343,4 @@ std::shared_ptr<octomap::OcTree> fillUnknown(const octomap::OcTree& tree, const 
   return out;
 }
 
-}  // namespace ctr::env
+}  // namespace ctr::environments

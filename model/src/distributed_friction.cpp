@@ -14,6 +14,7 @@
 #include <type_traits>
 #include <vector>
 
+#include "access.hpp"
 #include "contact_events.hpp"
 #include "distributed_map.hpp"
 #include "dual.hpp"
@@ -460,7 +461,8 @@ DistributedFrictionSolution solveDistributedFriction(const Robot& robot, const C
   Eigen::VectorXd z = Eigen::VectorXd::Zero(2 * n + nc);
   if (base.converged()) {
     z.head(n) = base.base_twist_rate;
-    if (base.contact_unknowns.size() == nc) z.tail(nc) = base.contact_unknowns;
+    const Eigen::VectorXd& torques = detail::SolutionAccess::contactUnknowns(base);
+    if (torques.size() == nc) z.tail(nc) = torques;
   }
   DistributedSystem S(M);
   detail::NewtonSettings settings =
@@ -501,7 +503,7 @@ DistributedFrictionSolution solveDistributedFriction(const Robot& robot, const C
   s.tip_position = pass.p;
   s.tip_frame = pass.R;
   s.moments = base.moments;
-  s.contact_unknowns = z.tail(nc);
+  detail::SolutionAccess::contactUnknowns(s) = z.tail(nc);
   s.contacts = detail::contactResults(P, pass.contact_twist, pass.contact_moment, z, 2 * n);
   s.backbone = std::move(pass.backbone);
   res.samples = std::move(pass.samples);

@@ -6,6 +6,7 @@
 #include <limits>
 #include <string>
 
+#include "access.hpp"
 #include "contact_events.hpp"
 #include "loaded_map.hpp"
 #include "newton.hpp"
@@ -80,7 +81,7 @@ Solution packageLoaded(LoadedWork& W, const Configuration& q, const Eigen::Vecto
   double C = 0.0;
   for (int i = 0; i < n; ++i) C += L.rho[i] * std::max(0.0, P.end[i]);
   sol.base_force = L.F + L.g * C;
-  sol.contact_unknowns = z.tail(L.m - n - 2);
+  SolutionAccess::contactUnknowns(sol) = z.tail(L.m - n - 2);
   sol.twist = W.out.twist;
   if (sol.twist.size() != n - 1) sol.twist = Eigen::VectorXd::Zero(n - 1);
   sol.tip_position = W.tip_p;
@@ -120,7 +121,7 @@ Solution solveLoaded(const Robot& robot, const Configuration& q, const std::vect
                      Workspace& ws, const KinematicsOptions& opt, const Solution* warm) {
   const Admissibility adm = checkAdmissible(robot, q);
   if (!adm) return inadmissibleSolution(q, adm.message, robot.size(), true);
-  LoadedWork& W = ws.impl().loaded;
+  LoadedWork& W = WorkspaceAccess::impl(ws).loaded;
   LoadedProblem& L = W.L;
   setupLoaded(L, robot, q, conditions, opt, 1.0);
   int iters = 0;

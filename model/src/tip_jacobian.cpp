@@ -27,7 +27,7 @@ TipJacobian tipJacobian(const Robot& robot, const Solution& solution, Workspace&
     for (const ContactResult& c : solution.contacts) cond.push_back(c.condition);
     conditions = &cond;
   }
-  detail::LoadedWork& W = ws.impl().loaded;
+  detail::LoadedWork& W = detail::WorkspaceAccess::impl(ws).loaded;
   detail::LoadedProblem& L = W.L;
   detail::setupLoaded(L, robot, solution.q, conditions, options, 1.0);
   TipJacobian out;

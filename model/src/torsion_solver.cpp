@@ -5,6 +5,7 @@
 #include <functional>
 #include <string>
 
+#include "access.hpp"
 #include "contact_events.hpp"
 #include "newton.hpp"
 #include "solvers.hpp"
@@ -32,7 +33,7 @@ class TorsionSystem final : public NewtonSystem {
 
 // Newton from z (exact Jacobians with the values far from the solution, chord steps near it). The outputs are those
 // of the last evaluated point.
-bool newtonTorsion(const Problem& P, Workspace::Impl& W, Eigen::VectorXd& z, const KinematicsOptions& opt,
+bool newtonTorsion(const Problem& P, WorkspaceImpl& W, Eigen::VectorXd& z, const KinematicsOptions& opt,
                    int& iterations, double& res_norm, std::string& why, bool record) {
   TorsionSystem S(P, W.eval, W.out, record);
   NewtonSettings s = newtonSettings(opt, P.s_tip, P.n, JacobianReuse::Chord);
@@ -55,7 +56,7 @@ Solution package(const Configuration& q, const Problem& P, const Outputs& out, c
   sol.base_twist_rate = z.head(n);
   sol.theta0.resize(n);
   for (int i = 0; i < n; ++i) sol.theta0[i] = P.alpha[i] - P.beta[i] * z[i];
-  sol.contact_unknowns = z.tail(P.m - n);
+  SolutionAccess::contactUnknowns(sol) = z.tail(P.m - n);
   sol.twist = out.twist;
   if (sol.twist.size() != n - 1) sol.twist = Eigen::VectorXd::Zero(n - 1);
   sol.tip_position = out.tip_position;
@@ -93,7 +94,7 @@ Eigen::VectorXd initialGuess(const Problem& P, const Solution* warm) {
 }
 
 // Adaptive continuation in a parameter t from 0 (where z is a solution) to 1. `setAt(t)` sets the problem up.
-bool continuation(const std::function<void(double)>& setAt, const Problem& P, Workspace::Impl& W, Eigen::VectorXd& z,
+bool continuation(const std::function<void(double)>& setAt, const Problem& P, WorkspaceImpl& W, Eigen::VectorXd& z,
                   const KinematicsOptions& opt, int& iterations, int& steps, std::string& why) {
   double t = 0.0, dt = 1.0 / std::max(1, opt.homotopy_steps);
   KinematicsOptions o = opt;
@@ -140,7 +141,7 @@ Solution solveTorsionOnly(const Robot& robot, const Configuration& q, const std:
                           Workspace& ws, const KinematicsOptions& opt, const Solution* warm) {
   const Admissibility adm = checkAdmissible(robot, q);
   if (!adm) return inadmissibleSolution(q, adm.message, robot.size(), false);
-  Workspace::Impl& W = ws.impl();
+  WorkspaceImpl& W = WorkspaceAccess::impl(ws);
   Problem& P = W.problem;
   P.setup(robot, q, conditions, opt);
   Eigen::VectorXd z = initialGuess(P, warm);

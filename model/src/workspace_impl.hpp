@@ -3,6 +3,7 @@
 
 #include <Eigen/Core>
 
+#include "access.hpp"
 #include "ctr/model/kinematics.hpp"
 #include "loaded_map.hpp"
 #include "newton.hpp"
@@ -22,5 +23,9 @@ struct Workspace::Impl {
   detail::LoadedWork loaded;
   Eigen::VectorXd key, model_key, z_predicted, z_chord;  ///< scratch of a frictionless solve (storage reused)
 };
+
+namespace detail {
+using WorkspaceImpl = WorkspaceAccess::Impl;
+}  // namespace detail
 
 }  // namespace ctr

@@ -3,7 +3,7 @@
 #include <cstdio>
 #include <stdexcept>
 
-namespace ctr::plan {
+namespace ctr::planner {
 
 const char* toString(Mode m) {
   switch (m) {
@@ -41,8 +41,8 @@ FrictionOptions planningFrictionOptions() {
   return f;
 }
 
-Context::Context(Robot robot, std::shared_ptr<const env::Environment> env, ContextOptions options,
-                 env::CollisionOptions collision)
+Context::Context(Robot robot, std::shared_ptr<const environments::Environment> env, ContextOptions options,
+                 environments::CollisionOptions collision)
     : robot_(std::move(robot)),
       frictionless_(robot_.withFriction({0.0, 0.0})),
       env_(std::move(env)),
@@ -50,7 +50,7 @@ Context::Context(Robot robot, std::shared_ptr<const env::Environment> env, Conte
       sampler_(robot_, options.min_protrusion) {
   if (!env_) throw std::invalid_argument("planning context: no environment");
   if (!sampler_.feasible()) throw std::invalid_argument("robot '" + robot_.name() + "' has no admissible translation");
-  checker_ = std::make_shared<env::CollisionChecker>(env_, robot_, collision);
+  checker_ = std::make_shared<environments::CollisionChecker>(env_, robot_, collision);
 }
 
 ThreadScratch& scratch() {
@@ -69,7 +69,7 @@ ShapeCheck checkShape(const Context& ctx, const Solution& sol, ThreadScratch& t)
     c.reason = "elastically unstable equilibrium";
     return c;
   }
-  const env::CollisionResult r = ctx.checker().check(sol, t.query);
+  const environments::CollisionResult r = ctx.checker().check(sol, t.query);
   if (r.collision) {
     // %g: the same text as an ostream's default formatting, without constructing a stream per check.
     char buf[128];
@@ -82,4 +82,4 @@ ShapeCheck checkShape(const Context& ctx, const Solution& sol, ThreadScratch& t)
   return c;
 }
 
-}  // namespace ctr::plan
+}  // namespace ctr::planner

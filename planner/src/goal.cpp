@@ -15,7 +15,7 @@
 
 namespace ob = ompl::base;
 
-namespace ctr::plan {
+namespace ctr::planner {
 
 double inverseKinematics(const Context& ctx, const Eigen::Vector3d& target, Configuration& q, int iterations) {
   // The library's inverse kinematics (ctr/model/ik.hpp) with the planner's discretisation and protrusion, warm from q,
@@ -213,4 +213,4 @@ std::string TipGoal::emptyPoolReason() const {
   return why;
 }
 
-}  // namespace ctr::plan
+}  // namespace ctr::planner

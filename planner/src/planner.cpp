@@ -39,7 +39,7 @@ namespace ob = ompl::base;
 namespace og = ompl::geometric;
 namespace oc = ompl::control;
 
-namespace ctr::plan {
+namespace ctr::planner {
 namespace {
 
 constexpr double kRotationRate = 1.0;      // rad per unit control time
@@ -57,17 +57,17 @@ void seedOnce(std::uint64_t seed) {
 }  // namespace
 
 CtrPlanner::CtrPlanner(const Query& query) : query_(query) {
-  env::BuildOptions bo;
+  environments::BuildOptions bo;
   if (query.env_resolution > 0) bo.resolution = query.env_resolution;
   Robot robot = io::loadRobot(query.robot);
-  init(std::move(robot), env::loadEnvironment(query.environment, bo));
+  init(std::move(robot), environments::loadEnvironment(query.environment, bo));
 }
 
-CtrPlanner::CtrPlanner(const Query& query, Robot robot, env::Environment environment) : query_(query) {
+CtrPlanner::CtrPlanner(const Query& query, Robot robot, environments::Environment environment) : query_(query) {
   init(std::move(robot), std::move(environment));
 }
 
-void CtrPlanner::init(Robot robot, env::Environment e) {
+void CtrPlanner::init(Robot robot, environments::Environment e) {
   const Query& query = query_;
   seedOnce(query.seed);
   if (query.friction) {
@@ -134,14 +134,14 @@ void CtrPlanner::init(Robot robot, env::Environment e) {
       throw io::InputError(query.file, query.lineOf("loads"), "loads", ex.what());
     }
   }
-  env_ = std::make_shared<const env::Environment>(std::move(e));
+  env_ = std::make_shared<const environments::Environment>(std::move(e));
 
   ContextOptions co;
   co.mode = query.mode;
   co.rotation_resolution = query.resolution_rotation;
   co.translation_resolution = query.resolution_translation;
   co.friction.kinematics.record_backbone = true;
-  ctx_ = std::make_shared<const Context>(robot, env_, co, env::CollisionOptions::fromEnvironment(*env_));
+  ctx_ = std::make_shared<const Context>(robot, env_, co, environments::CollisionOptions::fromEnvironment(*env_));
 
   auto space = std::make_shared<CtrStateSpace>(ctx_->robot(), ctx_->translationSampler());
   space->registerDefaultProjection(std::make_shared<TipProjection>(space.get(), ctx_));
@@ -406,4 +406,4 @@ PlanResult plan(const Query& query) {
   return p.solve();
 }
 
-}  // namespace ctr::plan
+}  // namespace ctr::planner

@@ -7,7 +7,7 @@
 
 namespace ob = ompl::base;
 
-namespace ctr::plan {
+namespace ctr::planner {
 
 namespace {
 std::string memberNames(const std::vector<ob::PlannerPtr>& members) {
@@ -53,4 +53,4 @@ void Portfolio::getPlannerData(ob::PlannerData& data) const {
   for (const auto& m : members_) m->getPlannerData(data);
 }
 
-}  // namespace ctr::plan
+}  // namespace ctr::planner

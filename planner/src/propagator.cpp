@@ -7,7 +7,7 @@
 namespace ob = ompl::base;
 namespace oc = ompl::control;
 
-namespace ctr::plan {
+namespace ctr::planner {
 namespace {
 
 FrictionOptions stepOptions(const Context& ctx) {
@@ -51,7 +51,8 @@ const char* toString(StartHistory::Kind kind) {
 std::vector<Configuration> startCommands(const Configuration& q, const StartHistory& h) {
   std::vector<Configuration> commands;
   switch (h.kind) {
-    case StartHistory::Kind::Rest: break;
+    case StartHistory::Kind::Rest:
+      break;
     case StartHistory::Kind::Positive:
     case StartHistory::Kind::Negative: {
       Configuration from = q;
@@ -156,7 +157,8 @@ void FrictionPropagator::propagate(const ob::State* state, const oc::Control* co
   result->as<CtrStateSpace::StateType>()->cache = std::move(next);
 }
 
-bool FrictionPropagator::steer(const ob::State* from, const ob::State* to, oc::Control* result, double& duration) const {
+bool FrictionPropagator::steer(const ob::State* from, const ob::State* to, oc::Control* result,
+                               double& duration) const {
   const int n = space_->tubes();
   const Configuration d = space_->difference(from, to);
   double T = 0.0;
@@ -175,4 +177,4 @@ bool FrictionPropagator::steer(const ob::State* from, const ob::State* to, oc::C
   return true;
 }
 
-}  // namespace ctr::plan
+}  // namespace ctr::planner

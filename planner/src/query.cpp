@@ -11,7 +11,7 @@
 #include "ctr/io/input_error.hpp"
 #include "ctr/io/yaml_reader.hpp"
 
-namespace ctr::plan {
+namespace ctr::planner {
 namespace {
 
 using io::InputError;
@@ -242,4 +242,4 @@ int Query::lineOf(const std::string& key) const {
   }
 }
 
-}  // namespace ctr::plan
+}  // namespace ctr::planner

@@ -6,7 +6,7 @@
 #include <limits>
 #include <sstream>
 
-namespace ctr::plan {
+namespace ctr::planner {
 namespace {
 
 std::string siteName(const ContactSite& s) {
@@ -155,4 +155,4 @@ std::string replayCsv(const Robot& robot, const ReplayReport& r) {
   return os.str();
 }
 
-}  // namespace ctr::plan
+}  // namespace ctr::planner

@@ -2,7 +2,7 @@
 
 #include <nlohmann/json.hpp>
 
-namespace ctr::plan {
+namespace ctr::planner {
 
 std::string resultJson(const Query& q, const PlanResult& r, int indent) {
   nlohmann::json j;
@@ -33,4 +33,4 @@ std::string resultJson(const Query& q, const PlanResult& r, int indent) {
   return j.dump(indent);
 }
 
-}  // namespace ctr::plan
+}  // namespace ctr::planner

@@ -9,7 +9,7 @@
 
 namespace ob = ompl::base;
 
-namespace ctr::plan {
+namespace ctr::planner {
 
 CtrStateSpace::CtrStateSpace(const Robot& robot, const TranslationSampler& sampler, double translation_weight)
     : robot_(robot), sampler_(sampler), n_(robot.size()) {
@@ -166,4 +166,4 @@ bool tipOf(const Context& ctx, const CtrStateSpace& space, const ob::State* s, E
   return true;
 }
 
-}  // namespace ctr::plan
+}  // namespace ctr::planner

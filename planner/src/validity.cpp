@@ -8,7 +8,7 @@
 
 namespace ob = ompl::base;
 
-namespace ctr::plan {
+namespace ctr::planner {
 namespace {
 
 // Shapes for collision checking: the backbone geometry only (no per-tube theta / u_z at the nodes), integrated as
@@ -274,4 +274,4 @@ bool ForwardMotionValidator::checkMotion(const ob::State* s1, const ob::State* s
   return false;
 }
 
-}  // namespace ctr::plan
+}  // namespace ctr::planner

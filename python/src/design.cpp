@@ -15,8 +15,8 @@ void registerDesign(pyb::module_& m) {
          const std::optional<std::filesystem::path>& out, std::uint64_t seed, int evaluations, int population,
          int starts, double time_limit, int threads, double probe_time, double plan_time, const std::string& planner,
          int confirm) {
-        std::vector<plan::Query> qs;
-        for (const auto& q : queries) qs.push_back(plan::loadQuery(q.string()));
+        std::vector<planner::Query> qs;
+        for (const auto& q : queries) qs.push_back(planner::loadQuery(q.string()));
         std::optional<design::DesignSpace> sp;
         if (space) sp = design::loadSpace(space->string());
         design::DesignOptions o;

@@ -5,8 +5,8 @@
 #include <iostream>
 
 #include "common.hpp"
-#include "ctr/environments/environment_json.hpp"
 #include "ctr/environments/collision.hpp"
+#include "ctr/environments/environment_json.hpp"
 #include "ctr/environments/environment_yaml.hpp"
 
 namespace ctr::py {
@@ -14,7 +14,7 @@ namespace ctr::py {
 namespace {
 
 using pyb::arg;
-using EnvPtr = std::shared_ptr<env::Environment>;
+using EnvPtr = std::shared_ptr<environments::Environment>;
 
 pyb::list vec(const Eigen::Vector3d& v) {
   pyb::list l;
@@ -22,34 +22,34 @@ pyb::list vec(const Eigen::Vector3d& v) {
   return l;
 }
 
-/// The `ctr env info --json` object (env::infoJson, as the CLI writes it).
-pyb::object infoDict(const env::Environment& e) {
-  return pyb::module_::import("json").attr("loads")(env::infoJson(e));
+/// The `ctr env info --json` object (environments::infoJson, as the CLI writes it).
+pyb::object infoDict(const environments::Environment& e) {
+  return pyb::module_::import("json").attr("loads")(environments::infoJson(e));
 }
 
 /// A collision checker with the environment it checks against (kept alive by the Python object).
 struct Checker {
-  std::shared_ptr<const env::Environment> env;
-  std::shared_ptr<const env::CollisionChecker> checker;
+  std::shared_ptr<const environments::Environment> env;
+  std::shared_ptr<const environments::CollisionChecker> checker;
   double build_seconds = 0.0;
 };
 
 Checker makeChecker(const EnvPtr& e, const Robot& robot, std::optional<double> margin,
                     const std::optional<std::string>& unknown, double max_distance) {
   if (!e) throw pyb::value_error("environment: None");
-  env::CollisionOptions co = env::CollisionOptions::fromEnvironment(*e);
+  environments::CollisionOptions co = environments::CollisionOptions::fromEnvironment(*e);
   if (margin) {
     if (!(*margin >= 0.0)) throw pyb::value_error("margin: must be a finite number >= 0");
     co.geometry.safety_margin = *margin;
   }
-  if (unknown) co.unknown_space = env::parseUnknownSpace(*unknown);
+  if (unknown) co.unknown_space = environments::parseUnknownSpace(*unknown);
   if (!(max_distance > 0.0)) throw pyb::value_error("max_distance: must be > 0");
   co.max_distance = max_distance;
   Checker c;
   c.env = e;
   pyb::gil_scoped_release release;
   const auto t0 = std::chrono::steady_clock::now();
-  c.checker = std::make_shared<const env::CollisionChecker>(c.env, robot, co);
+  c.checker = std::make_shared<const environments::CollisionChecker>(c.env, robot, co);
   c.build_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   return c;
 }
@@ -59,7 +59,7 @@ void requireShape(const Solution& sol) {
   if (sol.backbone.empty()) throw pyb::value_error("solution: no backbone (solved with record_backbone off)");
 }
 
-pyb::dict collisionDict(const env::CollisionResult& col, const Robot& robot) {
+pyb::dict collisionDict(const environments::CollisionResult& col, const Robot& robot) {
   pyb::dict d;
   d["collision"] = col.collision;
   if (col.collision) {
@@ -81,7 +81,7 @@ pyb::dict collisionDict(const env::CollisionResult& col, const Robot& robot) {
   return d;
 }
 
-pyb::dict clearanceDict(const env::ClearanceResult& cl) {
+pyb::dict clearanceDict(const environments::ClearanceResult& cl) {
   pyb::dict d;
   d["clearance"] = jsonNumber(cl.clearance);
   d["clearance_saturated"] = cl.saturated;
@@ -99,22 +99,25 @@ pyb::dict clearanceDict(const env::ClearanceResult& cl) {
 }  // namespace
 
 void registerEnvironments(pyb::module_& m) {
-  pyb::class_<env::Environment, EnvPtr>(m, "Environment",
-                                        "An anatomy environment: occupancy octree (world frame, m), base pose, named "
-                                        "starts and targets. Load with ctr.load_environment(path).")
-      .def_property_readonly("name", &env::Environment::name)
-      .def_property_readonly("resolution", &env::Environment::resolution, "Octree leaf size (m).")
+  pyb::class_<environments::Environment, EnvPtr>(
+      m, "Environment",
+      "An anatomy environment: occupancy octree (world frame, m), base pose, named "
+      "starts and targets. Load with ctr.load_environment(path).")
+      .def_property_readonly("name", &environments::Environment::name)
+      .def_property_readonly("resolution", &environments::Environment::resolution, "Octree leaf size (m).")
       .def_property_readonly(
           "bounds",
-          [](const env::Environment& e) { return pyb::make_tuple(array3(e.bounds().min), array3(e.bounds().max)); },
+          [](const environments::Environment& e) {
+            return pyb::make_tuple(array3(e.bounds().min), array3(e.bounds().max));
+          },
           "(min, max) corners of the mapped region (m).")
       .def_property_readonly(
-          "base_pose", [](const env::Environment& e) { return Eigen::Matrix4d(e.basePose().matrix()); },
+          "base_pose", [](const environments::Environment& e) { return Eigen::Matrix4d(e.basePose().matrix()); },
           "world_T_base (4, 4): the robot base frame in the world.")
-      .def_property_readonly("base_pose_source", &env::Environment::basePoseSource)
+      .def_property_readonly("base_pose_source", &environments::Environment::basePoseSource)
       .def_property_readonly(
           "starts",
-          [](const env::Environment& e) {
+          [](const environments::Environment& e) {
             pyb::dict d;
             for (const auto& s : e.starts()) d[pyb::str(s.name)] = Eigen::Matrix4d(s.pose.matrix());
             return d;
@@ -122,35 +125,35 @@ void registerEnvironments(pyb::module_& m) {
           "Named start poses {name: (4, 4)}.")
       .def_property_readonly(
           "targets",
-          [](const env::Environment& e) {
+          [](const environments::Environment& e) {
             pyb::dict d;
             for (const auto& t : e.targets()) d[pyb::str(t.name)] = array3(t.position);
             return d;
           },
           "Named targets {name: (3,)} (world, m).")
-      .def_property_readonly("sources", &env::Environment::sources)
-      .def_property_readonly("build_seconds", &env::Environment::buildSeconds)
+      .def_property_readonly("sources", &environments::Environment::sources)
+      .def_property_readonly("build_seconds", &environments::Environment::buildSeconds)
       .def(
           "with_start",
-          [](const env::Environment& e, const std::string& name) {
-            auto copy = std::make_shared<env::Environment>(e);
+          [](const environments::Environment& e, const std::string& name) {
+            auto copy = std::make_shared<environments::Environment>(e);
             copy->useStart(name);
             return copy;
           },
           arg("name"), "A copy whose base pose is the named start pose (the CLI's --start).")
       .def(
           "occupancy",
-          [](const env::Environment& e, const pyb::object& p) {
+          [](const environments::Environment& e, const pyb::object& p) {
             const Eigen::VectorXd v = toVector(p, "point");
             if (v.size() != 3) throw pyb::value_error("point: expected 3 coordinates");
-            return std::string(env::toString(e.occupancy(v)));
+            return std::string(environments::toString(e.occupancy(v)));
           },
           arg("point"), "'free', 'occupied' or 'unknown' at a world point (m).")
       .def(
           "is_obstacle",
-          [](const env::Environment& e, const pyb::object& points, const std::string& unknown) {
+          [](const environments::Environment& e, const pyb::object& points, const std::string& unknown) {
             const Eigen::MatrixXd P = toMatrix(points, "points", 3);
-            const env::UnknownSpace u = env::parseUnknownSpace(unknown);
+            const environments::UnknownSpace u = environments::parseUnknownSpace(unknown);
             pyb::array_t<bool> out(P.rows());
             for (Eigen::Index k = 0; k < P.rows(); ++k) out.mutable_at(k) = e.isObstacle(P.row(k).transpose(), u);
             return out;
@@ -158,8 +161,8 @@ void registerEnvironments(pyb::module_& m) {
           arg("points"), arg("unknown") = "free", "Whether each world point (K, 3) is an obstacle.")
       .def(
           "occupied_voxels",
-          [](const env::Environment& e, const pyb::object& lo, const pyb::object& hi) {
-            env::Aabb box(Eigen::Vector3d::Constant(-1e300), Eigen::Vector3d::Constant(1e300));
+          [](const environments::Environment& e, const pyb::object& lo, const pyb::object& hi) {
+            environments::Aabb box(Eigen::Vector3d::Constant(-1e300), Eigen::Vector3d::Constant(1e300));
             if (!lo.is_none()) box.min = toVector(lo, "lo");
             if (!hi.is_none()) box.max = toVector(hi, "hi");
             std::vector<double> centres, sizes;
@@ -182,8 +185,8 @@ void registerEnvironments(pyb::module_& m) {
           arg("lo") = pyb::none(), arg("hi") = pyb::none(),
           "(centres (N, 3), edge lengths (N,)) of the occupied octree leaves inside the box [lo, hi] (world, m).")
       .def("stats",
-           [](const env::Environment& e) {
-             const env::OccupancyStats st = e.stats();
+           [](const environments::Environment& e) {
+             const environments::OccupancyStats st = e.stats();
              pyb::dict d;
              d["nodes"] = st.nodes;
              d["occupied_leaves"] = st.occupied_leaves;
@@ -195,9 +198,10 @@ void registerEnvironments(pyb::module_& m) {
            })
       .def("info", &infoDict, "The `ctr env info --json` object.")
       .def(
-          "write", [](const env::Environment& e, const std::filesystem::path& path) { e.write(path.string()); },
+          "write",
+          [](const environments::Environment& e, const std::filesystem::path& path) { e.write(path.string()); },
           arg("path"), "Writes the octree (.bt or .ot) atomically.")
-      .def("__repr__", [](const env::Environment& e) {
+      .def("__repr__", [](const environments::Environment& e) {
         return "<ctr.Environment '" + e.name() + "', resolution " +
                pyb::repr(pyb::float_(e.resolution())).cast<std::string>() + " m>";
       });
@@ -206,14 +210,14 @@ void registerEnvironments(pyb::module_& m) {
       "load_environment",
       [](const std::filesystem::path& path, std::optional<double> resolution, const std::optional<std::string>& start,
          bool verbose) {
-        env::BuildOptions bo;
+        environments::BuildOptions bo;
         if (resolution) {
           if (!(*resolution > 0.0)) throw pyb::value_error("resolution: must be > 0");
           bo.resolution = *resolution;
         }
         if (verbose) bo.log = [](const std::string& msg) { std::cerr << "  " << msg << "\n"; };
         pyb::gil_scoped_release release;
-        auto e = std::make_shared<env::Environment>(env::loadEnvironment(path.string(), bo));
+        auto e = std::make_shared<environments::Environment>(environments::loadEnvironment(path.string(), bo));
         if (start) e->useStart(*start);
         return e;
       },
@@ -234,7 +238,7 @@ void registerEnvironments(pyb::module_& m) {
           "check",
           [](const Checker& c, const Solution& sol) {
             requireShape(sol);
-            env::CollisionResult col;
+            environments::CollisionResult col;
             {
               pyb::gil_scoped_release release;
               auto q = c.checker->query();
@@ -247,7 +251,7 @@ void registerEnvironments(pyb::module_& m) {
           "clearance",
           [](const Checker& c, const Solution& sol) {
             requireShape(sol);
-            env::ClearanceResult cl;
+            environments::ClearanceResult cl;
             {
               pyb::gil_scoped_release release;
               auto q = c.checker->query();
@@ -271,8 +275,8 @@ void registerEnvironments(pyb::module_& m) {
         }
         if (!sol.converged()) throw std::runtime_error("the model did not converge: " + sol.summary.message);
         const Checker c = makeChecker(e, robot, margin, unknown, max_distance);
-        env::CollisionResult col;
-        env::ClearanceResult cl;
+        environments::CollisionResult col;
+        environments::ClearanceResult cl;
         double us_col = 0.0, us_cl = 0.0;
         {
           pyb::gil_scoped_release release;

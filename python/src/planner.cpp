@@ -1,8 +1,8 @@
 // Bindings of ctr::planner: queries, CtrPlanner(...).solve() and the result with its path and replay report.
 #include "ctr/planner/planner.hpp"
-#include "ctr/planner/result_json.hpp"
 #include "common.hpp"
 #include "ctr/io/input_error.hpp"
+#include "ctr/planner/result_json.hpp"
 
 namespace ctr::py {
 
@@ -12,21 +12,21 @@ using pyb::arg;
 
 /// A plan result with what its arrays need (robot size, base pose) and the query it answers.
 struct Result {
-  std::shared_ptr<const plan::PlanResult> r;
-  std::shared_ptr<const plan::Context> ctx;
-  plan::Query query;
+  std::shared_ptr<const planner::PlanResult> r;
+  std::shared_ptr<const planner::Context> ctx;
+  planner::Query query;
 };
 
 /// The replay report of a Result (shares the result's data).
 struct Replay {
-  std::shared_ptr<const plan::PlanResult> r;
-  std::shared_ptr<const plan::Context> ctx;
-  const plan::ReplayReport& rep() const { return r->replay; }
+  std::shared_ptr<const planner::PlanResult> r;
+  std::shared_ptr<const planner::Context> ctx;
+  const planner::ReplayReport& rep() const { return r->replay; }
 };
 
-/// The `ctr plan --json` object (plan::resultJson, as the CLI writes it): same keys and values.
-pyb::object resultDict(const plan::Query& q, const plan::PlanResult& r) {
-  return pyb::module_::import("json").attr("loads")(plan::resultJson(q, r, -1));
+/// The `ctr plan --json` object (planner::resultJson, as the CLI writes it): same keys and values.
+pyb::object resultDict(const planner::Query& q, const planner::PlanResult& r) {
+  return pyb::module_::import("json").attr("loads")(planner::resultJson(q, r, -1));
 }
 
 pyb::array_t<double> pathArray(const std::vector<Configuration>& path, int n) {
@@ -56,44 +56,44 @@ Configuration configurationFromTuple(const pyb::handle& h, const std::string& wh
 }  // namespace
 
 void registerPlanner(pyb::module_& m) {
-  pyb::class_<plan::Query>(m, "Query",
-                           "A planning query (docs/planning.md): robot, environment, start and its history, goal, "
-                           "mode, planner, time limit, seed. Load with ctr.load_query(path); fields can be changed "
-                           "before planning (the CLI's --mode, --planner, --time, --seed, --cpu-time).")
-      .def_readonly("file", &plan::Query::file)
-      .def_readwrite("name", &plan::Query::name)
-      .def_readwrite("robot", &plan::Query::robot, "Robot YAML path.")
-      .def_readwrite("environment", &plan::Query::environment, "Environment YAML path.")
-      .def_readwrite("base_start", &plan::Query::base_start)
+  pyb::class_<planner::Query>(m, "Query",
+                              "A planning query (docs/planning.md): robot, environment, start and its history, goal, "
+                              "mode, planner, time limit, seed. Load with ctr.load_query(path); fields can be changed "
+                              "before planning (the CLI's --mode, --planner, --time, --seed, --cpu-time).")
+      .def_readonly("file", &planner::Query::file)
+      .def_readwrite("name", &planner::Query::name)
+      .def_readwrite("robot", &planner::Query::robot, "Robot YAML path.")
+      .def_readwrite("environment", &planner::Query::environment, "Environment YAML path.")
+      .def_readwrite("base_start", &planner::Query::base_start)
       .def_property(
-          "mode", [](const plan::Query& q) { return std::string(plan::toString(q.mode)); },
-          [](plan::Query& q, const std::string& s) { q.mode = plan::parseMode(s); },
+          "mode", [](const planner::Query& q) { return std::string(planner::toString(q.mode)); },
+          [](planner::Query& q, const std::string& s) { q.mode = planner::parseMode(s); },
           "'exact', 'robust' or 'frictionless'.")
-      .def_readwrite("planner", &plan::Query::planner)
+      .def_readwrite("planner", &planner::Query::planner)
       .def_property(
-          "time_limit", [](const plan::Query& q) { return q.time_limit; },
-          [](plan::Query& q, double t) {
+          "time_limit", [](const planner::Query& q) { return q.time_limit; },
+          [](planner::Query& q, double t) {
             if (!(t > 0.0) || !std::isfinite(t)) throw pyb::value_error("time_limit: must be a finite number > 0");
             q.time_limit = t;
           },
           "Seconds.")
-      .def_readwrite("cpu_time_limit", &plan::Query::cpu_time_limit)
-      .def_readwrite("seed", &plan::Query::seed)
-      .def_readwrite("objective", &plan::Query::objective)
-      .def_readwrite("replay_rotation_step", &plan::Query::replay_rotation_step)
-      .def_readwrite("replay_translation_step", &plan::Query::replay_translation_step)
-      .def_readwrite("resolution_rotation", &plan::Query::resolution_rotation)
-      .def_readwrite("resolution_translation", &plan::Query::resolution_translation)
-      .def_readwrite("env_resolution", &plan::Query::env_resolution)
-      .def_readwrite("goal_configuration_tolerance", &plan::Query::goal_configuration_tolerance)
-      .def_readonly("target_name", &plan::Query::target_name)
+      .def_readwrite("cpu_time_limit", &planner::Query::cpu_time_limit)
+      .def_readwrite("seed", &planner::Query::seed)
+      .def_readwrite("objective", &planner::Query::objective)
+      .def_readwrite("replay_rotation_step", &planner::Query::replay_rotation_step)
+      .def_readwrite("replay_translation_step", &planner::Query::replay_translation_step)
+      .def_readwrite("resolution_rotation", &planner::Query::resolution_rotation)
+      .def_readwrite("resolution_translation", &planner::Query::resolution_translation)
+      .def_readwrite("env_resolution", &planner::Query::env_resolution)
+      .def_readwrite("goal_configuration_tolerance", &planner::Query::goal_configuration_tolerance)
+      .def_readonly("target_name", &planner::Query::target_name)
       .def_property(
-          "start", [](const plan::Query& q) { return configurationTuple(q.start); },
-          [](plan::Query& q, const pyb::object& v) { q.start = configurationFromTuple(v, "start"); },
+          "start", [](const planner::Query& q) { return configurationTuple(q.start); },
+          [](planner::Query& q, const pyb::object& v) { q.start = configurationFromTuple(v, "start"); },
           "(alpha, beta) of the start.")
       .def_property_readonly(
           "history",
-          [](const plan::Query& q) {
+          [](const planner::Query& q) {
             pyb::dict d;
             d["kind"] = toString(q.history.kind);
             d["approach"] = q.history.approach;
@@ -103,7 +103,7 @@ void registerPlanner(pyb::module_& m) {
           "How the robot arrived at the start.")
       .def_property_readonly(
           "tip_goal",
-          [](const plan::Query& q) -> pyb::object {
+          [](const planner::Query& q) -> pyb::object {
             if (!q.tip_goal) return pyb::none();
             pyb::dict d;
             d["position"] = array3(q.tip_goal->position);
@@ -116,17 +116,17 @@ void registerPlanner(pyb::module_& m) {
           "target's "
           "position is resolved in the environment by CtrPlanner: read it from planner.query.")
       .def_property_readonly("goal_configuration",
-                             [](const plan::Query& q) { return optionalConfiguration(q.goal_configuration); })
+                             [](const planner::Query& q) { return optionalConfiguration(q.goal_configuration); })
       .def_property(
           "friction",
-          [](const plan::Query& q) -> pyb::object {
+          [](const planner::Query& q) -> pyb::object {
             if (!q.friction) return pyb::none();
             pyb::dict d;
             d["boundary"] = q.friction->boundary;
             d["distributed"] = q.friction->distributed;
             return std::move(d);
           },
-          [](plan::Query& q, const pyb::object& v) {
+          [](planner::Query& q, const pyb::object& v) {
             if (v.is_none()) {
               q.friction.reset();
               return;
@@ -140,34 +140,36 @@ void registerPlanner(pyb::module_& m) {
           "Override of the robot's friction ({'boundary', 'distributed'}) or None.")
       .def_property(
           "loads",
-          [](const plan::Query& q) -> pyb::object {
+          [](const planner::Query& q) -> pyb::object {
             if (!q.loads) return pyb::none();
             pyb::dict d;
             d["gravity"] = array3(q.loads->gravity);
             d["tip_force"] = array3(q.loads->tip_force);
             d["tip_moment"] = array3(q.loads->tip_moment);
-            d["frame"] = q.loads_frame == plan::Query::LoadsFrame::Environment ? "environment" : "base";
+            d["frame"] = q.loads_frame == planner::Query::LoadsFrame::Environment ? "environment" : "base";
             return std::move(d);
           },
-          [](plan::Query& q, const pyb::object& v) {
+          [](planner::Query& q, const pyb::object& v) {
             if (v.is_none()) {
               q.loads.reset();
               return;
             }
             const pyb::dict d = v.cast<pyb::dict>();
             Loads l;
-            plan::Query::LoadsFrame frame = plan::Query::LoadsFrame::Base;
+            planner::Query::LoadsFrame frame = planner::Query::LoadsFrame::Base;
             for (const auto& kv : d) {
               const std::string k = kv.first.cast<std::string>();
               if (k == "frame") {
                 const std::string f = kv.second.cast<std::string>();
                 if (f != "base" && f != "environment")
                   throw pyb::value_error("loads: frame '" + f + "' is not base or environment");
-                frame = f == "environment" ? plan::Query::LoadsFrame::Environment : plan::Query::LoadsFrame::Base;
+                frame = f == "environment" ? planner::Query::LoadsFrame::Environment : planner::Query::LoadsFrame::Base;
                 continue;
               }
-              Eigen::Vector3d* dst = k == "gravity" ? &l.gravity : k == "tip_force" ? &l.tip_force
-                                                   : k == "tip_moment" ? &l.tip_moment : nullptr;
+              Eigen::Vector3d* dst = k == "gravity"      ? &l.gravity
+                                     : k == "tip_force"  ? &l.tip_force
+                                     : k == "tip_moment" ? &l.tip_moment
+                                                         : nullptr;
               if (!dst)
                 throw pyb::value_error("loads: unknown key '" + k + "' (gravity, tip_force, tip_moment, frame)");
               const Eigen::VectorXd x = toVector(kv.second, "loads " + k);
@@ -179,22 +181,22 @@ void registerPlanner(pyb::module_& m) {
           },
           "Override of the robot's loads ({'gravity', 'tip_force', 'tip_moment', 'frame': 'base' | 'environment'}; "
           "vectors in that frame) or None.")
-      .def("line_of", &plan::Query::lineOf, arg("key"), "Line of a key in the query file (0 if unknown).")
-      .def("__copy__", [](const plan::Query& q) { return plan::Query(q); })
-      .def("__deepcopy__", [](const plan::Query& q, const pyb::dict&) { return plan::Query(q); })
-      .def("__repr__", [](const plan::Query& q) {
-        return "<ctr.Query '" + q.name + "', " + plan::toString(q.mode) + ", " + q.planner + ", " +
+      .def("line_of", &planner::Query::lineOf, arg("key"), "Line of a key in the query file (0 if unknown).")
+      .def("__copy__", [](const planner::Query& q) { return planner::Query(q); })
+      .def("__deepcopy__", [](const planner::Query& q, const pyb::dict&) { return planner::Query(q); })
+      .def("__repr__", [](const planner::Query& q) {
+        return "<ctr.Query '" + q.name + "', " + planner::toString(q.mode) + ", " + q.planner + ", " +
                pyb::repr(pyb::float_(q.time_limit)).cast<std::string>() + " s>";
       });
 
   m.def(
-      "load_query", [](const std::filesystem::path& path) { return plan::loadQuery(path.string()); }, arg("path"),
+      "load_query", [](const std::filesystem::path& path) { return planner::loadQuery(path.string()); }, arg("path"),
       "Parses a query file. Raises ctr.InputError naming the file, line and key.");
-  m.def("parse_query", &plan::parseQuery, arg("text"), arg("source") = "<string>", arg("base_dir") = ".",
+  m.def("parse_query", &planner::parseQuery, arg("text"), arg("source") = "<string>", arg("base_dir") = ".",
         arg("check_files") = true, "Parses query text; relative paths resolve against base_dir.");
   m.def(
-      "planner_names", [](const std::string& mode) { return plan::plannerNames(plan::parseMode(mode)); },
-      arg("mode") = toString(plan::Mode::Exact), "Known planner names of a mode.");
+      "planner_names", [](const std::string& mode) { return planner::plannerNames(planner::parseMode(mode)); },
+      arg("mode") = toString(planner::Mode::Exact), "Known planner names of a mode.");
 
   pyb::class_<Replay>(m, "ReplayReport",
                       "The planned path replayed at fine resolution through the stateful friction model: the summary "
@@ -288,7 +290,7 @@ void registerPlanner(pyb::module_& m) {
           },
           "Solution at every replay step (base frame, without backbone).")
       .def(
-          "csv", [](const Replay& p) { return plan::replayCsv(p.ctx->robot(), p.rep()); },
+          "csv", [](const Replay& p) { return planner::replayCsv(p.ctx->robot(), p.rep()); },
           "The `ctr plan --path` CSV text (recording columns + clearance, validity, hysteresis).")
       .def("__repr__", [](const Replay& p) {
         return "<ctr.ReplayReport " + std::to_string(p.rep().steps) + " steps, " +
@@ -300,7 +302,7 @@ void registerPlanner(pyb::module_& m) {
           "solved", [](const Result& x) { return x.r->solved; },
           "Planner found a path AND its replay is collision-free, stable and reaches the goal.")
       .def_property_readonly("planner_solved", [](const Result& x) { return x.r->planner_solved; })
-      .def_property_readonly("mode", [](const Result& x) { return std::string(plan::toString(x.r->mode)); })
+      .def_property_readonly("mode", [](const Result& x) { return std::string(planner::toString(x.r->mode)); })
       .def_property_readonly("planner", [](const Result& x) { return x.r->planner; })
       .def_property_readonly("planning_time", [](const Result& x) { return x.r->planning_time; })
       .def_property_readonly("planning_wall_time", [](const Result& x) { return x.r->planning_wall_time; })
@@ -331,41 +333,42 @@ void registerPlanner(pyb::module_& m) {
                ">";
       });
 
-  pyb::class_<plan::CtrPlanner>(m, "CtrPlanner",
-                                "A planning problem built from a query (robot, environment, collision checker, OMPL "
-                                "set-up). solve() plans within the time limit, then replays the path through the "
-                                "friction model. One solve at a time per planner (build one planner per thread). "
-                                "OMPL's random seed is the first planner's query seed, set once per process.")
-      .def(pyb::init([](const plan::Query& q) {
+  pyb::class_<planner::CtrPlanner>(m, "CtrPlanner",
+                                   "A planning problem built from a query (robot, environment, collision checker, OMPL "
+                                   "set-up). solve() plans within the time limit, then replays the path through the "
+                                   "friction model. One solve at a time per planner (build one planner per thread). "
+                                   "OMPL's random seed is the first planner's query seed, set once per process.")
+      .def(pyb::init([](const planner::Query& q) {
              pyb::gil_scoped_release release;
-             return std::make_unique<plan::CtrPlanner>(q);
+             return std::make_unique<planner::CtrPlanner>(q);
            }),
            arg("query"), "Loads the query's robot and environment (ctr.InputError for bad files); no GIL.")
-      .def(pyb::init([](const plan::Query& q, const Robot& robot, const std::shared_ptr<env::Environment>& e) {
-             if (!e) throw pyb::value_error("environment: None");
-             pyb::gil_scoped_release release;
-             return std::make_unique<plan::CtrPlanner>(q, robot, *e);
-           }),
+      .def(pyb::init(
+               [](const planner::Query& q, const Robot& robot, const std::shared_ptr<environments::Environment>& e) {
+                 if (!e) throw pyb::value_error("environment: None");
+                 pyb::gil_scoped_release release;
+                 return std::make_unique<planner::CtrPlanner>(q, robot, *e);
+               }),
            arg("query"), arg("robot"), arg("environment"),
            "With a robot and an environment already loaded (the query's paths are then ignored).")
-      .def_property_readonly("query", &plan::CtrPlanner::query, "The query as planned (start projected).")
+      .def_property_readonly("query", &planner::CtrPlanner::query, "The query as planned (start projected).")
       .def_property_readonly(
-          "robot", [](const plan::CtrPlanner& p) { return p.context()->robot(); },
+          "robot", [](const planner::CtrPlanner& p) { return p.context()->robot(); },
           "The robot with the query's friction.")
       .def_property_readonly("environment",
-                             [](const plan::CtrPlanner& p) {
-                               return std::const_pointer_cast<env::Environment>(p.context()->environmentPtr());
+                             [](const planner::CtrPlanner& p) {
+                               return std::const_pointer_cast<environments::Environment>(p.context()->environmentPtr());
                              })
       .def(
           "check_start",
-          [](const plan::CtrPlanner& p) {
+          [](const planner::CtrPlanner& p) {
             pyb::gil_scoped_release release;
             p.checkStart();
           },
           "Raises ctr.InputError when the start does not converge or is invalid (as `ctr plan` before planning).")
       .def(
           "solve",
-          [](plan::CtrPlanner& p, const std::optional<std::string>& planner, std::optional<double> time_limit,
+          [](planner::CtrPlanner& p, const std::optional<std::string>& planner, std::optional<double> time_limit,
              bool check_start) {
             Result x;
             x.ctx = p.context();
@@ -378,12 +381,12 @@ void registerPlanner(pyb::module_& m) {
                 const double t = time_limit.value_or(p.query().time_limit);
                 if (!(t > 0.0)) throw std::invalid_argument("time_limit: must be > 0");
                 p.makePlanner(name);  // unknown planner: ValueError before planning
-                x.r = std::make_shared<const plan::PlanResult>(p.solve(name, t));
+                x.r = std::make_shared<const planner::PlanResult>(p.solve(name, t));
                 x.query.planner = name;
                 x.query.time_limit = t;
               } else {
                 p.makePlanner(p.query().planner);
-                x.r = std::make_shared<const plan::PlanResult>(p.solve());
+                x.r = std::make_shared<const planner::PlanResult>(p.solve());
               }
             }
             return x;

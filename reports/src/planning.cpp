@@ -39,8 +39,8 @@ json shapePoints(const Solution& sol, const Eigen::Isometry3d& world_T_base, int
 }
 
 // Occupied leaves with a non-occupied 6-neighbour, coarsened until at most max_voxels remain: flat x, y, z, size.
-json surfaceVoxels(const env::Environment& env, const Eigen::Vector3d& lo, const Eigen::Vector3d& hi, bool crop,
-                   int max_voxels, json& meta) {
+json surfaceVoxels(const environments::Environment& env, const Eigen::Vector3d& lo, const Eigen::Vector3d& hi,
+                   bool crop, int max_voxels, json& meta) {
   const octomap::OcTree& tree = env.tree();
   std::vector<std::array<double, 4>> surf;
   std::size_t occupied = 0;
@@ -56,7 +56,7 @@ json surfaceVoxels(const env::Environment& env, const Eigen::Vector3d& lo, const
       for (int sgn = -1; sgn <= 1 && !surface; sgn += 2) {
         Eigen::Vector3d q = p;
         q[d] += sgn * h;
-        if (env.occupancy(q) != env::Occupancy::Occupied) surface = true;
+        if (env.occupancy(q) != environments::Occupancy::Occupied) surface = true;
       }
     if (surface) surf.push_back({p.x(), p.y(), p.z(), h});
   }
@@ -88,7 +88,7 @@ json surfaceVoxels(const env::Environment& env, const Eigen::Vector3d& lo, const
 }
 }  // namespace
 
-std::string planningHtml(const plan::Context& ctx, const std::vector<Configuration>& waypoints,
+std::string planningHtml(const planner::Context& ctx, const std::vector<Configuration>& waypoints,
                          const std::optional<ViewGoal>& goal, const PlanningViewOptions& o) {
   if (waypoints.empty()) throw std::invalid_argument("the path has no waypoints");
   const auto t0 = std::chrono::steady_clock::now();
@@ -101,7 +101,7 @@ std::string planningHtml(const plan::Context& ctx, const std::vector<Configurati
   j["title"] = o.title;
   j["robot"] = robot.name();
   j["environment"] = ctx.environment().name();
-  j["mode"] = plan::toString(ctx.options().mode);
+  j["mode"] = planner::toString(ctx.options().mode);
   j["friction"] = {{"boundary", robot.friction().boundary}, {"distributed", robot.friction().distributed}};
   json tubes = json::array();
   for (int i = 0; i < n; ++i) {
@@ -115,7 +115,7 @@ std::string planningHtml(const plan::Context& ctx, const std::vector<Configurati
   // Shapes by a quasi-static replay through the friction model.
   FrictionOptions fo = ctx.options().friction;
   fo.kinematics.record_backbone = true;
-  plan::ThreadScratch& scratch = plan::scratch();
+  planner::ThreadScratch& scratch = planner::scratch();
   Workspace& ws = scratch.ws;
   json shapes = json::array(), lengths = json::array(), ends = json::array(), valid = json::array(),
        conv = json::array(), reasons = json::object(), config = json::array();
@@ -146,7 +146,7 @@ std::string planningHtml(const plan::Context& ctx, const std::vector<Configurati
     }
     std::string reason;
     if (ok) {
-      const plan::ShapeCheck sc = plan::checkShape(ctx, s, scratch);
+      const planner::ShapeCheck sc = planner::checkShape(ctx, s, scratch);
       if (!sc.ok) reason = sc.reason;
     } else {
       reason = "not converged" + (s.summary.message.empty() ? std::string() : ": " + s.summary.message);

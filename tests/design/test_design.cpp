@@ -321,7 +321,7 @@ TEST(DesignSearch, ATargetOutsideEveryDesignIsReportedWithTheClosestDistance) {
   const fs::path dir = tempDir("far");
   writeEasyProblem(dir);
   const std::string qf = writeQuery(dir, "far", "far");
-  Designer d({plan::loadQuery(qf)}, std::nullopt);
+  Designer d({planner::loadQuery(qf)}, std::nullopt);
   DesignOptions o;
   o.evaluations = 4;
   o.population = 2;
@@ -344,7 +344,7 @@ TEST(DesignSearch, ASmallRunSolvesAnEasyQueryAndWritesALoadableRobot) {
   const fs::path dir = tempDir("easy");
   writeEasyProblem(dir);
   const std::string qf = writeQuery(dir, "easy", "near");
-  Designer d({plan::loadQuery(qf)}, std::nullopt);
+  Designer d({planner::loadQuery(qf)}, std::nullopt);
   DesignOptions o;
   o.evaluations = 4;
   o.population = 2;
@@ -361,9 +361,9 @@ TEST(DesignSearch, ASmallRunSolvesAnEasyQueryAndWritesALoadableRobot) {
   const Robot robot = io::loadRobot((out / "robot.yaml").string());
   for (int i = 0; i < robot.size(); ++i)
     EXPECT_LE(std::abs(robot.tube(i).curvature) * 0.5 * robot.tube(i).outer_diameter, d.space().strain_limit + 1e-12);
-  const plan::Query q = plan::loadQuery((out / "queries" / "easy.yaml").string());
+  const planner::Query q = planner::loadQuery((out / "queries" / "easy.yaml").string());
   EXPECT_EQ(fs::path(q.robot).filename(), "robot.yaml");
-  plan::CtrPlanner p(q);
+  planner::CtrPlanner p(q);
   p.checkStart();
   const nlohmann::json j = nlohmann::json::parse(std::ifstream(out / "result.json"));
   EXPECT_EQ(j["solved"], r.solved);
@@ -380,7 +380,7 @@ TEST(DesignSearch, ShardsOfARunMergeIntoTheBestDesignAndAMissingShardIsAnError) 
   const fs::path dir = tempDir("shards");
   writeEasyProblem(dir);
   const std::string qf = writeQuery(dir, "easy", "near");
-  Designer d({plan::loadQuery(qf)}, std::nullopt);
+  Designer d({planner::loadQuery(qf)}, std::nullopt);
   DesignOptions o;
   o.starts = 2;
   o.evaluations = 2;

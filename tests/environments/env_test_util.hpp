@@ -18,16 +18,16 @@
 #include "ctr/environments/robot_geometry.hpp"
 #include "ctr/io/input_error.hpp"
 
-namespace ctr::env::test {
+namespace ctr::environments::test {
 
 /// A fresh folder under the system temp dir, removed at the end of the test.
 class TempDir {
-public:
+ public:
   TempDir() {
     static int counter = 0;
     const auto* info = ::testing::UnitTest::GetInstance()->current_test_info();
-    std::string name = std::string("ctr_env_") + (info ? info->name() : "x") + "_" +
-                       std::to_string(::getpid()) + "_" + std::to_string(counter++);
+    std::string name = std::string("ctr_env_") + (info ? info->name() : "x") + "_" + std::to_string(::getpid()) + "_" +
+                       std::to_string(counter++);
     for (char& c : name)
       if (c == '/') c = '_';
     path_ = std::filesystem::temp_directory_path() / name;
@@ -45,7 +45,7 @@ public:
   }
   const std::filesystem::path& path() const { return path_; }
 
-private:
+ private:
   std::filesystem::path path_;
 };
 
@@ -93,4 +93,4 @@ void expectInputError(F&& f, const std::vector<std::string>& fragments) {
   }
 }
 
-}  // namespace ctr::env::test
+}  // namespace ctr::environments::test

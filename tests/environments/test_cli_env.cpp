@@ -9,7 +9,7 @@
 
 #include "env_test_util.hpp"
 
-namespace ctr::env {
+namespace ctr::environments {
 namespace {
 
 #ifdef CTR_CLI_PATH
@@ -35,7 +35,7 @@ CliRun run(const test::TempDir& dir, const std::string& args) {
 
 const std::string kExamples = std::string(CTR_SOURCE_DIR) + "/examples";
 
-#define REQUIRE_CLI()                                                                              \
+#define REQUIRE_CLI() \
   if (!std::filesystem::exists(CTR_CLI_PATH)) GTEST_SKIP() << "the ctr command is not built (" << CTR_CLI_PATH << ")"
 
 TEST(CliEnv, InfoBuildCheck) {
@@ -62,8 +62,8 @@ TEST(CliEnv, InfoBuildCheck) {
   EXPECT_FALSE(std::filesystem::exists(bt + ".tmp"));
 
   const std::string robot = kExamples + "/robots/proc_intracardiac.yaml";
-  CliRun check = run(dir, "env check '" + env + "' --robot '" + robot +
-                           "' --alpha 0,3.14159,0 --beta -0.12,-0.15,-0.19 --json");
+  CliRun check =
+      run(dir, "env check '" + env + "' --robot '" + robot + "' --alpha 0,3.14159,0 --beta -0.12,-0.15,-0.19 --json");
   ASSERT_EQ(check.code, 0) << check.err;
   const auto c = nlohmann::json::parse(check.out);
   EXPECT_TRUE(c.contains("collision"));
@@ -74,7 +74,8 @@ TEST(CliEnv, InfoBuildCheck) {
   EXPECT_FALSE(c["collision"].get<bool>());
   EXPECT_GT(c["clearance"].get<double>(), 0.001);
   // Pushed through the atrium into its roof: a collision with a first colliding section.
-  CliRun wall = run(dir, "env check '" + env + "' --robot '" + robot + "' --alpha 0,0,0 --beta -0.01,-0.07,-0.12 --json");
+  CliRun wall =
+      run(dir, "env check '" + env + "' --robot '" + robot + "' --alpha 0,0,0 --beta -0.01,-0.07,-0.12 --json");
   ASSERT_EQ(wall.code, 0) << wall.err;
   const auto w = nlohmann::json::parse(wall.out);
   EXPECT_TRUE(w["collision"].get<bool>());
@@ -107,9 +108,10 @@ TEST(CliEnv, BadInputsExitTwoWithoutOutput) {
   EXPECT_EQ(d.code, 2);
   EXPECT_NE(d.err.find("nowhere"), std::string::npos);
   CliRun e = run(dir, "env check '" + kExamples + "/environments/proc_intracardiac.yaml' --robot '" + kExamples +
-                       "/robots/proc_intracardiac.yaml' --alpha 0,0");
+                          "/robots/proc_intracardiac.yaml' --alpha 0,0");
   EXPECT_EQ(e.code, 2);
-  CliRun f = run(dir, "env build '" + kExamples + "/environments/proc_intracardiac.yaml' -o '" + dir.file("x.png") + "'");
+  CliRun f =
+      run(dir, "env build '" + kExamples + "/environments/proc_intracardiac.yaml' -o '" + dir.file("x.png") + "'");
   EXPECT_EQ(f.code, 2);
   // No partial output anywhere.
   EXPECT_FALSE(std::filesystem::exists(out));
@@ -117,8 +119,10 @@ TEST(CliEnv, BadInputsExitTwoWithoutOutput) {
   EXPECT_FALSE(std::filesystem::exists(dir.file("x.png")));
 }
 #else
-TEST(CliEnv, NotBuilt) { GTEST_SKIP() << "ctr_cli is not part of this build"; }
+TEST(CliEnv, NotBuilt) {
+  GTEST_SKIP() << "ctr_cli is not part of this build";
+}
 #endif
 
 }  // namespace
-}  // namespace ctr::env
+}  // namespace ctr::environments

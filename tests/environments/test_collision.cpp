@@ -11,7 +11,7 @@
 #include "ctr/model/kinematics.hpp"
 #include "env_test_util.hpp"
 
-namespace ctr::env {
+namespace ctr::environments {
 namespace {
 
 constexpr double kRes = 0.001;
@@ -169,7 +169,8 @@ Robot threeTubes() {
     t.inner_diameter = id;
     return t;
   };
-  return Robot("three", {tube("outer", 0.02, 0.02, 10, 0.03, 2.0e-3, 1.6e-3), tube("middle", 0.03, 0.02, 20, 0.01, 1.4e-3, 1.0e-3),
+  return Robot("three", {tube("outer", 0.02, 0.02, 10, 0.03, 2.0e-3, 1.6e-3),
+                         tube("middle", 0.03, 0.02, 20, 0.01, 1.4e-3, 1.0e-3),
                          tube("inner", 0.04, 0.02, 40, 0.002, 0.8e-3, 0.5e-3)});
 }
 
@@ -281,7 +282,7 @@ TEST(Collision, RobotShapeAgainstBruteForce) {
 
 TEST(Collision, UnknownSpaceAndBounds) {
   auto env = randomScene(12, /*mark_free=*/false);  // only occupied cells are known
-  Capsule c;  // in the middle of the map, away from obstacles?
+  Capsule c;                                        // in the middle of the map, away from obstacles?
   c.a = Eigen::Vector3d(0.0, 0.0, 0.0);
   c.b = c.a;
   c.radius = 1e-4;
@@ -356,4 +357,4 @@ TEST(Collision, ThreadsShareOneChecker) {
 }
 
 }  // namespace
-}  // namespace ctr::env
+}  // namespace ctr::environments

@@ -9,7 +9,7 @@
 #include "ctr/environments/voxel_grid.hpp"
 #include "env_test_util.hpp"
 
-namespace ctr::env {
+namespace ctr::environments {
 namespace {
 
 TEST(VoxelGrid, KeysMatchOctoMap) {
@@ -92,7 +92,8 @@ TEST(VoxelGrid, GridToOcTreeMatchesCells) {
 
   // Without known free space only occupied cells exist.
   auto sparse = gridToOcTree(g, false);
-  for (auto it = sparse->begin_leafs(), end = sparse->end_leafs(); it != end; ++it) EXPECT_TRUE(sparse->isNodeOccupied(*it));
+  for (auto it = sparse->begin_leafs(), end = sparse->end_leafs(); it != end; ++it)
+    EXPECT_TRUE(sparse->isNodeOccupied(*it));
 }
 
 TEST(VoxelGrid, RasterizeAndFillUnknown) {
@@ -168,4 +169,4 @@ TEST(Environment, PosesAndNames) {
 }
 
 }  // namespace
-}  // namespace ctr::env
+}  // namespace ctr::environments

@@ -8,7 +8,7 @@
 #include "ctr/io/robot_yaml.hpp"
 #include "env_test_util.hpp"
 
-namespace ctr::env {
+namespace ctr::environments {
 namespace {
 
 const std::string kExamples = std::string(CTR_SOURCE_DIR) + "/examples";
@@ -29,13 +29,15 @@ TEST(MedMpd, LungPatient1) {
   EXPECT_NEAR(env.bounds().size().x(), 0.274, 0.01);
   EXPECT_NEAR(env.bounds().size().z(), 0.358, 0.01);
   const OccupancyStats st = env.stats();
-  EXPECT_GT(st.occupied_volume, 50e-6);   // vessels: > 50 cm^3
+  EXPECT_GT(st.occupied_volume, 50e-6);  // vessels: > 50 cm^3
   EXPECT_LT(st.occupied_volume, 600e-6);
   ASSERT_EQ(env.starts().size(), 5u);
   EXPECT_EQ(env.basePoseSource(), "start1");
   // start1.txt: translation (43.05, 148.87, 1226.85) mm; z column (0.681, 0.728, -0.083).
-  EXPECT_TRUE(env.basePose().translation().isApprox(Eigen::Vector3d(0.04305291433, 0.14886545644, 1.22684838867), 1e-9));
-  EXPECT_TRUE(env.basePose().linear().col(2).isApprox(Eigen::Vector3d(0.6809441759, 0.7276179667, -0.0829886967), 1e-6));
+  EXPECT_TRUE(
+      env.basePose().translation().isApprox(Eigen::Vector3d(0.04305291433, 0.14886545644, 1.22684838867), 1e-9));
+  EXPECT_TRUE(
+      env.basePose().linear().col(2).isApprox(Eigen::Vector3d(0.6809441759, 0.7276179667, -0.0829886967), 1e-6));
   const NamedTarget& nodule = env.target("nodule");
   EXPECT_TRUE(nodule.position.isApprox(Eigen::Vector3d(0.06487506397, 0.20112493055, 1.21191394043), 1e-9));
   EXPECT_TRUE(env.bounds().contains(nodule.position));
@@ -69,16 +71,18 @@ TEST(MedMpd, LungPatient1) {
 
 TEST(MedMpd, AllExampleDescriptionsParse) {
   if (!haveMedMpd()) GTEST_SKIP() << "Med-MPD data not found beside the checkout (../shared/data/med-mpd)";
-  for (const char* name : {"medmpd_lung_patient1", "medmpd_lung_patient2", "medmpd_lung_patient3", "medmpd_lung_patient4",
-                           "medmpd_lung_patient5", "medmpd_brain_patient1", "medmpd_brain_patient2",
-                           "medmpd_liver_patient1", "proc_intracardiac", "proc_airway", "proc_sinus"}) {
+  for (const char* name :
+       {"medmpd_lung_patient1", "medmpd_lung_patient2", "medmpd_lung_patient3", "medmpd_lung_patient4",
+        "medmpd_lung_patient5", "medmpd_brain_patient1", "medmpd_brain_patient2", "medmpd_liver_patient1",
+        "proc_intracardiac", "proc_airway", "proc_sinus"}) {
     const EnvironmentDescription d = loadEnvironmentDescription(kExamples + "/environments/" + name + ".yaml");
     EXPECT_EQ(d.name, name);
     EXPECT_FALSE(d.targets.empty() && !d.stay_inside) << name;
   }
-  for (const char* name : {"medmpd_lung", "medmpd_brain", "medmpd_liver", "proc_intracardiac", "proc_airway", "proc_sinus"})
+  for (const char* name :
+       {"medmpd_lung", "medmpd_brain", "medmpd_liver", "proc_intracardiac", "proc_airway", "proc_sinus"})
     EXPECT_NO_THROW(io::loadRobot(kExamples + "/robots/" + name + ".yaml")) << name;
 }
 
 }  // namespace
-}  // namespace ctr::env
+}  // namespace ctr::environments

@@ -9,7 +9,7 @@
 #include "ctr/environments/procedural.hpp"
 #include "env_test_util.hpp"
 
-namespace ctr::env {
+namespace ctr::environments {
 namespace {
 
 // Every leaf: key, depth and log-odds, in traversal order.
@@ -112,7 +112,8 @@ TEST(Procedural, Parameters) {
   const ProceduralAnatomy a2 = makeProcedural({"airway", 3, 1.0, {{"generations", 2}}});
   const ProceduralAnatomy a3 = makeProcedural({"airway", 3, 1.0, {{"generations", 3}}});
   auto leaves = [](const ProceduralAnatomy& a) {
-    return std::count_if(a.targets.begin(), a.targets.end(), [](const NamedTarget& t) { return t.name.rfind("leaf_", 0) == 0; });
+    return std::count_if(a.targets.begin(), a.targets.end(),
+                         [](const NamedTarget& t) { return t.name.rfind("leaf_", 0) == 0; });
   };
   EXPECT_EQ(leaves(a2), 4);
   EXPECT_EQ(leaves(a3), 8);
@@ -124,4 +125,4 @@ TEST(Procedural, Parameters) {
 }
 
 }  // namespace
-}  // namespace ctr::env
+}  // namespace ctr::environments

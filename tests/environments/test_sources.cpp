@@ -14,7 +14,7 @@
 #include "ctr/environments/voxel_grid.hpp"
 #include "env_test_util.hpp"
 
-namespace ctr::env {
+namespace ctr::environments {
 namespace {
 
 using test::expectInputError;
@@ -22,8 +22,8 @@ using test::TempDir;
 
 // A 10x8x6 uint8 volume written directly with the NIfTI API: value 3 in a 2x2x2 block at (4..5, 3..4, 2..3),
 // value 1 at voxel (0, 0, 0). sform: 2 mm spacing, origin (-10, 20, 30) mm; qform: 1 mm spacing, origin (0, 0, 0).
-std::string writeTestNifti(const TempDir& dir, const std::string& name, int sform_code, int qform_code,
-                           int ndim = 3, int nt = 1) {
+std::string writeTestNifti(const TempDir& dir, const std::string& name, int sform_code, int qform_code, int ndim = 3,
+                           int nt = 1) {
   nifti_set_debug_level(0);
   const int64_t dims[8] = {ndim, 10, 8, 6, nt, 1, 1, 1};
   nifti_image* nim = nifti_make_new_nim(dims, DT_UINT8, 1);
@@ -130,8 +130,8 @@ TEST(NiftiSource, SelectionAndSampling) {
       for (int i = 0; i < g.dims().x(); ++i) {
         const Eigen::Vector3d c = g.centre(i, j, k);
         const Aabb cell(c.array() - 0.00075, c.array() + 0.00075);
-        const bool overlaps = (cell.min.array() < ext.max.array() - 1e-9).all() &&
-                              (cell.max.array() > ext.min.array() + 1e-9).all();
+        const bool overlaps =
+            (cell.min.array() < ext.max.array() - 1e-9).all() && (cell.max.array() > ext.min.array() + 1e-9).all();
         EXPECT_EQ(g.at(i, j, k) == VoxelGrid::kOccupied, overlaps) << i << " " << j << " " << k;
         EXPECT_EQ(gc.at(i, j, k) == VoxelGrid::kOccupied, ext.contains(c)) << i << " " << j << " " << k;
         cons += overlaps;
@@ -172,7 +172,8 @@ TEST(NiftiSource, BadFiles) {
   expectInputError([&] { readNifti(junk); }, {"junk.nii", "not a readable NIfTI"});
   expectInputError([&] { readNifti(writeTestNifti(dir, "noaffine.nii", 0, 0)); },
                    {"noaffine.nii", "no voxel-to-world affine"});
-  expectInputError([&] { readNifti(writeTestNifti(dir, "fourd.nii", 1, 1, 4, 3)); }, {"fourd.nii", "3-D", "dim[4] = 3"});
+  expectInputError([&] { readNifti(writeTestNifti(dir, "fourd.nii", 1, 1, 4, 3)); },
+                   {"fourd.nii", "3-D", "dim[4] = 3"});
   // A 4-D file with a single volume is fine.
   EXPECT_EQ(readNifti(writeTestNifti(dir, "single.nii", 1, 1, 4, 1)).dims, Eigen::Vector3i(10, 8, 6));
   // Truncated data.
@@ -183,8 +184,7 @@ TEST(NiftiSource, BadFiles) {
 
 TriangleMesh cube(double lo, double hi) {
   TriangleMesh m;
-  for (int c = 0; c < 8; ++c)
-    m.vertices.emplace_back((c & 1) ? hi : lo, (c & 2) ? hi : lo, (c & 4) ? hi : lo);
+  for (int c = 0; c < 8; ++c) m.vertices.emplace_back((c & 1) ? hi : lo, (c & 2) ? hi : lo, (c & 4) ? hi : lo);
   const int f[12][3] = {{0, 2, 1}, {1, 2, 3}, {4, 5, 6}, {5, 7, 6}, {0, 1, 4}, {1, 5, 4},
                         {2, 6, 3}, {3, 6, 7}, {0, 4, 2}, {2, 4, 6}, {1, 3, 5}, {3, 7, 5}};
   for (const auto& t : f) m.triangles.push_back({t[0], t[1], t[2]});
@@ -257,8 +257,9 @@ TEST(PointCloudSource, XyzAndPly) {
   EXPECT_EQ(gr.count(VoxelGrid::kOccupied), 27u);  // the cell and its 26 neighbours are within 1.2 mm
 
   // Binary little-endian PLY with an extra property.
-  std::string bin = "ply\nformat binary_little_endian 1.0\nelement vertex 2\nproperty float x\nproperty float y\n"
-                    "property float z\nproperty uchar red\nend_header\n";
+  std::string bin =
+      "ply\nformat binary_little_endian 1.0\nelement vertex 2\nproperty float x\nproperty float y\n"
+      "property float z\nproperty uchar red\nend_header\n";
   const float v[2][3] = {{0.01f, 0.02f, 0.03f}, {-0.01f, 0.0f, 0.005f}};
   for (const auto& p : v) {
     bin.append(reinterpret_cast<const char*>(p), 12);
@@ -268,8 +269,9 @@ TEST(PointCloudSource, XyzAndPly) {
   auto pp = loadPointCloud(dir.file("pts.ply"));
   ASSERT_EQ(pp.size(), 2u);
   EXPECT_NEAR(pp[0].z(), 0.03, 1e-7);
-  dir.write("ascii.ply", "ply\nformat ascii 1.0\nelement vertex 1\nproperty double x\nproperty double y\n"
-                         "property double z\nend_header\n1 2 3\n");
+  dir.write("ascii.ply",
+            "ply\nformat ascii 1.0\nelement vertex 1\nproperty double x\nproperty double y\n"
+            "property double z\nend_header\n1 2 3\n");
   EXPECT_TRUE(loadPointCloud(dir.file("ascii.ply"))[0].isApprox(Eigen::Vector3d(1, 2, 3)));
 
   dir.write("bad.xyz", "0 0 0\n1 2\n");
@@ -360,13 +362,14 @@ TEST(MeshSource, MalformedFilesFoundByFuzzingAreInputErrorsOrMeshes) {
 const char* const kPlyAsciiHeader =
     "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\nproperty float z\n"
     "element face 1\nproperty list uchar int vertex_indices\nend_header\n";  // 9 lines
-const char* const kPlyVertices = "0 0 0\n1 0 0\n0 1 0\n";                     // lines 10-12
+const char* const kPlyVertices = "0 0 0\n1 0 0\n0 1 0\n";                    // lines 10-12
 
 std::string plyBinary(bool big_endian, const std::string& count_type, std::uint64_t count,
                       const std::vector<std::int32_t>& indices, float x0 = 0.0f) {
   std::string s = std::string("ply\nformat ") + (big_endian ? "binary_big_endian" : "binary_little_endian") +
                   " 1.0\nelement vertex 3\nproperty float x\nproperty float y\nproperty float z\nelement face 1\n"
-                  "property list " + count_type + " int vertex_indices\nend_header\n";
+                  "property list " +
+                  count_type + " int vertex_indices\nend_header\n";
   auto put = [&](const void* p, std::size_t n) {
     std::string b(static_cast<const char*>(p), n);
     if (big_endian) std::reverse(b.begin(), b.end());
@@ -417,9 +420,9 @@ TEST(MeshSource, WellFormedPlyVariantsLoad) {
   ASSERT_EQ(be.triangles.size(), 1u);
   EXPECT_TRUE(be.extent().max.isApprox(Eigen::Vector3d(1, 1, 0)));
   // A quad (triangulated by assimp) and trailing bytes after a binary body are fine.
-  dir.write("quad.ply", std::string(kPlyAsciiHeader).replace(std::string(kPlyAsciiHeader).find("vertex 3"), 8,
-                                                             "vertex 4") +
-                            kPlyVertices + "1 1 0\n4 0 1 3 2\n\n");
+  dir.write("quad.ply",
+            std::string(kPlyAsciiHeader).replace(std::string(kPlyAsciiHeader).find("vertex 3"), 8, "vertex 4") +
+                kPlyVertices + "1 1 0\n4 0 1 3 2\n\n");
   EXPECT_EQ(loadMesh(dir.file("quad.ply")).triangles.size(), 2u);
   dir.write("tail.ply", plyBinary(false, "uchar", 3, {0, 1, 2}) + "\n");
   EXPECT_EQ(loadMesh(dir.file("tail.ply")).triangles.size(), 1u);
@@ -473,17 +476,20 @@ TEST(MeshSource, MalformedPlyAsciiBodiesNameTheLine) {
   bad("texcoord.ply", tc + v + "6 0 0 1 0 0 1\n", {"texcoord.ply:7", "texcoord list but no vertex_indices"});
   bad("comment.ply", std::string("ply\nformat ascii 1.0\ncomment 5 lines\n") + (h.c_str() + 21) + v + "3 0 1 2\n",
       {"comment.ply:3", "comment before the first element"});
-  bad("twice.ply", "ply\nformat ascii 1.0\nelement vertex 1\nproperty float x\nelement vertex 1\nproperty float x\n"
-                   "end_header\n0\n0\n",
+  bad("twice.ply",
+      "ply\nformat ascii 1.0\nelement vertex 1\nproperty float x\nelement vertex 1\nproperty float x\n"
+      "end_header\n0\n0\n",
       {"twice.ply:5", "element 'vertex' is declared twice"});
-  bad("unknown.ply", "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nelement camera 1\nproperty float f\n"
-                     "end_header\n0\n1\n2\n1.5\n",
+  bad("unknown.ply",
+      "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nelement camera 1\nproperty float f\n"
+      "end_header\n0\n1\n2\n1.5\n",
       {"unknown.ply:5", "element 'camera' is not supported"});
   std::string spaces = h;
   spaces.replace(spaces.find("list uchar"), 10, "list  uchar");
   bad("spaces.ply", spaces + v + "3 0 1 2\n", {"spaces.ply:8", "malformed PLY property line", "single spaces"});
-  bad("strips.ply", "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nelement tristrips 1\n"
-                    "property list int int vertex_indices\nend_header\n0\n1\n2\n3 0 1 2\n",
+  bad("strips.ply",
+      "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nelement tristrips 1\n"
+      "property list int int vertex_indices\nend_header\n0\n1\n2\n3 0 1 2\n",
       {"strips.ply:5", "element 'tristrips' is not supported"});
 }
 
@@ -541,4 +547,4 @@ TEST(MeshSource, MalformedPlyBinaryBodiesNameTheByteOffset) {
 }
 
 }  // namespace
-}  // namespace ctr::env
+}  // namespace ctr::environments

@@ -1,4 +1,4 @@
-// Fuzz target: mesh loading through the project's wrapper (ctr::env::loadMesh, then extent and closedness).
+// Fuzz target: mesh loading through the project's wrapper (ctr::environments::loadMesh, then extent and closedness).
 // The first byte picks the file extension (.stl, .obj, .ply, .off); the rest is the file.
 #include <string>
 
@@ -11,7 +11,7 @@ CTR_FUZZ_TARGET(mesh) {
   static const char* const kExt[] = {"stl", "obj", "ply", "off"};
   const std::string path = ctr::fuzz::writeScratch(std::string("input.") + kExt[data[0] % 4], data + 1, size - 1);
   try {
-    const ctr::env::TriangleMesh mesh = ctr::env::loadMesh(path, 1e-3);
+    const ctr::environments::TriangleMesh mesh = ctr::environments::loadMesh(path, 1e-3);
     (void)mesh.extent();
     (void)mesh.openEdges();
   } catch (const ctr::io::InputError&) {

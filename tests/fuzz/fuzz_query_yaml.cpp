@@ -1,4 +1,4 @@
-// Fuzz target: planning query YAML (ctr::plan::parseQuery with check_files = false, so the robot / environment
+// Fuzz target: planning query YAML (ctr::planner::parseQuery with check_files = false, so the robot / environment
 // paths are only resolved, never opened).
 #include <string>
 
@@ -9,7 +9,7 @@
 CTR_FUZZ_TARGET(query_yaml) {
   const std::string text(reinterpret_cast<const char*>(data), size);
   try {
-    (void)ctr::plan::parseQuery(text, "fuzz.yaml", ctr::fuzz::scratchDir().string(), false);
+    (void)ctr::planner::parseQuery(text, "fuzz.yaml", ctr::fuzz::scratchDir().string(), false);
   } catch (const ctr::io::InputError&) {
   }
   return 0;

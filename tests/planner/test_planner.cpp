@@ -12,13 +12,13 @@
 
 #include "ctr/environments/robot_geometry.hpp"
 #include "ctr/io/input_error.hpp"
-#include "ctr/model/jacobian.hpp"
 #include "ctr/io/robot_yaml.hpp"
+#include "ctr/model/jacobian.hpp"
 #include "ctr/planner/goal.hpp"
 #include "ctr/planner/planner.hpp"
 
 using namespace ctr;
-using namespace ctr::plan;
+using namespace ctr::planner;
 namespace fs = std::filesystem;
 
 namespace {
@@ -63,10 +63,10 @@ Context emptyMapContext(const Robot& r, Mode mode) {
   auto tree = std::make_shared<octomap::OcTree>(0.005);
   tree->updateNode(octomap::point3d(1.0f, 1.0f, 1.0f), true);
   tree->updateInnerOccupancy();
-  auto env = std::make_shared<const env::Environment>("empty", tree);
+  auto env = std::make_shared<const environments::Environment>("empty", tree);
   ContextOptions co;
   co.mode = mode;
-  env::CollisionOptions col;
+  environments::CollisionOptions col;
   col.distance_field = false;
   return Context(r, env, co, col);
 }
@@ -175,7 +175,7 @@ TEST(Query, LoadsReplaceTheRobotsAndTurnIntoTheBaseFrame) {
   auto tree = std::make_shared<octomap::OcTree>(0.005);
   tree->updateNode(octomap::point3d(1.0f, 1.0f, 1.0f), true);
   tree->updateInnerOccupancy();
-  env::Environment e("empty", tree);
+  environments::Environment e("empty", tree);
   Eigen::Isometry3d pose = Eigen::Isometry3d::Identity();
   pose.linear() = Eigen::AngleAxisd(0.7, Eigen::Vector3d(1, 2, 0).normalized()).toRotationMatrix();
   e.setBasePose(pose);
@@ -288,9 +288,9 @@ TEST(Context, CollisionCapsulesContainTheTubeAtPlanningSteps) {
   ref.record_tube_states = false;
   KinematicsOptions fast = planningKinematicsOptions();
   fast.record_tube_states = false;
-  env::RobotGeometryOptions go;
+  environments::RobotGeometryOptions go;
   go.safety_margin = 2e-4;
-  std::vector<env::Capsule> caps;
+  std::vector<environments::Capsule> caps;
   for (const char* name : {"medmpd_lung", "medmpd_liver", "proc_intracardiac", "proc_airway", "dupont_lab_3tube"}) {
     const Robot r = io::loadRobot(src(std::string("examples/robots/") + name + ".yaml"));
     const TranslationSampler sampler(r, 1e-3);
@@ -304,13 +304,13 @@ TEST(Context, CollisionCapsulesContainTheTubeAtPlanningSteps) {
       if (!a.converged()) continue;
       const Solution b = solve(r, q, ws, fast, &a);
       ASSERT_TRUE(b.converged()) << name << " configuration " << k;
-      env::robotCapsules(r, b, Eigen::Isometry3d::Identity(), go, caps);
+      environments::robotCapsules(r, b, Eigen::Isometry3d::Identity(), go, caps);
       ASSERT_FALSE(caps.empty());
       int steps = 0;
       for (std::size_t i = 0; i + 1 < b.backbone.size(); ++i) steps += b.backbone[i + 1].s > b.backbone[i].s;
       refined += static_cast<int>(caps.size()) > steps;
       for (const auto& c : caps) {
-        widest = std::max(widest, c.radius - env::tubeRadius(r, c.tube, go));
+        widest = std::max(widest, c.radius - environments::tubeRadius(r, c.tube, go));
         EXPECT_LE(c.s1 - c.s0, go.max_capsule_length + 1e-12) << name;  // also where one step is 40 mm long
       }
       for (const BackbonePoint& p : a.backbone) {
@@ -320,8 +320,8 @@ TEST(Context, CollisionCapsulesContainTheTubeAtPlanningSteps) {
         double best = 1e9;
         for (const auto& c : caps)
           if (p.s >= c.s0 - 1e-3 && p.s <= c.s1 + 1e-3)
-            best = std::min(best, (p.position - env::closestPointOnSegment(c.a, c.b, p.position)).norm() -
-                                      (c.radius - env::tubeRadius(r, c.tube, go)));
+            best = std::min(best, (p.position - environments::closestPointOnSegment(c.a, c.b, p.position)).norm() -
+                                      (c.radius - environments::tubeRadius(r, c.tube, go)));
         worst_outside = std::max(worst_outside, best);
       }
       ++compared;
@@ -496,8 +496,8 @@ void expectReplayRecomputesThePlannersStates(const CtrPlanner& p, const PlanResu
     ASSERT_TRUE(st->cache && st->cache->hysteresis.valid);
     const HysteresisState& h = st->cache->hysteresis;
     // The replay point commanded exactly at this state's command (after the previous match: paths may revisit).
-    while (next < r.replay.points.size() && !(r.replay.points[next].q.alpha == h.q.alpha &&
-                                                 r.replay.points[next].q.beta == h.q.beta))
+    while (next < r.replay.points.size() &&
+           !(r.replay.points[next].q.alpha == h.q.alpha && r.replay.points[next].q.beta == h.q.beta))
       ++next;
     ASSERT_LT(next, r.replay.points.size()) << "path state " << k << " is not a replay step";
     const ReplayPoint& rp = r.replay.points[next];

@@ -4,7 +4,7 @@
 /// collision-free configuration put the tip on the target?) as a cheap first filter, then a friction-aware plan in
 /// each query's mode whose replay must be clean.
 /// @code
-///   std::vector<ctr::plan::Query> qs{ctr::plan::loadQuery("examples/queries/medmpd_lung_patient1.yaml")};
+///   std::vector<ctr::planner::Query> qs{ctr::planner::loadQuery("examples/queries/medmpd_lung_patient1.yaml")};
 ///   ctr::design::DesignResult r = ctr::design::designRobot(qs, std::nullopt, {});  // default space of the robot
 ///   // r.solved, r.message, r.best->robot_yaml, r.best->queries[k].plan_json
 /// @endcode
@@ -152,9 +152,9 @@ class Designer {
  public:
   /// @brief `space`: nullopt for the default space of the first query's robot. Throws ctr::io::InputError for a
   /// query without a tip goal, queries whose robots have another number of tubes than the space.
-  Designer(std::vector<plan::Query> queries, std::optional<DesignSpace> space);
+  Designer(std::vector<planner::Query> queries, std::optional<DesignSpace> space);
   const DesignSpace& space() const { return space_; }
-  const std::vector<plan::Query>& queries() const { return queries_; }
+  const std::vector<planner::Query>& queries() const { return queries_; }
   /// @brief The first query's robot (friction, loads and the default space come from it).
   const Robot& baseRobot() const { return bases_.front(); }
   /// @brief The query's robot as a candidate, when it lies in the space.
@@ -167,19 +167,19 @@ class Designer {
   Robot robotOf(const Candidate& c) const;
 
  private:
-  std::vector<plan::Query> queries_;
+  std::vector<planner::Query> queries_;
   std::vector<Robot> bases_;
-  std::vector<std::shared_ptr<const env::Environment>> envs_;
+  std::vector<std::shared_ptr<const environments::Environment>> envs_;
   DesignSpace space_;
   // The last planning context of each query: keeps its distance field alive, so that the next candidate's collision
-  // checker shares it instead of building it again (ctr::env::CollisionChecker shares equal fields).
+  // checker shares it instead of building it again (ctr::environments::CollisionChecker shares equal fields).
   mutable std::mutex keep_mutex_;
-  mutable std::vector<std::shared_ptr<const plan::Context>> keep_;
+  mutable std::vector<std::shared_ptr<const planner::Context>> keep_;
 };
 
 /// @brief Loads the queries' problems and runs the search: Designer(queries, space).run(options). Throws
 /// ctr::io::InputError for bad input; an unsolved design is a result (`solved` false, `message` why), not an error.
-DesignResult designRobot(std::vector<plan::Query> queries, std::optional<DesignSpace> space,
+DesignResult designRobot(std::vector<planner::Query> queries, std::optional<DesignSpace> space,
                          const DesignOptions& options);
 
 /// @brief The score of the queries' outcomes for a candidate.

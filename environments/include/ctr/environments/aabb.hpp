@@ -5,7 +5,7 @@
 #include <Eigen/Core>
 #include <limits>
 
-namespace ctr::env {
+namespace ctr::environments {
 
 /// @brief An axis-aligned box [min, max] (m). Default-constructed boxes are empty.
 struct Aabb {
@@ -58,4 +58,4 @@ struct Aabb {
 /// @brief Distance from p to the box (0 inside).
 double distance(const Aabb& box, const Eigen::Vector3d& p);
 
-}  // namespace ctr::env
+}  // namespace ctr::environments

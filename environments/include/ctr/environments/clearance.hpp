@@ -25,19 +25,19 @@ namespace octomap {
 class OcTree;
 }
 
-namespace ctr::env {
+namespace ctr::environments {
 
 /// @brief Options of a distance field.
 struct DistanceFieldOptions {
-  double max_distance = 0.005;                       ///< Distances saturate here (m); at most 126 cells.
-  UnknownSpace unknown_space = UnknownSpace::Free;   ///< Unknown cells count as obstacles when Occupied.
-  std::size_t max_cells = 60000000;                  ///< Refuse larger regions (memory guard).
+  double max_distance = 0.005;                      ///< Distances saturate here (m); at most 126 cells.
+  UnknownSpace unknown_space = UnknownSpace::Free;  ///< Unknown cells count as obstacles when Occupied.
+  std::size_t max_cells = 60000000;                 ///< Refuse larger regions (memory guard).
 };
 
 /// @brief A Euclidean distance transform of the occupied cells of an octree within a region. Immutable after
 /// construction; queries are const and thread-safe.
 class DistanceField {
-public:
+ public:
   /// @brief Builds the transform of `tree` over the cells intersecting `region`. Throws std::invalid_argument for an
   /// empty region, one with more than options.max_cells cells, or a max_distance beyond 126 cells.
   DistanceField(const octomap::OcTree& tree, const Aabb& region, const DistanceFieldOptions& options = {});
@@ -75,7 +75,7 @@ public:
   /// @brief lowerBound(p) and whether p's cell is occupied, with one lookup; false if p is outside the field.
   bool probe(const Eigen::Vector3d& p, double& lower_bound, bool& occupied) const;
 
-private:
+ private:
   bool cellOf(const Eigen::Vector3d& p, int& x, int& y, int& z) const;
   Eigen::Vector3d centreOf(int x, int y, int z) const;
   std::size_t index(int x, int y, int z) const {
@@ -84,8 +84,8 @@ private:
            static_cast<std::size_t>(x);
   }
 
-  std::vector<std::uint16_t> sq_;                  ///< Squared centre distance in cells (capped).
-  std::vector<std::array<std::int8_t, 3>> near_;   ///< Offset to the nearest occupied cell (-128: none).
+  std::vector<std::uint16_t> sq_;                 ///< Squared centre distance in cells (capped).
+  std::vector<std::array<std::int8_t, 3>> near_;  ///< Offset to the nearest occupied cell (-128: none).
   double res_ = 0.0;
   double max_distance_ = 0.0;
   Aabb region_;
@@ -95,4 +95,4 @@ private:
   double build_seconds_ = 0.0;
 };
 
-}  // namespace ctr::env
+}  // namespace ctr::environments

@@ -5,11 +5,12 @@
 /// Usage: build one CollisionChecker per (environment, robot) and share it; give every thread its own
 /// CollisionChecker::Query (mutable buffers and FCL shapes).
 /// @code
-///   auto env = std::make_shared<const ctr::env::Environment>(ctr::env::loadEnvironment("lung.yaml"));
-///   ctr::env::CollisionChecker checker(env, robot, ctr::env::CollisionOptions::fromEnvironment(*env));
-///   auto q = checker.query();
-///   ctr::env::CollisionResult r = checker.check(solution, q);
-///   ctr::env::ClearanceResult c = checker.clearance(solution, q);
+///   auto env = std::make_shared<const
+///   ctr::environments::Environment>(ctr::environments::loadEnvironment("lung.yaml"));
+///   ctr::environments::CollisionChecker checker(env, robot,
+///   ctr::environments::CollisionOptions::fromEnvironment(*env)); auto q = checker.query();
+///   ctr::environments::CollisionResult r = checker.check(solution, q);
+///   ctr::environments::ClearanceResult c = checker.clearance(solution, q);
 /// @endcode
 ///
 /// Guarantees (verified against brute force in tests): a shape reported free has no capsule overlapping an occupied
@@ -32,16 +33,16 @@ namespace octomap {
 class OcTree;
 }
 
-namespace ctr::env {
+namespace ctr::environments {
 
 /// @brief Options of collision checking and clearance.
 struct CollisionOptions {
   RobotGeometryOptions geometry;                    ///< Safety margin, default diameter, capsule tolerance.
   UnknownSpace unknown_space = UnknownSpace::Free;  ///< Unknown space (and outside the map) as free or obstacle.
-  bool distance_field = true;      ///< Build the distance field (needed for clearance and the pre-filter).
-  bool prefilter = true;           ///< Let the distance field decide capsules it proves free / colliding.
-  double max_distance = 0.005;     ///< Clearance saturates here (m); the field's build time grows with it.
-  Aabb field_region;               ///< Region of the distance field; empty: the robot's reach around the base pose.
+  bool distance_field = true;   ///< Build the distance field (needed for clearance and the pre-filter).
+  bool prefilter = true;        ///< Let the distance field decide capsules it proves free / colliding.
+  double max_distance = 0.005;  ///< Clearance saturates here (m); the field's build time grows with it.
+  Aabb field_region;            ///< Region of the distance field; empty: the robot's reach around the base pose.
   std::size_t max_field_cells = 60000000;  ///< Memory guard of the distance field (about 25 bytes per cell).
 
   /// @brief Defaults with the environment description's `collision:` settings (safety margin, unknown space).
@@ -55,8 +56,8 @@ struct CollisionResult {
   int tube = -1;     ///< Outermost tube of that section (0-based).
   double s0 = std::numeric_limits<double>::quiet_NaN();  ///< Arc-length range of the first colliding capsule (m).
   double s1 = std::numeric_limits<double>::quiet_NaN();
-  bool outside_map = false;  ///< The collision is the shape leaving the map with unknown space = occupied.
-  int capsules = 0;          ///< Capsules in the shape.
+  bool outside_map = false;   ///< The collision is the shape leaving the map with unknown space = occupied.
+  int capsules = 0;           ///< Capsules in the shape.
   int narrowphase_calls = 0;  ///< FCL collide() calls made (the rest were decided by the distance field).
 };
 
@@ -66,19 +67,19 @@ struct ClearanceResult {
   /// <= 0 in contact. Saturates at max_distance minus the radius. Accuracy: about one voxel (see clearance.hpp).
   double clearance = std::numeric_limits<double>::infinity();
   int section = -1, tube = -1;
-  double s = std::numeric_limits<double>::quiet_NaN();  ///< Arc length of the closest robot point (m).
+  double s = std::numeric_limits<double>::quiet_NaN();       ///< Arc length of the closest robot point (m).
   Eigen::Vector3d robot_point = Eigen::Vector3d::Zero();     ///< Closest point on the robot axis (world, m).
   Eigen::Vector3d obstacle_point = Eigen::Vector3d::Zero();  ///< Centre of the nearest occupied voxel (world, m).
-  bool saturated = false;  ///< No obstacle within max_distance of the shape.
-  bool complete = true;    ///< False if part of the shape lies outside the distance field (ignored there).
+  bool saturated = false;                                    ///< No obstacle within max_distance of the shape.
+  bool complete = true;  ///< False if part of the shape lies outside the distance field (ignored there).
 };
 
 /// @brief Collision checker of one robot in one environment. Constant after construction; thread-safe queries.
 class CollisionChecker {
-public:
+ public:
   /// @brief Per-thread mutable state (capsule buffer, FCL shapes and request/result). Never share between threads.
   class Query {
-  public:
+   public:
     Query();
     ~Query();
     Query(Query&&) noexcept;
@@ -89,7 +90,7 @@ public:
     const std::vector<Capsule>& capsules() const { return capsules_; }
     struct Impl;
 
-  private:
+   private:
     friend class CollisionChecker;
     std::vector<Capsule> capsules_;
     std::unique_ptr<Impl> impl_;
@@ -128,7 +129,7 @@ public:
   /// admissible translation (0, or the upper translation limit).
   double reach() const { return reach_; }
 
-private:
+ private:
   struct Fcl;
   std::shared_ptr<const Environment> env_;
   Robot robot_;
@@ -139,4 +140,4 @@ private:
   double reach_ = 0.0;
 };
 
-}  // namespace ctr::env
+}  // namespace ctr::environments

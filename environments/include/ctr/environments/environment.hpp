@@ -17,7 +17,7 @@ namespace octomap {
 class OcTree;
 }
 
-namespace ctr::env {
+namespace ctr::environments {
 
 /// @brief How space the map knows nothing about (no octree node) is treated by collision and clearance.
 enum class UnknownSpace {
@@ -53,9 +53,9 @@ struct NamedTarget {
 
 /// @brief Collision settings an environment description may carry (defaults of CollisionOptions).
 struct CollisionDefaults {
-  double safety_margin = 0.0;                     ///< Added to every tube radius (m).
+  double safety_margin = 0.0;                       ///< Added to every tube radius (m).
   UnknownSpace unknown_space = UnknownSpace::Free;  ///< Treatment of unknown space.
-  double exclude_proximal = 0.0;                  ///< Arc length excluded after s = 0 (m), see RobotGeometryOptions.
+  double exclude_proximal = 0.0;                    ///< Arc length excluded after s = 0 (m), see RobotGeometryOptions.
 };
 
 /// @brief Summary of the map's content.
@@ -71,7 +71,7 @@ struct OccupancyStats {
 /// @brief An anatomy environment. A value type that shares its (immutable) octree; build it once, then share
 /// `std::shared_ptr<const Environment>` between threads.
 class Environment {
-public:
+ public:
   /// @brief Wraps a finished octree. `bounds` is the mapped region (the part of the world the map describes); it is
   /// extended to contain every leaf of the tree, so nothing of the map lies outside bounds(). The tree's inner
   /// occupancy must be up to date.
@@ -134,7 +134,7 @@ public:
   /// (full occupancy). Atomic: writes `path.tmp` and renames; no partial file on failure (throws InputError).
   void write(const std::string& path) const;
 
-private:
+ private:
   std::string name_;
   std::shared_ptr<const octomap::OcTree> tree_;
   Aabb bounds_;
@@ -161,4 +161,4 @@ Eigen::Isometry3d poseFromDirection(const Eigen::Vector3d& position, const Eigen
 /// row is not [0 0 0 1].
 Eigen::Isometry3d poseFromMatrix(const Eigen::Matrix4d& m, double tolerance = 1e-3);
 
-}  // namespace ctr::env
+}  // namespace ctr::environments

@@ -6,7 +6,7 @@
 
 #include "ctr/environments/environment.hpp"
 
-namespace ctr::env {
+namespace ctr::environments {
 
 /// @brief The environment as the JSON text of `ctr env info --json` (keys in docs/environments.md): name,
 /// resolution, bounds {min, max, size}, octree statistics, build_seconds, base_pose {position, direction, matrix,
@@ -14,4 +14,4 @@ namespace ctr::env {
 /// collision defaults. `indent` < 0 gives one line.
 std::string infoJson(const Environment& environment, int indent = -1);
 
-}  // namespace ctr::env
+}  // namespace ctr::environments

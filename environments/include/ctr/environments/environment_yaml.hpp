@@ -15,14 +15,14 @@
 #include "ctr/environments/nifti_source.hpp"
 #include "ctr/environments/procedural.hpp"
 
-namespace ctr::env {
+namespace ctr::environments {
 
 /// @brief One source of occupied (or, for stay_inside, free) space.
 struct SourceSpec {
   enum class Kind { Nifti, Mesh, Points, OcTree, Procedural };
   Kind kind = Kind::Nifti;
-  std::string path;       ///< Resolved file path (empty for procedural).
-  std::string where;      ///< "FILE:LINE" of the entry, for messages.
+  std::string path;   ///< Resolved file path (empty for procedural).
+  std::string where;  ///< "FILE:LINE" of the entry, for messages.
   int line = 0;
   // NIfTI
   NiftiSelection selection;
@@ -40,19 +40,19 @@ struct SourceSpec {
 /// @brief A parsed environment description (nothing loaded yet).
 struct EnvironmentDescription {
   std::string name;
-  std::string file;                 ///< The YAML file (empty when parsed from text without a file).
-  double resolution = 1e-3;         ///< Octree leaf size (m).
+  std::string file;          ///< The YAML file (empty when parsed from text without a file).
+  double resolution = 1e-3;  ///< Octree leaf size (m).
   std::vector<SourceSpec> obstacles;
   std::optional<SourceSpec> stay_inside;
-  Aabb crop;                        ///< Optional `bounds:` crop of the mapped region (empty: no crop).
-  double padding = 0.0;             ///< Extra free margin around the sources (m).
-  bool mark_free = true;            ///< Mapped non-obstacle cells are known free (false: left unknown).
+  Aabb crop;              ///< Optional `bounds:` crop of the mapped region (empty: no crop).
+  double padding = 0.0;   ///< Extra free margin around the sources (m).
+  bool mark_free = true;  ///< Mapped non-obstacle cells are known free (false: left unknown).
   std::optional<NamedPose> base_pose;
-  std::string base_start;           ///< `base_pose: {start: NAME}`: use that named start.
+  std::string base_start;  ///< `base_pose: {start: NAME}`: use that named start.
   std::vector<NamedPose> starts;
   std::vector<NamedTarget> targets;
   CollisionDefaults collision;
-  bool check_targets = true;        ///< Targets must lie inside the map bounds.
+  bool check_targets = true;  ///< Targets must lie inside the map bounds.
 };
 
 /// @brief Parses a description file. Throws ctr::io::InputError naming file, line and key for malformed YAML,
@@ -64,8 +64,8 @@ EnvironmentDescription parseEnvironmentDescription(const std::string& text, cons
 
 /// @brief Options of building.
 struct BuildOptions {
-  std::optional<double> resolution;  ///< Overrides the description's resolution (e.g. coarser for tests).
-  std::size_t max_cells = 600000000; ///< Refuse grids larger than this.
+  std::optional<double> resolution;             ///< Overrides the description's resolution (e.g. coarser for tests).
+  std::size_t max_cells = 600000000;            ///< Refuse grids larger than this.
   std::function<void(const std::string&)> log;  ///< Progress messages (optional).
 };
 
@@ -76,4 +76,4 @@ Environment buildEnvironment(const EnvironmentDescription& description, const Bu
 /// @brief loadEnvironmentDescription + buildEnvironment.
 Environment loadEnvironment(const std::string& path, const BuildOptions& options = {});
 
-}  // namespace ctr::env
+}  // namespace ctr::environments

@@ -9,7 +9,7 @@
 #include <Eigen/Geometry>
 #include <string>
 
-namespace ctr::env {
+namespace ctr::environments {
 
 /// @brief Reads a Med-MPD start pose as world_T_base (m). The rotation is orthonormalised; throws
 /// ctr::io::InputError (with the line) for a missing file, a wrong number of values, non-numbers, a last row
@@ -19,4 +19,4 @@ Eigen::Isometry3d readMedMpdStart(const std::string& path);
 /// @brief Reads a Med-MPD target point (m). Throws ctr::io::InputError for a missing file or not exactly 3 numbers.
 Eigen::Vector3d readMedMpdTarget(const std::string& path);
 
-}  // namespace ctr::env
+}  // namespace ctr::environments

@@ -11,7 +11,7 @@
 #include "ctr/environments/aabb.hpp"
 #include "ctr/environments/voxel_grid.hpp"
 
-namespace ctr::env {
+namespace ctr::environments {
 
 /// @brief An indexed triangle mesh in the world frame (m). Vertices with identical coordinates are welded.
 struct TriangleMesh {
@@ -45,4 +45,4 @@ void voxelizeSolid(const TriangleMesh& mesh, VoxelGrid& grid, std::uint8_t value
 /// @brief Writes an ASCII STL (for tests and tools).
 void writeStl(const std::string& path, const TriangleMesh& mesh);
 
-}  // namespace ctr::env
+}  // namespace ctr::environments

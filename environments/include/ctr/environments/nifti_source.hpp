@@ -15,7 +15,7 @@
 #include "ctr/environments/aabb.hpp"
 #include "ctr/environments/voxel_grid.hpp"
 
-namespace ctr::env {
+namespace ctr::environments {
 
 /// @brief Which NIfTI transform maps voxel indices to world coordinates.
 enum class NiftiAffine {
@@ -29,15 +29,15 @@ const char* toString(NiftiAffine affine);
 
 /// @brief A 3-D scalar volume and its affine.
 class NiftiVolume {
-public:
+ public:
   std::string path;
-  Eigen::Vector3i dims = Eigen::Vector3i::Zero();       ///< nx, ny, nz.
+  Eigen::Vector3i dims = Eigen::Vector3i::Zero();              ///< nx, ny, nz.
   Eigen::Matrix4d ijk_to_world = Eigen::Matrix4d::Identity();  ///< Voxel index (i, j, k, 1) -> world (m).
-  std::string affine_used;   ///< "sform" or "qform".
-  int datatype = 0;          ///< NIfTI DT_* code.
-  double scl_slope = 0.0;    ///< Intensity scaling (applied when slope != 0).
+  std::string affine_used;                                     ///< "sform" or "qform".
+  int datatype = 0;                                            ///< NIfTI DT_* code.
+  double scl_slope = 0.0;                                      ///< Intensity scaling (applied when slope != 0).
   double scl_inter = 0.0;
-  double unit_to_metre = 1e-3;  ///< Scale of the file's spatial unit.
+  double unit_to_metre = 1e-3;              ///< Scale of the file's spatial unit.
   std::shared_ptr<const std::uint8_t> raw;  ///< Voxel data as stored (bytes_per_voxel each, i fastest).
   int bytes_per_voxel = 0;
 
@@ -60,8 +60,8 @@ NiftiVolume readNifti(const std::string& path, NiftiAffine affine = NiftiAffine:
 /// @brief Which voxels count. Labels and threshold may be combined (a voxel counts if either selects it);
 /// with neither, every non-zero voxel counts.
 struct NiftiSelection {
-  std::vector<double> labels;        ///< Voxels whose scaled value equals one of these (to 1e-6).
-  std::optional<double> threshold;   ///< Voxels whose scaled value is >= threshold.
+  std::vector<double> labels;       ///< Voxels whose scaled value equals one of these (to 1e-6).
+  std::optional<double> threshold;  ///< Voxels whose scaled value is >= threshold.
 };
 
 /// @brief Mask (one byte per voxel, 1 = selected) of the selection. Throws ctr::io::InputError if a requested
@@ -91,7 +91,7 @@ void rasterizeNiftiInside(const NiftiVolume& vol, const std::vector<std::uint8_t
 /// @brief Writes a NIfTI-1 file (uint8 or float32 data) with the given affine (m, converted to mm in the file),
 /// stored as sform and/or qform (codes 0 omit it). For tests and tools. Throws ctr::io::InputError on failure.
 void writeNifti(const std::string& path, const Eigen::Vector3i& dims, const std::vector<float>& values,
-                const Eigen::Matrix4d& ijk_to_world, int sform_code = 1, int qform_code = 1,
-                bool as_uint8 = true, const Eigen::Matrix4d* qform_ijk_to_world = nullptr);
+                const Eigen::Matrix4d& ijk_to_world, int sform_code = 1, int qform_code = 1, bool as_uint8 = true,
+                const Eigen::Matrix4d* qform_ijk_to_world = nullptr);
 
-}  // namespace ctr::env
+}  // namespace ctr::environments

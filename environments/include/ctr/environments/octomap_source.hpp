@@ -9,11 +9,11 @@ namespace octomap {
 class OcTree;
 }
 
-namespace ctr::env {
+namespace ctr::environments {
 
 /// @brief Reads a `.bt` or `.ot` OcTree, checks it (header, node count, resolution, not empty) and brings its inner
 /// occupancy up to date. Throws ctr::io::InputError naming the file for a missing, corrupt, truncated, empty or
 /// non-OcTree file. OctoMap's own console messages are captured into the error text.
 std::shared_ptr<octomap::OcTree> loadOcTreeFile(const std::string& path);
 
-}  // namespace ctr::env
+}  // namespace ctr::environments

@@ -10,7 +10,7 @@
 #include "ctr/environments/aabb.hpp"
 #include "ctr/environments/voxel_grid.hpp"
 
-namespace ctr::env {
+namespace ctr::environments {
 
 /// @brief Reads points (m after `scale` and `transform`). `.xyz`/`.txt`/`.csv`: one point per line, the first three
 /// numbers (separated by spaces, tabs or commas; `#` starts a comment). `.ply`: the x, y, z properties of the
@@ -29,4 +29,4 @@ void rasterizePoints(const std::vector<Eigen::Vector3d>& points, VoxelGrid& grid
 /// @brief Writes an ASCII `.xyz` file (for tests and tools).
 void writeXyz(const std::string& path, const std::vector<Eigen::Vector3d>& points);
 
-}  // namespace ctr::env
+}  // namespace ctr::environments

@@ -17,14 +17,14 @@
 #include "ctr/environments/environment.hpp"
 #include "ctr/environments/voxel_grid.hpp"
 
-namespace ctr::env {
+namespace ctr::environments {
 
 /// @brief What to generate. `params` holds the type's optional numeric parameters (see proceduralParameters()).
 struct ProceduralSpec {
-  std::string type;                       ///< "intracardiac", "airway" or "sinus".
-  std::uint64_t seed = 1;                 ///< Same seed, same anatomy (bit-identical octree).
-  double scale = 1.0;                     ///< Uniform scale of the anatomy about the world origin.
-  std::map<std::string, double> params;   ///< Type-specific parameters, SI units.
+  std::string type;                      ///< "intracardiac", "airway" or "sinus".
+  std::uint64_t seed = 1;                ///< Same seed, same anatomy (bit-identical octree).
+  double scale = 1.0;                    ///< Uniform scale of the anatomy about the world origin.
+  std::map<std::string, double> params;  ///< Type-specific parameters, SI units.
 };
 
 /// @brief One implicit primitive (world frame, m). g(p) < 0 inside; |g| is a lower bound of the distance to the
@@ -32,10 +32,10 @@ struct ProceduralSpec {
 struct Primitive {
   enum class Kind { Ellipsoid, Capsule, Cylinder, Box, Torus };
   Kind kind = Kind::Ellipsoid;
-  Eigen::Vector3d centre = Eigen::Vector3d::Zero();  ///< Ellipsoid / box / torus centre.
+  Eigen::Vector3d centre = Eigen::Vector3d::Zero();                          ///< Ellipsoid / box / torus centre.
   Eigen::Vector3d a = Eigen::Vector3d::Zero(), b = Eigen::Vector3d::Zero();  ///< Capsule / cylinder axis ends.
-  Eigen::Matrix3d rotation = Eigen::Matrix3d::Identity();  ///< world_R_local (torus axis = local z).
-  Eigen::Vector3d radii = Eigen::Vector3d::Zero();  ///< Ellipsoid radii / box half sizes.
+  Eigen::Matrix3d rotation = Eigen::Matrix3d::Identity();                    ///< world_R_local (torus axis = local z).
+  Eigen::Vector3d radii = Eigen::Vector3d::Zero();                           ///< Ellipsoid radii / box half sizes.
   double radius = 0.0;        ///< Capsule / cylinder radius, torus tube radius, box edge rounding.
   double major_radius = 0.0;  ///< Torus ring radius.
   std::vector<Primitive> holes;
@@ -71,4 +71,4 @@ ProceduralAnatomy makeProcedural(const ProceduralSpec& spec);
 /// all others kOccupied.
 void rasterizeProcedural(const ProceduralAnatomy& anatomy, VoxelGrid& grid);
 
-}  // namespace ctr::env
+}  // namespace ctr::environments

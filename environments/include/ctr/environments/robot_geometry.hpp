@@ -17,14 +17,14 @@
 #include "ctr/model/kinematics.hpp"
 #include "ctr/model/robot.hpp"
 
-namespace ctr::env {
+namespace ctr::environments {
 
 /// @brief Options of the collision geometry.
 struct RobotGeometryOptions {
-  double safety_margin = 0.0;             ///< Added to every radius (m).
-  double default_outer_diameter = 2e-3;   ///< Used for tubes whose outer_diameter is 0 (unknown) (m).
-  double chord_tolerance = 0.1e-3;        ///< Largest deviation of a capsule axis from the backbone (m).
-  double max_capsule_length = 0.02;       ///< Longest capsule (m); keeps bounding boxes tight.
+  double safety_margin = 0.0;            ///< Added to every radius (m).
+  double default_outer_diameter = 2e-3;  ///< Used for tubes whose outer_diameter is 0 (unknown) (m).
+  double chord_tolerance = 0.1e-3;       ///< Largest deviation of a capsule axis from the backbone (m).
+  double max_capsule_length = 0.02;      ///< Longest capsule (m); keeps bounding boxes tight.
   /// Arc length (m) from s = 0 that is excluded as well: the part of the robot still inside a delivery instrument
   /// (bronchoscope, trocar) beyond the actuation unit, or crossing the access wall. 0 by default.
   double exclude_proximal = 0.0;
@@ -35,14 +35,14 @@ struct Capsule {
   Eigen::Vector3d a = Eigen::Vector3d::Zero();
   Eigen::Vector3d b = Eigen::Vector3d::Zero();
   double radius = 0.0;
-  int section = 0;  ///< Section index (0-based from the base).
-  int tube = 0;     ///< Outermost tube of the section (0-based).
+  int section = 0;            ///< Section index (0-based from the base).
+  int tube = 0;               ///< Outermost tube of the section (0-based).
   double s0 = 0.0, s1 = 0.0;  ///< Arc lengths of the ends (m).
 };
 
 /// @brief One section of the shape.
 struct Section {
-  int tube = 0;        ///< Outermost tube (0-based).
+  int tube = 0;  ///< Outermost tube (0-based).
   double s0 = 0.0, s1 = 0.0;
   double radius = 0.0;  ///< Tube radius + safety margin (m), before chord inflation.
 };
@@ -58,10 +58,10 @@ void robotCapsules(const Robot& robot, const Solution& solution, const Eigen::Is
                    std::vector<Section>* sections = nullptr);
 
 /// @brief Convenience overload returning the capsules.
-std::vector<Capsule> robotCapsules(const Robot& robot, const Solution& solution,
-                                   const Eigen::Isometry3d& world_T_base, const RobotGeometryOptions& options = {});
+std::vector<Capsule> robotCapsules(const Robot& robot, const Solution& solution, const Eigen::Isometry3d& world_T_base,
+                                   const RobotGeometryOptions& options = {});
 
 /// @brief Closest point of segment [a, b] to p.
 Eigen::Vector3d closestPointOnSegment(const Eigen::Vector3d& a, const Eigen::Vector3d& b, const Eigen::Vector3d& p);
 
-}  // namespace ctr::env
+}  // namespace ctr::environments

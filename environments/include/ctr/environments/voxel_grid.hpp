@@ -14,7 +14,7 @@ namespace octomap {
 class OcTree;
 }
 
-namespace ctr::env {
+namespace ctr::environments {
 
 /// @brief OctoMap key (per axis) of a coordinate at a resolution: floor(c / res) + 32768, as octomap computes it.
 int coordToKey(double c, double resolution);
@@ -24,7 +24,7 @@ double keyToCoord(int key, double resolution);
 /// @brief A dense grid of cells (free / occupied / unknown) aligned with the OctoMap keys of `resolution`.
 /// Cell (i, j, k) has key origin + (i, j, k). Values: kFree, kOccupied, kUnknown.
 class VoxelGrid {
-public:
+ public:
   static constexpr std::uint8_t kFree = 0;
   static constexpr std::uint8_t kOccupied = 1;
   static constexpr std::uint8_t kUnknown = 2;
@@ -69,7 +69,7 @@ public:
   /// @brief Sets every cell of this grid to `v` where `other` (same resolution, any extent) has `where`.
   void paint(const VoxelGrid& other, std::uint8_t where, std::uint8_t v);
 
-private:
+ private:
   double res_ = 0.0;
   Eigen::Vector3i dims_ = Eigen::Vector3i::Zero();
   Eigen::Vector3i origin_ = Eigen::Vector3i::Zero();
@@ -90,4 +90,4 @@ void rasterizeOcTree(const octomap::OcTree& tree, VoxelGrid& grid, bool mark_fre
 /// @brief A copy of `tree` in which every unknown cell inside `bounds` is occupied (for UnknownSpace::Occupied).
 std::shared_ptr<octomap::OcTree> fillUnknown(const octomap::OcTree& tree, const Aabb& bounds);
 
-}  // namespace ctr::env
+}  // namespace ctr::environments

@@ -1,6 +1,7 @@
 /// @file yaml_reader.hpp
 /// @brief Reading values out of a YAML document with messages that name the file, line and key (InputError). Used by
-/// the loaders of YAML inputs (queries, design spaces); each adds the readers of its own types on top.
+/// the loaders of YAML inputs (queries, design spaces, environment descriptions); each adds the readers of its own
+/// types on top.
 #pragma once
 
 #include <yaml-cpp/yaml.h>
@@ -29,6 +30,8 @@ struct YamlReader {
   /// @brief Refuses any key of `map` not in `keys` (named `where.key`), listing the known ones.
   void allowOnly(const YAML::Node& map, const std::string& where, const std::set<std::string>& keys) const {
     for (const auto& kv : map) {
+      if (kv.first.IsSequence() || kv.first.IsMap())
+        fail(kv.first, where, "a key must be a name, not a list or a mapping");
       const std::string k = kv.first.as<std::string>("");
       if (!keys.count(k)) {
         std::string known;
@@ -48,6 +51,12 @@ struct YamlReader {
       fail(n, key, "'" + n.Scalar() + "' is not a number");
     }
     if (!std::isfinite(v)) fail(n, key, "must be finite");
+    return v;
+  }
+  /// @brief true or false (also yes/no, on/off as YAML 1.1 reads them).
+  bool boolean(const YAML::Node& n, const std::string& key) const {
+    bool v = false;
+    if (!n.IsScalar() || !YAML::convert<bool>::decode(n, v)) fail(n, key, "must be true or false");
     return v;
   }
   /// @brief A scalar as text.

@@ -13,6 +13,11 @@
 
 namespace ctr {
 
+namespace detail {
+struct SolutionAccess;   // model/src/access.hpp: the solver's internal fields
+struct WorkspaceAccess;  // model/src/access.hpp: the solver's buffers
+}  // namespace detail
+
 /// @brief Kind of a place where a concentrated bending moment acts.
 enum class MomentKind {
   TubeEnd,                 ///< Distal end of a tube.
@@ -61,7 +66,7 @@ inline const char* toString(ContactCondition::Law law) {
 
 /// @brief Options of the kinematics solver.
 struct KinematicsOptions {
-  double max_step = 1e-2;          ///< Largest RK4 step along s (m); segments are split evenly (see docs/model.md).
+  double max_step = 1e-2;  ///< Largest RK4 step along s (m); segments are split evenly (see docs/model.md).
   /// Also limit the step to this angle over the largest precurvature of the tubes curved on the segment (rad).
   double max_bending_per_step = 0.12;
   /// The bending limit per segment (above); false: over the largest precurvature of the whole robot on every segment
@@ -78,11 +83,11 @@ struct KinematicsOptions {
   /// With record_backbone: also store each tube's theta and u_z at the nodes. False keeps the geometry only (s,
   /// position, frame, u0, outermost tube), which is all collision checking needs, and saves two allocations per node.
   bool record_tube_states = true;
-  bool homotopy = true;            ///< On failure of a cold start, continue from zero precurvature.
-  int homotopy_steps = 8;          ///< Steps of that continuation.
-  double max_rotation_step = 0.035;     ///< Largest rotation change per continuation step (rad, 2 deg).
-  double max_translation_step = 2e-3;   ///< Largest translation change per continuation step (m).
-  double snap_threshold = 0.5;     ///< A tip twist change above this in one continuation step is a snap (rad).
+  bool homotopy = true;                ///< On failure of a cold start, continue from zero precurvature.
+  int homotopy_steps = 8;              ///< Steps of that continuation.
+  double max_rotation_step = 0.035;    ///< Largest rotation change per continuation step (rad, 2 deg).
+  double max_translation_step = 2e-3;  ///< Largest translation change per continuation step (m).
+  double snap_threshold = 0.5;         ///< A tip twist change above this in one continuation step is a snap (rad).
   /// Near a fold the twist is ill-conditioned (error ~ discretisation / stability): when |stability| is below this,
   /// the converged solution is re-solved with a quarter of the step (0 disables).
   double refine_below_stability = 0.1;
@@ -135,9 +140,9 @@ struct BackbonePoint {
   /// Twist angle of each tube relative to F0 (rad); frozen past the tube's end. Empty if recorded with
   /// KinematicsOptions::record_tube_states = false.
   Eigen::VectorXd theta;
-  Eigen::VectorXd uz;     ///< Torsional curvature of each tube (1/m); empty like theta.
+  Eigen::VectorXd uz;                            ///< Torsional curvature of each tube (1/m); empty like theta.
   Eigen::Vector2d u0 = Eigen::Vector2d::Zero();  ///< Bending curvature of the backbone (x, y) (1/m).
-  int outermost = 0;      ///< Outermost tube present at s (0-based).
+  int outermost = 0;                             ///< Outermost tube present at s (0-based).
   bool segment_start = false;  ///< Recorded after the events of a segment boundary (s+ side), else s- side.
   /// Internal force n(s) and moment m(s) of the whole cross-section (base frame, N and N m): what the distal part
   /// exerts on the proximal part. Set by the loaded solver only (zero in load-free solutions, where they vanish).
@@ -174,9 +179,8 @@ struct Solution {
   /// At integration nodes, if recorded. A segment boundary (tube end, curvature discontinuity) appears twice with the
   /// same s: before and after its events (u_z and the curvature may jump there).
   std::vector<BackbonePoint> backbone;
-  std::vector<ConcentratedMoment> moments;   ///< Every tube end and curvature discontinuity at s > 0.
-  std::vector<ContactResult> contacts;       ///< Contact sites with friction unknowns (empty if frictionless).
-  Eigen::VectorXd contact_unknowns;          ///< Internal: scaled torques of the contacts (warm start).
+  std::vector<ConcentratedMoment> moments;  ///< Every tube end and curvature discontinuity at s > 0.
+  std::vector<ContactResult> contacts;      ///< Contact sites with friction unknowns (empty if frictionless).
   bool loaded = false;  ///< Solved by the loaded (Cosserat-rod) solver (external loads, or loaded_model).
   /// Internal force and moment at s = 0 (base frame): the reaction the actuation unit must supply (with opposite
   /// sign). Zero for load-free solutions. base_moment.z() = sum_i k_it u_iz(0).
@@ -188,21 +192,25 @@ struct Solution {
   Eigen::Vector3d tipTangent() const { return tip_frame.col(2); }
   /// @brief Length of the robot outside the actuation unit (tip arc length, m).
   double tipArcLength() const { return backbone.empty() ? 0.0 : backbone.back().s; }
+
+ private:
+  friend struct detail::SolutionAccess;
+  Eigen::VectorXd contact_unknowns_;  ///< The solver's scaled contact torques (warm start of later solves).
 };
 
 /// @brief Mutable per-thread buffers of the solver. Reuse one per thread; never share between threads.
 class Workspace {
-public:
+ public:
   Workspace();
   ~Workspace();
   Workspace(Workspace&&) noexcept;
   Workspace& operator=(Workspace&&) noexcept;
   Workspace(const Workspace&) = delete;
   Workspace& operator=(const Workspace&) = delete;
-  struct Impl;
-  Impl& impl() { return *impl_; }
 
-private:
+ private:
+  friend struct detail::WorkspaceAccess;
+  struct Impl;
   std::unique_ptr<Impl> impl_;
 };
 
@@ -216,9 +224,8 @@ Solution solve(const Robot& robot, const Configuration& q, Workspace& ws, const 
 
 /// @brief Equilibrium with a law at each contact site (one per contactSites(robot, q), same order).
 /// The friction layer (friction.hpp) uses this; mu' is robot.friction().boundary.
-Solution solveWithContacts(const Robot& robot, const Configuration& q,
-                           const std::vector<ContactCondition>& conditions, Workspace& ws,
-                           const KinematicsOptions& options = {}, const Solution* warm = nullptr);
+Solution solveWithContacts(const Robot& robot, const Configuration& q, const std::vector<ContactCondition>& conditions,
+                           Workspace& ws, const KinematicsOptions& options = {}, const Solution* warm = nullptr);
 
 /// @brief Frictionless quasi-static continuation from `from` to q in small steps, following the branch.
 /// summary.snapped is set when the branch ended (fold) and the solution jumped to another branch.

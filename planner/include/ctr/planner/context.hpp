@@ -11,7 +11,7 @@
 #include "ctr/model/friction.hpp"
 #include "ctr/model/sampling.hpp"
 
-namespace ctr::plan {
+namespace ctr::planner {
 
 /// @brief How friction (hysteresis) is treated by validity checking.
 enum class Mode {
@@ -50,17 +50,17 @@ struct ContextOptions {
 class Context {
  public:
   /// @brief Builds the collision checker (FCL octree + distance field) for `robot` in `env`.
-  Context(Robot robot, std::shared_ptr<const env::Environment> env, ContextOptions options = {},
-          env::CollisionOptions collision = {});
+  Context(Robot robot, std::shared_ptr<const environments::Environment> env, ContextOptions options = {},
+          environments::CollisionOptions collision = {});
 
   const Robot& robot() const { return robot_; }
   /// @brief The robot without friction (frictionless mode and comparisons).
   const Robot& frictionlessRobot() const { return frictionless_; }
   /// @brief The robot the validity checker uses in the current mode.
   const Robot& modelRobot() const { return options_.mode == Mode::Frictionless ? frictionless_ : robot_; }
-  const env::Environment& environment() const { return *env_; }
-  const std::shared_ptr<const env::Environment>& environmentPtr() const { return env_; }
-  const env::CollisionChecker& checker() const { return *checker_; }
+  const environments::Environment& environment() const { return *env_; }
+  const std::shared_ptr<const environments::Environment>& environmentPtr() const { return env_; }
+  const environments::CollisionChecker& checker() const { return *checker_; }
   const ContextOptions& options() const { return options_; }
   const TranslationSampler& translationSampler() const { return sampler_; }
   /// @brief Base frame -> world (the environment's base pose).
@@ -68,16 +68,16 @@ class Context {
 
  private:
   Robot robot_, frictionless_;
-  std::shared_ptr<const env::Environment> env_;
+  std::shared_ptr<const environments::Environment> env_;
   ContextOptions options_;
-  std::shared_ptr<env::CollisionChecker> checker_;
+  std::shared_ptr<environments::CollisionChecker> checker_;
   TranslationSampler sampler_;
 };
 
 /// @brief Per-thread mutable scratch of the planner (model workspace + collision query).
 struct ThreadScratch {
   Workspace ws;
-  env::CollisionChecker::Query query;
+  environments::CollisionChecker::Query query;
 };
 
 /// @brief The calling thread's scratch (one per thread, created on first use).
@@ -92,4 +92,4 @@ struct ShapeCheck {
 /// @brief Checks a solved shape (needs a recorded backbone): converged, stable, collision-free.
 ShapeCheck checkShape(const Context& ctx, const Solution& sol, ThreadScratch& t);
 
-}  // namespace ctr::plan
+}  // namespace ctr::planner

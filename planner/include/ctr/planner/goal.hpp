@@ -16,7 +16,7 @@
 
 #include "ctr/planner/state_space.hpp"
 
-namespace ctr::plan {
+namespace ctr::planner {
 
 /// @brief Tip goal specification.
 struct TipGoalSpec {
@@ -33,7 +33,7 @@ double inverseKinematics(const Context& ctx, const Eigen::Vector3d& target, Conf
 
 /// @brief Tip goal region.
 class TipGoal : public ompl::base::GoalSampleableRegion {
-public:
+ public:
   TipGoal(const ompl::base::SpaceInformationPtr& si, std::shared_ptr<const Context> ctx, TipGoalSpec spec);
   /// @brief Distance of the tip to the target (m), plus 0.05 m per rad outside the direction cone. In robust mode,
   /// within the tolerance, the largest such distance over the friction band (the goal holds for every history).
@@ -55,7 +55,7 @@ public:
   /// @brief Tip error and direction error (rad) of a shape (base-frame solution).
   std::pair<double, double> errors(const Solution& sol) const;
 
-private:
+ private:
   double goalDistance(const Eigen::Vector3d& tip, const Eigen::Vector3d& tangent) const;
   /// Largest goal distance over the friction band's vertex shapes at q; optionally the centre of their tips.
   double bandDistance(const Configuration& q, Eigen::Vector3d* center = nullptr) const;
@@ -76,4 +76,4 @@ private:
   mutable ompl::RNG rng_;
 };
 
-}  // namespace ctr::plan
+}  // namespace ctr::planner

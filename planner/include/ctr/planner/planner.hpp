@@ -1,8 +1,8 @@
 /// @file planner.hpp
 /// @brief A SimpleSetup-like facade: plan a query in a few lines.
 /// @code
-///   ctr::plan::Query q = ctr::plan::loadQuery("examples/queries/proc_intracardiac.yaml");
-///   ctr::plan::PlanResult r = ctr::plan::plan(q);
+///   ctr::planner::Query q = ctr::planner::loadQuery("examples/queries/proc_intracardiac.yaml");
+///   ctr::planner::PlanResult r = ctr::planner::plan(q);
 ///   if (r.solved) { /* r.path: waypoints; r.replay: collisions, clearance, tip error */ }
 /// @endcode
 #pragma once
@@ -15,31 +15,31 @@
 #include "ctr/planner/replay.hpp"
 #include "ctr/planner/validity.hpp"
 
-namespace ctr::plan {
+namespace ctr::planner {
 
 /// @brief Result of planning + replay.
 struct PlanResult {
-  bool solved = false;            ///< Planner found a path AND the replay succeeded (collision-free, stable, goal).
-  bool planner_solved = false;    ///< The planner reported an (exact) solution.
+  bool solved = false;          ///< Planner found a path AND the replay succeeded (collision-free, stable, goal).
+  bool planner_solved = false;  ///< The planner reported an (exact) solution.
   Mode mode = Mode::Exact;
   std::string planner;
-  double planning_time = 0.0;     ///< Seconds in the planner (including goal sampling), on the query's clock.
+  double planning_time = 0.0;       ///< Seconds in the planner (including goal sampling), on the query's clock.
   double planning_wall_time = 0.0;  ///< The same in wall-clock seconds.
   double replay_time = 0.0;
-  double path_length = 0.0;       ///< Joint-space length of the path (state-space metric).
-  std::size_t goal_pool = 0;      ///< Goal configurations found by IK (sampleable goal), at the end of planning.
+  double path_length = 0.0;         ///< Joint-space length of the path (state-space metric).
+  std::size_t goal_pool = 0;        ///< Goal configurations found by IK (sampleable goal), at the end of planning.
   std::vector<Configuration> path;  ///< Waypoints, unwrapped, from the start.
   ReplayReport replay;
-  std::string message;            ///< Why not solved.
+  std::string message;  ///< Why not solved.
 };
 
 /// @brief Planning problem built from a query: contexts, OMPL set-ups, planner selection.
 class CtrPlanner {
-public:
+ public:
   /// @brief Loads robot and environment (throws ctr::io::InputError for bad files) and sets everything up.
   explicit CtrPlanner(const Query& query);
   /// @brief With a robot and an environment already loaded (query.robot / query.environment are ignored).
-  CtrPlanner(const Query& query, Robot robot, env::Environment environment);
+  CtrPlanner(const Query& query, Robot robot, environments::Environment environment);
   /// @brief Checks the start before planning, as `ctr plan` does: throws ctr::io::InputError naming the query file,
   /// the line and key `start` when the model does not converge there or the start configuration is invalid
   /// (collision, elastic instability). solve() itself reports an invalid start in its result instead.
@@ -67,10 +67,10 @@ public:
   /// @brief Replays an OMPL solution path of the current set-up.
   PlanResult replaySolution(const std::string& planner, double planning_time, bool exact);
 
-private:
-  void init(Robot robot, env::Environment e);
+ private:
+  void init(Robot robot, environments::Environment e);
   Query query_;
-  std::shared_ptr<const env::Environment> env_;
+  std::shared_ptr<const environments::Environment> env_;
   std::shared_ptr<const Context> ctx_;
   std::shared_ptr<const CtrStateSpace> space_holder_;
   ompl::geometric::SimpleSetupPtr gss_;
@@ -82,4 +82,4 @@ private:
 /// @brief loadQuery + CtrPlanner + solve.
 PlanResult plan(const Query& query);
 
-}  // namespace ctr::plan
+}  // namespace ctr::planner

@@ -8,7 +8,7 @@
 
 #include <vector>
 
-namespace ctr::plan {
+namespace ctr::planner {
 
 /// @brief OMPL planner running its members concurrently on one problem definition; the first exact solution
 /// ends the solve. Members must share this planner's SpaceInformation; validity checking must be thread-safe
@@ -27,4 +27,4 @@ class Portfolio : public ompl::base::Planner {
   std::vector<ompl::base::PlannerPtr> members_;
 };
 
-}  // namespace ctr::plan
+}  // namespace ctr::planner

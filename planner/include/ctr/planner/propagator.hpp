@@ -10,7 +10,7 @@
 #include "ctr/model/replay.hpp"
 #include "ctr/planner/state_space.hpp"
 
-namespace ctr::plan {
+namespace ctr::planner {
 
 /// @brief How the robot arrived at the start configuration.
 struct StartHistory {
@@ -21,8 +21,8 @@ struct StartHistory {
     Path,      ///< Arrived along the given configurations (in order), ending at the start.
   };
   Kind kind = Kind::Rest;
-  double approach = 0.5;                 ///< Rotation of the approach for Positive / Negative (rad).
-  std::vector<Configuration> path;       ///< For Path.
+  double approach = 0.5;            ///< Rotation of the approach for Positive / Negative (rad).
+  std::vector<Configuration> path;  ///< For Path.
 };
 
 /// @brief "rest" / "positive" / "negative" / "path" (the query file's `history`).
@@ -53,7 +53,7 @@ std::shared_ptr<const StateCache> propagateCache(const Context& ctx, const State
 
 /// @brief OMPL state propagator through the friction model.
 class FrictionPropagator : public ompl::control::StatePropagator {
-public:
+ public:
   /// @param rotation_rate, translation_rate: control bounds (rad / s, m / s); the propagation step size sets the
   /// length of one step.
   FrictionPropagator(ompl::control::SpaceInformation* si, std::shared_ptr<const Context> ctx, double rotation_rate,
@@ -65,10 +65,10 @@ public:
   bool steer(const ompl::base::State* from, const ompl::base::State* to, ompl::control::Control* result,
              double& duration) const override;
 
-private:
+ private:
   std::shared_ptr<const Context> ctx_;
   const CtrStateSpace* space_;
   double rot_rate_, trans_rate_;
 };
 
-}  // namespace ctr::plan
+}  // namespace ctr::planner

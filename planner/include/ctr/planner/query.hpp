@@ -13,15 +13,15 @@
 #include "ctr/planner/goal.hpp"
 #include "ctr/planner/propagator.hpp"
 
-namespace ctr::plan {
+namespace ctr::planner {
 
 /// @brief A parsed query (paths resolved relative to the query file's folder).
 struct Query {
-  std::string file;                 ///< The query file (for messages).
-  std::string name;                 ///< Query name (default: file stem).
-  std::string robot;                ///< Robot YAML path.
-  std::string environment;          ///< Environment YAML path.
-  std::string base_start;           ///< Optional: environment start pose to use as the base pose.
+  std::string file;                              ///< The query file (for messages).
+  std::string name;                              ///< Query name (default: file stem).
+  std::string robot;                             ///< Robot YAML path.
+  std::string environment;                       ///< Environment YAML path.
+  std::string base_start;                        ///< Optional: environment start pose to use as the base pose.
   std::optional<FrictionCoefficients> friction;  ///< Overrides the robot's friction block.
   /// Overrides the robot's `loads:` block (same keys and units as the robot YAML). In `loads_frame` Base (the robot
   /// YAML's convention) or Environment (world frame of the environment: turned into the base frame by the base pose
@@ -32,21 +32,21 @@ struct Query {
   Configuration start;
   StartHistory history;
   std::optional<TipGoalSpec> tip_goal;
-  std::string target_name;          ///< Environment target used for tip_goal (if named).
+  std::string target_name;  ///< Environment target used for tip_goal (if named).
   std::optional<Configuration> goal_configuration;
   double goal_configuration_tolerance = 0.05;  ///< In the state-space metric.
   Mode mode = Mode::Exact;
   std::string planner = "default";
-  double time_limit = 10.0;         ///< Seconds (> 0).
+  double time_limit = 10.0;  ///< Seconds (> 0).
   /// Clock of time_limit and planning_time: wall-clock (default), or CPU time of the process (reproducible on a
   /// loaded machine; the planners are single-threaded, so on an idle machine the two agree).
   bool cpu_time_limit = false;
   std::uint64_t seed = 1;
-  std::string objective = "path_length";  ///< path_length | clearance
-  double replay_rotation_step = 0.0087;     ///< Replay resolution (rad, 0.5 deg).
-  double replay_translation_step = 5e-4;    ///< Replay resolution (m).
+  std::string objective = "path_length";                               ///< path_length | clearance
+  double replay_rotation_step = 0.0087;                                ///< Replay resolution (rad, 0.5 deg).
+  double replay_translation_step = 5e-4;                               ///< Replay resolution (m).
   double resolution_rotation = 0.0087, resolution_translation = 5e-4;  ///< Motion checking (default: the replay's).
-  double env_resolution = 0.0;      ///< Overrides the environment's octree resolution when > 0 (m).
+  double env_resolution = 0.0;           ///< Overrides the environment's octree resolution when > 0 (m).
   std::map<std::string, int> key_lines;  ///< 1-based line of each key ("start", "start.alpha", ...) in the file.
 
   /// @brief Line of `key` in the query file (of its closest parent key if absent; 0 if unknown), for messages
@@ -64,4 +64,4 @@ Query parseQuery(const std::string& text, const std::string& source, const std::
 /// @brief Known planner names per mode.
 std::vector<std::string> plannerNames(Mode mode);
 
-}  // namespace ctr::plan
+}  // namespace ctr::planner

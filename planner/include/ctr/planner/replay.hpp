@@ -9,30 +9,30 @@
 
 #include "ctr/planner/propagator.hpp"
 
-namespace ctr::plan {
+namespace ctr::planner {
 
 /// @brief One replayed point.
 struct ReplayPoint {
-  Configuration q;                 ///< Unwrapped command.
-  Solution solution;               ///< Equilibrium reached (base frame, without backbone to save memory).
-  HysteresisState hysteresis;      ///< Memory after the step.
-  bool valid = true;               ///< Converged, stable, no snap, collision-free.
-  double clearance = 0.0;          ///< Distance-field clearance (m).
+  Configuration q;             ///< Unwrapped command.
+  Solution solution;           ///< Equilibrium reached (base frame, without backbone to save memory).
+  HysteresisState hysteresis;  ///< Memory after the step.
+  bool valid = true;           ///< Converged, stable, no snap, collision-free.
+  double clearance = 0.0;      ///< Distance-field clearance (m).
 };
 
 /// @brief Replay outcome.
 struct ReplayReport {
-  bool completed = false;          ///< Every step converged.
+  bool completed = false;  ///< Every step converged.
   bool collision_free = true;
-  bool stable = true;              ///< No unstable equilibrium and no snap along the path.
+  bool stable = true;  ///< No unstable equilibrium and no snap along the path.
   bool goal_reached = false;
-  double tip_error = 0.0;          ///< At the end (m).
-  double direction_error = 0.0;    ///< At the end (rad).
-  double min_clearance = 0.0;      ///< Along the path (m).
+  double tip_error = 0.0;        ///< At the end (m).
+  double direction_error = 0.0;  ///< At the end (rad).
+  double min_clearance = 0.0;    ///< Along the path (m).
   int steps = 0;
   int collisions = 0, snaps = 0, unstable = 0;
-  std::string first_failure;       ///< What went wrong first, with the step.
-  std::vector<ReplayPoint> points; ///< At every replay step.
+  std::string first_failure;        ///< What went wrong first, with the step.
+  std::vector<ReplayPoint> points;  ///< At every replay step.
   bool ok() const { return completed && collision_free && stable && goal_reached; }
 };
 
@@ -55,4 +55,4 @@ ReplayReport replayPath(const Context& ctx, const std::vector<Configuration>& wa
 /// (mode, torque, relative twist).
 std::string replayCsv(const Robot& robot, const ReplayReport& r);
 
-}  // namespace ctr::plan
+}  // namespace ctr::planner

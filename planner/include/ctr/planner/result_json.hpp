@@ -6,7 +6,7 @@
 
 #include "ctr/planner/planner.hpp"
 
-namespace ctr::plan {
+namespace ctr::planner {
 
 /// @brief The result as the JSON text of `ctr plan --json` (keys in docs/planning.md): query, solved,
 /// planner_solved, mode, planner, planning and replay times, time_limit_clock, path_length, waypoints, goal_pool,
@@ -15,4 +15,4 @@ namespace ctr::plan {
 /// one line.
 std::string resultJson(const Query& query, const PlanResult& result, int indent = 2);
 
-}  // namespace ctr::plan
+}  // namespace ctr::planner

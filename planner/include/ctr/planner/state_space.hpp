@@ -4,29 +4,29 @@
 /// projection. States may carry the friction model's memory (exact mode).
 #pragma once
 
-#include <memory>
 #include <ompl/base/ProjectionEvaluator.h>
 #include <ompl/base/StateSampler.h>
 #include <ompl/base/StateSpace.h>
+#include <memory>
 
 #include "ctr/planner/context.hpp"
 
-namespace ctr::plan {
+namespace ctr::planner {
 
 /// @brief The physics of a state reached along a path (exact mode): hysteresis memory and the equilibrium shape.
 struct StateCache {
   HysteresisState hysteresis;
-  Solution solution;      ///< With the backbone (for collision checking).
+  Solution solution;        ///< With the backbone (for collision checking).
   bool physics_ok = false;  ///< Converged, stable, no snap on the way here.
   std::string why;          ///< Why not.
 };
 
 /// @brief Compound space: n rotations then one R^n of translations.
 class CtrStateSpace : public ompl::base::CompoundStateSpace {
-public:
+ public:
   /// @brief A state with an optional cached physics (shared, immutable; copied by pointer).
   class StateType : public ompl::base::CompoundStateSpace::StateType {
-  public:
+   public:
     std::shared_ptr<const StateCache> cache;
   };
 
@@ -51,7 +51,7 @@ public:
   const TranslationSampler& translationSampler() const { return sampler_; }
   const Robot& robot() const { return robot_; }
 
-private:
+ private:
   Robot robot_;
   const TranslationSampler& sampler_;
   int n_;
@@ -60,13 +60,13 @@ private:
 
 /// @brief Samples only admissible configurations (uniform rotations, TranslationSampler for translations).
 class CtrStateSampler : public ompl::base::StateSampler {
-public:
+ public:
   explicit CtrStateSampler(const CtrStateSpace* space);
   void sampleUniform(ompl::base::State* state) override;
   void sampleUniformNear(ompl::base::State* state, const ompl::base::State* near, double distance) override;
   void sampleGaussian(ompl::base::State* state, const ompl::base::State* mean, double stdDev) override;
 
-private:
+ private:
   const CtrStateSpace* ctr_;
   std::mt19937_64 gen_;
   void nearImpl(ompl::base::State* state, const ompl::base::State* near, double distance, bool gaussian);
@@ -74,13 +74,13 @@ private:
 
 /// @brief Projection onto the tip position (world frame), from the cached shape or the frictionless model.
 class TipProjection : public ompl::base::ProjectionEvaluator {
-public:
+ public:
   TipProjection(const CtrStateSpace* space, std::shared_ptr<const Context> ctx, double cell_size = 5e-3);
   unsigned int getDimension() const override { return 3; }
   void defaultCellSizes() override;
   void project(const ompl::base::State* state, Eigen::Ref<Eigen::VectorXd> projection) const override;
 
-private:
+ private:
   const CtrStateSpace* ctr_;
   std::shared_ptr<const Context> ctx_;
   double cell_;
@@ -91,4 +91,4 @@ private:
 bool tipOf(const Context& ctx, const CtrStateSpace& space, const ompl::base::State* s, Eigen::Vector3d& tip,
            Eigen::Vector3d* tangent = nullptr);
 
-}  // namespace ctr::plan
+}  // namespace ctr::planner

@@ -5,11 +5,11 @@
 #include <chrono>
 #include <ctime>
 
-namespace ctr::plan {
+namespace ctr::planner {
 
 /// @brief Measures elapsed seconds since construction, on the wall clock or as CPU time of the whole process.
 class Stopwatch {
-public:
+ public:
   explicit Stopwatch(bool cpu = false) : cpu_(cpu), wall0_(std::chrono::steady_clock::now()), cpu0_(cpuNow()) {}
   /// @brief Seconds on the selected clock.
   double seconds() const { return cpu_ ? cpuNow() - cpu0_ : wallSeconds(); }
@@ -19,7 +19,7 @@ public:
   }
   bool cpu() const { return cpu_; }
 
-private:
+ private:
   static double cpuNow() {
     timespec ts{};
     clock_gettime(CLOCK_PROCESS_CPUTIME_ID, &ts);
@@ -30,4 +30,4 @@ private:
   double cpu0_;
 };
 
-}  // namespace ctr::plan
+}  // namespace ctr::planner

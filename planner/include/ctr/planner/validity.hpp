@@ -14,7 +14,7 @@
 
 #include "ctr/planner/state_space.hpp"
 
-namespace ctr::plan {
+namespace ctr::planner {
 
 /// @brief Result of checking one configuration.
 struct ConfigurationCheck {
@@ -37,13 +37,13 @@ double checkMotionForward(const Context& ctx, const Configuration& q0, const Con
 
 /// @brief OMPL state validity checker for the context's mode.
 class ValidityChecker : public ompl::base::StateValidityChecker {
-public:
+ public:
   ValidityChecker(const ompl::base::SpaceInformationPtr& si, std::shared_ptr<const Context> ctx);
   bool isValid(const ompl::base::State* state) const override;
   /// @brief Clearance from the distance field (m) of the state's shape; 0 if invalid.
   double clearance(const ompl::base::State* state) const override;
 
-private:
+ private:
   std::shared_ptr<const Context> ctx_;
   const CtrStateSpace* space_;
 };
@@ -51,15 +51,15 @@ private:
 /// @brief OMPL motion validator that walks every motion forward from its source (never end-first or bisection:
 /// the equilibrium branch and the friction band depend on the direction of travel).
 class ForwardMotionValidator : public ompl::base::MotionValidator {
-public:
+ public:
   ForwardMotionValidator(const ompl::base::SpaceInformationPtr& si, std::shared_ptr<const Context> ctx);
   bool checkMotion(const ompl::base::State* s1, const ompl::base::State* s2) const override;
   bool checkMotion(const ompl::base::State* s1, const ompl::base::State* s2,
                    std::pair<ompl::base::State*, double>& lastValid) const override;
 
-private:
+ private:
   std::shared_ptr<const Context> ctx_;
   const CtrStateSpace* space_;
 };
 
-}  // namespace ctr::plan
+}  // namespace ctr::planner

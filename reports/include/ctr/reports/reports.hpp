@@ -19,7 +19,7 @@ struct Recording;
 namespace ctr::diagnosis {
 struct DiagnosisReport;
 }
-namespace ctr::plan {
+namespace ctr::planner {
 class Context;
 }
 
@@ -97,7 +97,7 @@ struct ViewGoal {
 /// diameters), tip trajectory, goal, collision flags, and friction bands at some waypoints. Shapes are recomputed by
 /// a quasi-static replay of `waypoints` through the robot's friction model (ctx.robot()) from options.start (or a
 /// rest state at the first waypoint). Throws std::invalid_argument for an empty path.
-std::string planningHtml(const plan::Context& ctx, const std::vector<Configuration>& waypoints,
+std::string planningHtml(const planner::Context& ctx, const std::vector<Configuration>& waypoints,
                          const std::optional<ViewGoal>& goal, const PlanningViewOptions& options = {});
 
 /// @brief The benchmark campaign report as HTML (`ctr bench merge --html`): success rate and replay outcomes per

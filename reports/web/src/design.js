@@ -84,7 +84,9 @@ if (paths.length) {
   chart(grid, { title: 'Clearance along the designed paths', xLabel: 'tip travel (mm)', yLabel: 'clearance (mm)',
     datasets: paths.map((p, i) => line(p.query, p.tip_travel.map((t, k) => ({ x: t * 1e3, y: p.clearance[k] === null ? NaN : p.clearance[k] * 1e3 })),
       PALETTE[i % PALETTE.length], { borderWidth: 2 })),
-    note: 'Distance-field clearance of the replayed robot shape at each waypoint (gaps: not computed).' });
+    note: 'Distance-field clearance of the replayed robot shape at each waypoint of the path written to ' +
+      'paths/QUERY.csv, the first plan (gaps: not computed); the table\'s clearance is the smallest over every plan ' +
+      'made, confirmations included.' });
 }
 
 publish('design', { evaluations: evals.length, queries: queries.length, paths: paths.length });

@@ -13,6 +13,7 @@
 
 #include "cli_common.hpp"
 #include "ctr/io/input_error.hpp"
+#include "ctr/io/yaml_reader.hpp"
 #include "ctr/planner/query.hpp"
 
 namespace fs = std::filesystem;
@@ -41,7 +42,7 @@ std::uint64_t fnv1a(const std::string& s, std::uint64_t h = 1469598103934665603u
 }
 
 int lineOf(const YAML::Node& n) {
-  return n.IsDefined() ? n.Mark().line + 1 : 0;
+  return io::YamlReader::lineOf(n);
 }
 
 // A name usable in file names and OMPL log lines (no spaces, no slashes).
@@ -170,25 +171,17 @@ Campaign loadCampaign(const std::string& path) {
   }
   if (!root.IsMap())
     throw InputError(path, 0, "", "a campaign is a YAML map (queries, planners, modes, seeds, time_limit)");
-  const std::set<std::string> known = {"name",  "queries",    "planners",      "modes",
-                                       "seeds", "time_limit", "runs_per_seed", "cpu_time"};
-  for (const auto& kv : root) {
-    const std::string k = kv.first.as<std::string>("");
-    if (!known.count(k)) {
-      std::string list;
-      for (const auto& x : known) list += (list.empty() ? "" : ", ") + x;
-      throw InputError(path, lineOf(kv.first), k, "unknown key (known: " + list + ")");
-    }
-  }
+  const io::YamlReader R{path};
+  R.allowOnly(root, "", {"name", "queries", "planners", "modes", "seeds", "time_limit", "runs_per_seed", "cpu_time"});
   for (const char* k : {"queries", "planners", "modes", "seeds", "time_limit"})
     if (!root[k]) throw InputError(path, 0, k, "missing");
   Campaign c;
   c.file = fs::path(path).lexically_normal().string();
   c.name = fs::path(path).stem().string();
   if (root["name"]) {
-    if (!root["name"].IsScalar() || !plainName(root["name"].Scalar()))
+    c.name = R.text(root["name"], "name");
+    if (!plainName(c.name))
       throw InputError(path, lineOf(root["name"]), "name", "must be a name of letters, digits, '_', '-' or '.'");
-    c.name = root["name"].Scalar();
   }
   const fs::path base = fs::path(path).parent_path();
   // Queries: load each (errors name the query file); names must be unique (they name the runs).
@@ -258,13 +251,8 @@ Campaign loadCampaign(const std::string& path) {
       throw InputError(path, lineOf(sn[i]), key, "seed " + std::to_string(v) + " is listed twice");
     c.seeds.push_back(static_cast<std::uint64_t>(v));
   }
-  try {
-    c.time_limit = root["time_limit"].as<double>();
-  } catch (const YAML::Exception&) {
-    throw InputError(path, lineOf(root["time_limit"]), "time_limit", "must be a number of seconds");
-  }
-  if (!std::isfinite(c.time_limit) || c.time_limit <= 0)
-    throw InputError(path, lineOf(root["time_limit"]), "time_limit", "must be > 0 s");
+  c.time_limit = R.number(root["time_limit"], "time_limit");
+  if (c.time_limit <= 0) throw InputError(path, lineOf(root["time_limit"]), "time_limit", "must be > 0 s");
   if (root["runs_per_seed"]) {
     try {
       c.runs_per_seed = root["runs_per_seed"].as<int>();
@@ -274,13 +262,7 @@ Campaign loadCampaign(const std::string& path) {
     if (c.runs_per_seed < 1 || c.runs_per_seed > 100000)
       throw InputError(path, lineOf(root["runs_per_seed"]), "runs_per_seed", "must be between 1 and 100000");
   }
-  if (root["cpu_time"]) {
-    try {
-      c.cpu_time = root["cpu_time"].as<bool>();
-    } catch (const YAML::Exception&) {
-      throw InputError(path, lineOf(root["cpu_time"]), "cpu_time", "must be true or false");
-    }
-  }
+  if (root["cpu_time"]) c.cpu_time = R.boolean(root["cpu_time"], "cpu_time");
   std::ostringstream def;
   def.precision(17);
   for (const auto& m : c.modes) def << "mode " << m << "\n";

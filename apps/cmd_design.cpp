@@ -1,12 +1,12 @@
 // `ctr design`: patient-specific robot design for one or several planning queries (docs/design.md); `ctr design
 // merge` joins the shards of a run (--shard I/N, for Slurm job arrays and GNU parallel).
 #include <algorithm>
-#include <cmath>
+#include <cstdlib>
 #include <filesystem>
 #include <iomanip>
 #include <iostream>
 #include <limits>
-#include <map>
+#include <memory>
 #include <nlohmann/json.hpp>
 #include <set>
 #include <sstream>
@@ -16,6 +16,7 @@
 #include "ctr/design/output.hpp"
 #include "ctr/design/search.hpp"
 #include "ctr/io/file.hpp"
+#include "ctr/io/recording.hpp"
 #include "ctr/io/robot_yaml.hpp"
 #include "html_report.hpp"
 #include "progress.hpp"
@@ -50,36 +51,39 @@ std::string mm(double v) {
 }
 
 #ifdef CTR_WITH_REPORTS
-/// The columns of a replayed path (paths/STEM.csv, as `ctr plan --path` writes it) by header name; empty cells NaN.
-std::map<std::string, std::vector<double>> readPathColumns(const std::string& file) {
-  std::istringstream in(io::readFile(file));
-  std::string line;
-  std::vector<std::string> names;
-  std::map<std::string, std::vector<double>> cols;
-  auto split = [](const std::string& l) {
+/// The clearance column of a replayed path (paths/STEM.csv, as `ctr plan --path` writes it: the recording columns
+/// plus clearance), one value per row of `rec`, which was read from the same file: NaN where the cell is empty (not
+/// computed) or the file has no such column.
+std::vector<double> clearanceColumn(const std::string& file, const io::Recording& rec) {
+  std::vector<std::string> lines;
+  {
+    std::istringstream in(io::readFile(file));
+    for (std::string l; std::getline(in, l);)
+      lines.push_back(!l.empty() && l.back() == '\r' ? l.substr(0, l.size() - 1) : l);
+  }
+  auto cells = [](const std::string& l) {
     std::vector<std::string> f;
-    std::stringstream ss(l);
-    std::string x;
-    while (std::getline(ss, x, ',')) f.push_back(x);
-    if (!l.empty() && l.back() == ',') f.emplace_back();
+    std::size_t a = 0;
+    for (std::size_t b; (b = l.find(',', a)) != std::string::npos; a = b + 1) f.push_back(l.substr(a, b - a));
+    f.push_back(l.substr(a));
     return f;
   };
-  if (!std::getline(in, line)) throw io::InputError(file, 1, "", "empty path file");
-  names = split(line);
-  for (int ln = 2; std::getline(in, line); ++ln) {
-    if (line.empty()) continue;
-    const std::vector<std::string> f = split(line);
-    for (std::size_t c = 0; c < names.size(); ++c) {
-      double v = std::numeric_limits<double>::quiet_NaN();
-      if (c < f.size() && !f[c].empty()) {
-        char* end = nullptr;
-        v = std::strtod(f[c].c_str(), &end);
-        if (end == f[c].c_str()) v = std::numeric_limits<double>::quiet_NaN();  // text columns (contact modes)
-      }
-      cols[names[c]].push_back(v);
-    }
+  std::vector<double> out(static_cast<std::size_t>(rec.rows()), std::numeric_limits<double>::quiet_NaN());
+  const std::vector<std::string> header = lines.empty() ? std::vector<std::string>{} : cells(lines.front());
+  const auto col = std::find(header.begin(), header.end(), "clearance");
+  if (col == header.end()) return out;
+  const std::size_t c = static_cast<std::size_t>(col - header.begin());
+  for (int r = 0; r < rec.rows(); ++r) {
+    const int line = rec.lineOf(r);
+    const std::vector<std::string> f = cells(lines.at(static_cast<std::size_t>(line - 1)));
+    if (c >= f.size() || f[c].empty()) continue;
+    char* end = nullptr;
+    const double v = std::strtod(f[c].c_str(), &end);
+    if (end != f[c].c_str() + f[c].size())
+      throw io::InputError(file, line, "clearance", "'" + f[c] + "' is not a number");
+    out[static_cast<std::size_t>(r)] = v;
   }
-  return cols;
+  return out;
 }
 
 /// DIR/report.html (the design report) and DIR/viewers/STEM.html (the planning viewer of each designed plan).
@@ -93,47 +97,40 @@ void writeDesignReport(const std::string& dir) {
     const std::string stem = design::queryFileStem(name);
     const fs::path csv = fs::path(dir) / "paths" / (stem + ".csv");
     if (!fs::exists(csv)) continue;
-    const auto cols = readPathColumns(csv.string());
+    // The path's rows through the recording reader (formats.md columns; file, line and column in its errors).
+    const fs::path qfile = fs::path(dir) / "queries" / (stem + ".yaml");
+    std::unique_ptr<planner::CtrPlanner> designed;
+    if (fs::exists(qfile)) designed = std::make_unique<planner::CtrPlanner>(planner::loadQuery(qfile.string()));
+    io::Recording rec = io::loadRecording(csv.string(), designed ? designed->context()->robot().size() : -1, false);
+    if (!rec.hasTipPosition()) throw io::InputError(csv.string(), 1, "tip_x", "missing (not a replayed path)");
     reports::DesignPathPlot p;
     p.query = name;
-    const auto tx = cols.find("tip_x"), ty = cols.find("tip_y"), tz = cols.find("tip_z"), cl = cols.find("clearance");
-    if (tx == cols.end() || ty == cols.end() || tz == cols.end())
-      throw io::InputError(csv.string(), 1, "tip_x", "missing (not a replayed path)");
+    p.clearance = clearanceColumn(csv.string(), rec);
     double travel = 0.0;
-    for (std::size_t k = 0; k < tx->second.size(); ++k) {
-      if (k > 0)
-        travel += std::hypot(tx->second[k] - tx->second[k - 1], ty->second[k] - ty->second[k - 1],
-                             tz->second[k] - tz->second[k - 1]);
+    for (int k = 0; k < rec.rows(); ++k) {
+      if (k > 0) travel += (rec.tip_position.row(k) - rec.tip_position.row(k - 1)).norm();
       p.tip_travel.push_back(travel);
-      p.clearance.push_back(cl == cols.end() ? std::numeric_limits<double>::quiet_NaN() : cl->second[k]);
     }
-    // The viewer: the designed query (queries/STEM.yaml) and the path's joint values.
-    const fs::path qfile = fs::path(dir) / "queries" / (stem + ".yaml");
-    if (fs::exists(qfile)) {
-      const planner::Query pq = planner::loadQuery(qfile.string());
-      planner::CtrPlanner designed(pq);
-      const int n = designed.context()->robot().size();
-      std::vector<Configuration> wps;
-      for (std::size_t k = 0; k < tx->second.size(); ++k) {
-        Configuration c = Configuration::zeros(n);
-        for (int i = 0; i < n; ++i) {
-          const auto a = cols.find("alpha_" + std::to_string(i + 1)), b = cols.find("beta_" + std::to_string(i + 1));
-          if (a == cols.end() || b == cols.end())
-            throw io::InputError(csv.string(), 1, "alpha_" + std::to_string(i + 1), "missing (not a replayed path)");
-          c.alpha[i] = a->second[k];
-          c.beta[i] = b->second[k];
-        }
-        wps.push_back(c);
+    // The viewer: the designed query (queries/STEM.yaml) and the path's joint values (rounded values projected onto
+    // the admissible set as `ctr view` does; larger violations name the row).
+    if (designed) {
+      const planner::Query& pq = designed->query();
+      for (int k = 0; k < rec.rows(); ++k) {
+        const Admissibility a =
+            projectAdmissible(designed->context()->robot(), rec.commands[static_cast<std::size_t>(k)]);
+        if (!a)
+          throw io::InputError(csv.string(), rec.lineOf(k), "",
+                               "row " + std::to_string(k + 1) + " is not admissible: " + a.message);
       }
       reports::PlanningViewOptions vo;
       vo.title = "Design: " + name + " (" + planner::toString(pq.mode) + ")";
       if (q.contains("plan") && !q["plan"].is_null()) vo.info_json = q["plan"].dump();
-      const auto start = planner::startCache(*designed.context(), designed.query().start, pq.history);
+      const auto start = planner::startCache(*designed->context(), pq.start, pq.history);
       if (start && start->physics_ok) vo.start = start->hysteresis;
       const fs::path vdir = fs::path(dir) / "viewers";
       fs::create_directories(vdir);
       reports::writeHtml((vdir / (stem + ".html")).string(),
-                         reports::planningHtml(*designed.context(), wps, viewGoal(designed.query()), vo));
+                         reports::planningHtml(*designed->context(), rec.commands, viewGoal(pq), vo));
       p.viewer = "viewers/" + stem + ".html";
     }
     plots.push_back(std::move(p));

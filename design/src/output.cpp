@@ -3,6 +3,7 @@
 #include <yaml-cpp/yaml.h>
 
 #include <cmath>
+#include <cstdio>
 #include <filesystem>
 #include <functional>
 #include <map>
@@ -268,9 +269,13 @@ std::string mergeDesigns(const std::vector<std::string>& dirs, const std::string
     const std::string f = (p.dir / "result.json").string();
     if (p.j["fingerprint"].get<std::string>() != fp)
       throw io::InputError(f, 0, "fingerprint", "belongs to another design run (other queries, space or options)");
-    const std::string s = p.j["shard"].get<std::string>();
-    const auto slash = s.find('/');
-    const std::size_t i = std::stoul(s.substr(0, slash)), n = std::stoul(s.substr(slash + 1));
+    const std::string s = p.j["shard"].is_string() ? p.j["shard"].get<std::string>() : p.j["shard"].dump();
+    unsigned long i = 0, n = 0;
+    char extra = 0;
+    if (std::sscanf(s.c_str(), "%lu/%lu%c", &i, &n, &extra) != 2 || n == 0 || i >= n)
+      throw io::InputError(f, 0, "shard",
+                           "'" + s + "' is not I/N with 0 <= I < N" +
+                               (s == "merged" ? " (a merged result is not a shard: merge the shard folders)" : ""));
     if (count == 0) count = n;
     if (n != count)
       throw io::InputError(f, 0, "shard", "shard " + s + " of another shard count than " + std::to_string(count));

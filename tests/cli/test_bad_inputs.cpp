@@ -426,6 +426,9 @@ const std::vector<Case> kCases = {
    "design {d}/q.yaml --space {d}/s.yaml --out {d}/o", 2, {"s.yaml:2", "strain_limt", "unknown key"}},
   {"DesignMergeNoShards", "design merge", "a folder without design shards", "plan", none,
    "design merge {d} --out {d}/m", 2, {"{d}", "no design shard here"}},
+  {"DesignMergeOfAMergedResult", "design merge", "a merged result given as a shard", "plan", [](Dir& d) {
+     d.write("result.json", R"({"shard": "merged", "fingerprint": "f", "evaluations": [], "queries": []})"); },
+   "design merge {d} --out {d}/m", 2, {"result.json", "shard", "a merged result is not a shard"}},
   // ---- demo and the command line itself ----
   {"DemoNegativeFriction", "demo", "negative --boundary-friction", "", none,
    "demo --paper --boundary-friction -1", 2, {"--boundary-friction", "must not be negative"}},

@@ -69,15 +69,14 @@ struct StageOut {
   std::vector<double> iface_force, iface_torque;  // per interface j
 };
 
-// Distributed forces on every present tube (common frame F0) and their interface decomposition, for given u_z'.
+// Distributed forces on every present tube (common frame F0) and their interface decomposition, for given u_z', at
+// angles theta given by their cosines c and sines s.
 template <class T>
-void forces(const Model& M, const Segment& sg, const std::vector<T>& th, const std::vector<T>& uz,
-            const std::vector<T>& nz, const std::vector<T>& uzp, std::vector<T>& tau, std::vector<T>& nzp,
-            std::vector<double>* iface_force, std::vector<double>* iface_torque, V2<T>& u0_out) {
+void forces(const Model& M, const Segment& sg, const std::vector<T>& c, const std::vector<T>& s,
+            const std::vector<T>& uz, const std::vector<T>& nz, const std::vector<T>& uzp, std::vector<T>& tau,
+            std::vector<T>& nzp, std::vector<double>* iface_force, std::vector<double>* iface_torque, V2<T>& u0_out) {
   const Problem& P = *M.P;
   const int n = P.n;
-  std::vector<T> c(static_cast<std::size_t>(n)), s(static_cast<std::size_t>(n));
-  for (int j = 0; j < n; ++j) detail::sinCos(th[j], s[j], c[j]);
   V2<T> u0{T(0.0), T(0.0)}, u0p{T(0.0), T(0.0)}, u0pp{T(0.0), T(0.0)};
   for (int j = 0; j < n; ++j) {
     if (sg.w[j] == 0.0) continue;
@@ -171,7 +170,7 @@ bool stage(Model& M, const Segment& sg, const std::vector<T>& th, const std::vec
   bool ok = false;
   int it = 0;
   for (; it < M.max_iter; ++it) {
-    forces(M, sg, th, uz, nz, uzp, tau, out.nzp, nullptr, nullptr, out.u0);
+    forces(M, sg, cs, sn, uz, nz, uzp, tau, out.nzp, nullptr, nullptr, out.u0);
     // tau is the applied distributed torque; the internal torque obeys m_z' = -tau + (elastic coupling).
     double change = 0.0, size = 0.0;
     for (int i = 0; i < n; ++i) {
@@ -188,7 +187,7 @@ bool stage(Model& M, const Segment& sg, const std::vector<T>& th, const std::vec
   }
   M.worst_iter = std::max(M.worst_iter, it + 1);
   if (!ok) M.root_failed = true;
-  forces(M, sg, th, uz, nz, uzp, tau, out.nzp, want_iface ? &out.iface_force : nullptr,
+  forces(M, sg, cs, sn, uz, nz, uzp, tau, out.nzp, want_iface ? &out.iface_force : nullptr,
          want_iface ? &out.iface_torque : nullptr, out.u0);
   return ok;
 }

@@ -236,20 +236,22 @@ void integrate(Model& M, const std::vector<T>& z, std::vector<T>& r, bool record
       r[n + i] = z[n + i];
     }
   StageOut<T> k1, k2, k3, k4;
-  auto recordNode = [&](double s, const Segment& sg, const auto& so) {  // (instantiated for T = double only)
-    BackbonePoint bp;
-    bp.s = s;
-    bp.position = out->p;
-    bp.frame = out->R;
-    bp.theta = Eigen::Map<const Eigen::VectorXd>(th.data(), n);
-    bp.uz = Eigen::Map<const Eigen::VectorXd>(uz.data(), n);
-    bp.u0 = Eigen::Vector2d(so.u0.x, so.u0.y);
-    bp.outermost = sg.outermost;
-    out->backbone.push_back(bp);
-    for (std::size_t j = 0; j < so.iface_force.size(); ++j) {
-      if (static_cast<int>(j) < sg.outermost || !sg.present[j + 1]) continue;
-      out->samples.push_back({s, static_cast<int>(j), so.iface_force[j], so.iface_force[j] / std::sqrt(1 + M.mu * M.mu),
-                              so.iface_torque[j]});
+  auto recordNode = [&](double s, const Segment& sg, const auto& so) {
+    if constexpr (plain) {  // discarded for dual numbers (clang checks a generic lambda's body eagerly)
+      BackbonePoint bp;
+      bp.s = s;
+      bp.position = out->p;
+      bp.frame = out->R;
+      bp.theta = Eigen::Map<const Eigen::VectorXd>(th.data(), n);
+      bp.uz = Eigen::Map<const Eigen::VectorXd>(uz.data(), n);
+      bp.u0 = Eigen::Vector2d(so.u0.x, so.u0.y);
+      bp.outermost = sg.outermost;
+      out->backbone.push_back(bp);
+      for (std::size_t j = 0; j < so.iface_force.size(); ++j) {
+        if (static_cast<int>(j) < sg.outermost || !sg.present[j + 1]) continue;
+        out->samples.push_back({s, static_cast<int>(j), so.iface_force[j],
+                                so.iface_force[j] / std::sqrt(1 + M.mu * M.mu), so.iface_torque[j]});
+      }
     }
   };
   std::vector<T> t2(un), u2(un), n2(un), dt[4], du[4], dn[4];

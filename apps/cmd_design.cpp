@@ -10,6 +10,8 @@
 #include <nlohmann/json.hpp>
 #include <set>
 #include <sstream>
+#include <utility>
+#include <vector>
 
 #include "campaign.hpp"
 #include "commands.hpp"
@@ -86,8 +88,10 @@ std::vector<double> clearanceColumn(const std::string& file, const io::Recording
   return out;
 }
 
-/// DIR/report.html (the design report) and DIR/viewers/STEM.html (the planning viewer of each designed plan).
-void writeDesignReport(const std::string& dir) {
+/// DIR/report.html (the design report) and DIR/viewers/STEM.html (the planning viewer of each designed plan). Every
+/// page is built before any is written: a report that fails (a path or query file the result refers to is unreadable)
+/// writes none and says that the design result itself was kept.
+void buildDesignReport(const std::string& dir, std::vector<std::pair<fs::path, std::string>>& pages) {
   const std::string result_file = (fs::path(dir) / "result.json").string();
   const std::string result = io::readFile(result_file);
   const nlohmann::json j = nlohmann::json::parse(result);
@@ -127,9 +131,7 @@ void writeDesignReport(const std::string& dir) {
       if (q.contains("plan") && !q["plan"].is_null()) vo.info_json = q["plan"].dump();
       const auto start = planner::startCache(*designed->context(), pq.start, pq.history);
       if (start && start->physics_ok) vo.start = start->hysteresis;
-      const fs::path vdir = fs::path(dir) / "viewers";
-      fs::create_directories(vdir);
-      reports::writeHtml((vdir / (stem + ".html")).string(),
+      pages.emplace_back(fs::path(dir) / "viewers" / (stem + ".html"),
                          reports::planningHtml(*designed->context(), rec.commands, viewGoal(pq), vo));
       p.viewer = "viewers/" + stem + ".html";
     }
@@ -137,7 +139,23 @@ void writeDesignReport(const std::string& dir) {
   }
   std::string title = "Robot design";
   for (const auto& q : j["queries"]) title += (&q == &j["queries"].front() ? ": " : ", ") + q.value("query", "");
-  reports::writeHtml((fs::path(dir) / "report.html").string(), reports::designHtml(result, plots, title));
+  pages.emplace_back(fs::path(dir) / "report.html", reports::designHtml(result, plots, title));
+}
+
+void writeDesignReport(const std::string& dir) {
+  std::vector<std::pair<fs::path, std::string>> pages;
+  const std::string kept = " (" + (fs::path(dir) / "result.json").string() + " and the paths were written; no report)";
+  try {
+    buildDesignReport(dir, pages);
+  } catch (const io::InputError& e) {
+    throw io::InputError(e.file(), e.line(), e.key(), e.message() + kept);
+  } catch (const std::exception& e) {
+    throw std::runtime_error(std::string("design report: ") + e.what() + kept);
+  }
+  for (const auto& [path, html] : pages) {
+    fs::create_directories(path.parent_path());
+    reports::writeHtml(path.string(), html);
+  }
   std::cerr << "wrote " << (fs::path(dir) / "report.html").string() << "\n";
 }
 #endif

@@ -353,12 +353,30 @@ Designer::Designer(std::vector<planner::Query> queries, std::optional<DesignSpac
       throw io::InputError(queries_.front().robot, 0, "", e.what());
     }
   }
-  keep_.resize(queries_.size());
   for (std::size_t k = 0; k < queries_.size(); ++k)
     if (bases_[k].size() != static_cast<int>(space_.tubes.size()))
       throw io::InputError(queries_[k].file, queries_[k].lineOf("robot"), "robot",
                            "robot '" + bases_[k].name() + "' has " + std::to_string(bases_[k].size()) +
                                " tubes, the design space " + std::to_string(space_.tubes.size()));
+  keep_.resize(queries_.size());
+  // The problem itself (friction, loads, target, collision checker and its distance field) set up once with the
+  // query's own robot, as `ctr plan` does: a query that cannot be planned for a reason no design changes is refused
+  // here (bad input) instead of failing every candidate. The context it builds is kept, so the first candidate shares
+  // its distance field.
+  for (std::size_t k = 0; k < queries_.size(); ++k) {
+    planner::Query q = queries_[k];
+    q.base_start.clear();  // the environment is already at its base pose
+    try {
+      keep_[k] = planner::CtrPlanner(q, bases_[k], *envs_[k]).context();
+    } catch (const io::InputError&) {
+      throw;
+    } catch (const std::exception& e) {
+      throw io::InputError(q.file, 0, "",
+                           std::string("the problem cannot be set up with the query's own robot (as `ctr plan` would "
+                                       "refuse it), so no design can be scored: ") +
+                               e.what());
+    }
+  }
 }
 
 std::optional<Candidate> Designer::baseCandidate() const {

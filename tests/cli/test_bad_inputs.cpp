@@ -424,6 +424,11 @@ const std::vector<Case> kCases = {
   {"DesignSpaceMisspeltKey", "design", "misspelt key in the design space", "plan", [](Dir& d) {
      d.write("q.yaml", heartQuery()); d.write("s.yaml", "name: s\nstrain_limt: 0.06\n"); },
    "design {d}/q.yaml --space {d}/s.yaml --out {d}/o", 2, {"s.yaml:2", "strain_limt", "unknown key"}},
+  {"DesignGoalOutsideMap", "design", "a goal outside the map (no design can be scored): refused up front", "plan",
+   [](Dir& d) {
+     const std::string t = edit(heartQuery(), "target: tricuspid", "position: [3.0, 3.0, 3.0]");
+     d.write("q.yaml", t); d.expect["line"] = std::to_string(lineOf(t, "position: [3.0")); },
+   "design {d}/q.yaml --out {d}/o", 2, {"q.yaml:{line}", "goal.position", "outside the environment's map"}},
   {"DesignMergeNoShards", "design merge", "a folder without design shards", "plan", none,
    "design merge {d} --out {d}/m", 2, {"{d}", "no design shard here"}},
   {"DesignMergeOfAMergedResult", "design merge", "a merged result given as a shard", "plan", [](Dir& d) {

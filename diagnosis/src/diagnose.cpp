@@ -294,6 +294,7 @@ DiagnosisReport diagnose(const Robot& nominal, const io::Recording& given, const
   detail::assessRemainder(s);
   detail::checkProxies(s);
   detail::describeRemainder(s);
+  detail::assessDetectionLimits(s);
   detail::writeVerdict(s);
   rep.seconds = s.progress.seconds;
   s.say(Stage::Done, fmt("done in %.1f s: %.0f round(s), %.0f replays", rep.seconds, rep.rounds, rep.evaluations));

@@ -38,6 +38,12 @@ struct Candidate {
   std::string reason;
 };
 
+/// The smallest size of a candidate not in the final model that the recording could tell from none.
+struct DetectionLimit {
+  double value = 0.0;  ///< In the parameter's units (infinity: the recording does not depend on it).
+  std::string text;    ///< For the finding's explanation.
+};
+
 /// The shared state of one diagnosis.
 struct State {
   State(const Robot& nominal, const io::Recording& rec, const DiagnoseOptions& o, DiagnosisReport& rep);
@@ -69,7 +75,8 @@ struct State {
   std::map<std::string, std::vector<std::string>> replaced_by;  ///< Generic label -> library candidates it beat.
   std::vector<FitResult> without;  ///< Refits of `cur` without each of its effects (elimination, confounding).
   MismatchReport final_mismatch;   ///< Locate tests on the final model's residuals.
-  double base_ratio = 1.0;         ///< Baseline held-out mean square over the noise variance.
+  std::map<std::string, DetectionLimit> detection;  ///< Slot label -> detection limit (candidates not in the model).
+  double base_ratio = 1.0;                          ///< Baseline held-out mean square over the noise variance.
 
   /// BIC of model b minus model a, on the rows both evaluated.
   double deltaBic(const Residuals& a, int ka, const Residuals& b, int kb) const;
@@ -149,6 +156,9 @@ std::vector<Effect> genericSlots(const io::Recording& rec);
 /// errors, tracker drift): the remainder of the library model (s.rep.unexplained, present) and each generic model's
 /// description with its held-out gain (s.rep.unexplained.described).
 void describeRemainder(State& s);
+
+/// The detection limit of every one-parameter library candidate not in the final model (s.detection).
+void assessDetectionLimits(State& s);
 
 /// The verdict, the findings with their final values, failed-row reliability and the summary paragraph.
 void writeVerdict(State& s);

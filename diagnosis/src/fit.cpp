@@ -498,6 +498,93 @@ FitResult linearizeModel(const Robot& nominal, const io::Recording& rec, const s
   return f;
 }
 
+std::vector<double> detectionLimits(const Robot& nominal, const io::Recording& rec, const std::vector<Effect>& model,
+                                    const std::vector<Effect>& candidates, const std::vector<char>& use,
+                                    const FitOptions& options, double bic_threshold, Workspace& ws) {
+  const double inf = std::numeric_limits<double>::infinity();
+  std::vector<double> limit(candidates.size(), inf);
+  Model m(nominal, rec, model, use, options, ws);
+  const int k = m.parameters(), n = m.residuals(), C = m.componentsPerRow();
+  if (n == 0) return limit;
+  std::vector<double> x(static_cast<std::size_t>(k));
+  for (int j = 0; j < k; ++j) x[static_cast<std::size_t>(j)] = m.toX(j, m.startValue(j));
+  const Eigen::VectorXd r0 = m.residualAt(x.data());
+  const Eigen::MatrixXd Jm = k > 0 ? m.jacobian(x.data(), nullptr) : Eigen::MatrixXd(n, 0);
+  // Each candidate's column: a one-sided difference into its range from its value (one replay each).
+  std::vector<Eigen::VectorXd> col(candidates.size());
+  std::vector<double> step(candidates.size(), 0.0), span(candidates.size(), 0.0);
+  detail::parallelFor(static_cast<int>(candidates.size()), options.threads, ws, [&](int i, Workspace& w) {
+    const Effect& c = candidates[static_cast<std::size_t>(i)];
+    if (parameterCount(c.kind) != 1) throw std::invalid_argument("detectionLimits: a candidate with one coordinate");
+    const ParameterRange r = parameterRange(nominal, rec, c.kind, c.tube);
+    const double v0 = c.coordinate(0), h = options.difference_step * (r.hi - r.lo);
+    const double v1 = v0 + h <= r.hi ? v0 + h : v0 - h;
+    std::vector<Effect> e = model;
+    e.push_back(c);
+    e.back().setCoordinate(0, v1);
+    const FitResult f = m.evaluate(e, w);
+    Eigen::VectorXd r1(n);
+    m.weighted(f, r1.data());
+    step[static_cast<std::size_t>(i)] = (v1 - v0) / (r.hi - r.lo);  // in units of the range
+    span[static_cast<std::size_t>(i)] = r.hi - r.lo;
+    col[static_cast<std::size_t>(i)] = (r1 - r0) / step[static_cast<std::size_t>(i)];
+  });
+  // Components per row of each quantity and their independent count (the BIC's n).
+  std::vector<std::pair<int, double>> blocks;  // (components, independent components) per quantity, in row order
+  for (Quantity q : presentQuantities(rec)) {
+    const int cols = q == Quantity::Twist ? static_cast<int>(rec.twist.cols()) : 3;
+    blocks.emplace_back(cols, rowDof(q, cols));
+  }
+  const int rows = n / std::max(1, C);
+  const int dof = std::max(1, n - k - 1);
+  for (std::size_t i = 0; i < candidates.size(); ++i) {
+    if (!col[i].allFinite() || col[i].squaredNorm() <= 0.0) continue;
+    Eigen::MatrixXd J(n, k + 1);
+    J << Jm, col[i];
+    // (a) The 95 % interval half-width of the candidate's coordinate at its value.
+    const Eigen::MatrixXd H = J.transpose() * J;
+    const Eigen::MatrixXd Hinv = H.completeOrthogonalDecomposition().pseudoInverse();
+    const double classical = Hinv(k, k) * r0.squaredNorm() / dof;
+    const stats::HacCovariance hac = stats::hacCovariance(J, r0, C);
+    const double var = std::max(classical, hac.covariance(k, k));
+    if (!(Hinv(k, k) > 0) || !std::isfinite(var)) continue;
+    const double interval = 1.96 * std::sqrt(var) * span[i];
+    // (b) The size whose prediction change, with the model's effects refitted (the column projected off theirs),
+    // lowers BIC by the threshold: sum_q n_q ln(1 + t^2 G_q / E_q) = threshold + ln N.
+    Eigen::VectorXd g = col[i];
+    if (k > 0) g -= Jm * Jm.completeOrthogonalDecomposition().solve(col[i]);
+    std::vector<double> G(blocks.size(), 0.0), E(blocks.size(), 0.0), nq(blocks.size(), 0.0);
+    double total = 0.0;
+    for (int row = 0; row < rows; ++row) {
+      int at = row * C;
+      for (std::size_t b = 0; b < blocks.size(); ++b) {
+        G[b] += g.segment(at, blocks[b].first).squaredNorm();
+        E[b] += r0.segment(at, blocks[b].first).squaredNorm();
+        nq[b] += blocks[b].second;
+        at += blocks[b].first;
+      }
+    }
+    for (double v : nq) total += v;
+    const double target = bic_threshold + std::log(std::max(1.0, total));
+    auto gain = [&](double t) {
+      double s = 0.0;
+      for (std::size_t b = 0; b < blocks.size(); ++b)
+        if (E[b] > 0) s += nq[b] * std::log1p(t * t * G[b] / E[b]);
+      return s;
+    };
+    double hi = 1.0;
+    while (gain(hi) < target && hi < 1e6) hi *= 2;
+    double bic_limit = inf;
+    if (gain(hi) >= target) {
+      double lo = 0.0;
+      for (int it = 0; it < 60; ++it) (gain(0.5 * (lo + hi)) < target ? lo : hi) = 0.5 * (lo + hi);
+      bic_limit = hi * span[i];
+    }
+    limit[i] = std::max(interval, bic_limit);
+  }
+  return limit;
+}
+
 std::vector<int> foldOfRows(int rows, int folds) {
   std::vector<int> f(static_cast<std::size_t>(rows));
   folds = std::max(1, std::min(folds, rows));

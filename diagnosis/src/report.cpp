@@ -186,6 +186,7 @@ std::string reportToJson(const DiagnosisReport& r) {
       }
       x["ambiguous_with"] = a;
     }
+    if (std::isfinite(f.detection_limit)) x["detection_limit"] = f.detection_limit;
     x["explanation"] = f.explanation;
     fs.push_back(x);
   }

@@ -109,6 +109,11 @@ void writeVerdict(State& s) {
               "partial explanation, not named: " + describePhysics(e.kind) + "; " + s.removed_partial[key] + ".";
         }
       }
+    const auto d = s.detection.find(key);
+    if (!f.accepted && d != s.detection.end()) {
+      f.detection_limit = d->second.value;
+      f.explanation += (f.explanation.empty() || f.explanation.back() == '.' ? " " : ". ") + d->second.text + ".";
+    }
     rep.findings.push_back(f);
   }
   std::stable_sort(rep.findings.begin(), rep.findings.end(),

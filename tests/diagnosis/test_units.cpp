@@ -347,3 +347,54 @@ TEST(Import, HugeColumnNumbersAreRejected) {
   EXPECT_THROW(parseColumnMapping("alpha_2=0"), std::invalid_argument);
   EXPECT_EQ(parseColumnMapping("alpha_2=1000000").second.column, 1000000);
 }
+
+// The detection limit of a candidate is what the selection can see: on a sweep with known white noise, a drive offset
+// 1.6 x its limit (computed on a null recording) is accepted by the BIC criterion of every seed, one 0.4 x its limit by
+// none; the limit of a parameter the recording does not depend on is infinite.
+TEST(DetectionLimits, SeparateWhatTheFitCanAndCannotSee) {
+  const Robot r = pairB();
+  std::vector<Configuration> cmd;
+  Eigen::VectorXd time;
+  ActuationOptions a;
+  a.dt = 0;
+  makeActuation(r, a, cmd, time);
+  SimulationOptions s;
+  s.seed = 3;
+  FitOptions fo;
+  fo.noise.twist = s.twist_sd;
+  fo.noise.tip_position = s.position_sd;
+  fo.noise.tip_tangent = s.tangent_sd;
+  Workspace ws;
+  const io::Recording null = simulateRecording(r, cmd, time, {}, s);
+  const std::vector<char> all(static_cast<std::size_t>(null.rows()), 1);
+  const Effect offset = nominalEffect(r, EffectKind::ActuatorOffset, 2);
+  const double threshold = 10.0;
+  const std::vector<double> lim = detectionLimits(r, null, {}, {offset}, all, fo, threshold, ws);
+  ASSERT_EQ(lim.size(), 1u);
+  ASSERT_TRUE(std::isfinite(lim[0]));
+  EXPECT_GT(lim[0], 0.0);
+  EXPECT_LT(lim[0], 0.1);  // a sweep measured to 0.5 deg and 0.1 mm sees a few degrees
+  std::printf("detection limit of actuator_offset[2]: %.3f deg\n", lim[0] * 180 / M_PI);
+  for (const double factor : {1.6, 0.4}) {
+    for (std::uint64_t seed : {11u, 12u, 13u}) {
+      Effect e = offset;
+      e.value = factor * lim[0];
+      SimulationOptions si = s;
+      si.seed = seed;
+      const io::Recording rec = simulateRecording(r, cmd, time, {e}, si);
+      const FitResult base = evaluateModel(r, rec, {}, all, fo, ws);
+      const FitResult fit = fitEffects(r, rec, {offset}, all, fo, ws);
+      const double dbic = bic(rec, fit.residuals, all, 1) - bic(rec, base.residuals, all, 0);
+      std::printf("offset %.1f x limit, seed %d: delta BIC %.1f (fitted %.3f deg)\n", factor, static_cast<int>(seed),
+                  dbic, fit.effects[0].value * 180 / M_PI);
+      if (factor > 1)
+        EXPECT_LT(dbic, -threshold);
+      else
+        EXPECT_GT(dbic, -threshold);
+    }
+  }
+  // A sensor latency on a recording without time: no output depends on it.
+  const Effect latency = nominalEffect(r, EffectKind::SensorLatency, 0);
+  const std::vector<double> none = detectionLimits(r, null, {}, {latency}, all, fo, threshold, ws);
+  EXPECT_FALSE(std::isfinite(none[0]));
+}

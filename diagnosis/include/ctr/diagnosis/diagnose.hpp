@@ -5,6 +5,7 @@
 #pragma once
 
 #include <functional>
+#include <limits>
 #include <map>
 #include <string>
 #include <vector>
@@ -113,6 +114,11 @@ struct Finding {
   bool partial = false;               ///< Accepted, but a structured remainder is left (see `unexplained`).
   bool named = true;                  ///< Accepted and named in the verdict (false: partial explanation
                                       ///< confounded with the unexplained remainder; kept in the final fit).
+  /// Not accepted, one parameter: the smallest size this recording can tell from none on top of the final model
+  /// (the larger of the 95 % interval half-width, serial correlation counted, and the size that would pass the BIC
+  /// threshold; first order), in the parameter's units; infinity when the recording does not depend on it; NaN when
+  /// not computed (accepted, or several parameters).
+  double detection_limit = std::numeric_limits<double>::quiet_NaN();
   std::string explanation;
 };
 

@@ -100,7 +100,8 @@ class Run {
   // the middle and is kept for resumeSetAside().
   void descend(Solution start, const Configuration& q0, const Eigen::MatrixXd* stale, bool may_set_aside = false) {
     ++summary_.starts;
-    advance(detail::beginDescent(set_, goal_, o_, std::move(start), q0, stale), may_set_aside);
+    advance(detail::beginDescent(set_, goal_, o_, std::move(start), q0, stale),
+            may_set_aside ? o_.slow_start_horizon : 0.0);
   }
 
   // Continues the set-aside descents, the smallest error first, until one reaches with a cold-solve-consistent
@@ -112,7 +113,7 @@ class Run {
     aside_.clear();
     for (Descent<Solution>& d : aside) {
       if (done(true)) break;
-      advance(std::move(d), false);
+      advance(std::move(d), 0.0);
     }
   }
 
@@ -208,22 +209,43 @@ class Run {
   ActuatorSet& set() { return set_; }
 
  private:
+  // A slow descent whose tip is where another descent stalled (set aside as slow, or ended without reaching): the
+  // same local minimum, reached from another start (on a workspace edge many starts end in one); continuing it would
+  // only repeat the other's last iterations.
+  bool stalledWhereAnotherStalled(const Descent<Solution>& d) const {
+    const double radius = std::max(10.0 * o_.tolerance, 0.02 * d.m.position_error);
+    const Eigen::Vector3d& tip = d.point.tip_position;
+    for (const Eigen::Vector3d& t : stalled_)
+      if ((tip - t).norm() <= radius) return true;
+    for (const Descent<Solution>& a : aside_)
+      if ((tip - a.point.tip_position).norm() <= radius) return true;
+    return false;
+  }
+
   // Continues a descent; a stopped one is ranked (with the branch check, a descent that reaches is checked by a cold
   // solve of its configuration, what forward kinematics gives without history: another equilibrium there ranks the
-  // answer below one whose cold solve agrees), a slow one (with `may_set_aside`) is set aside.
-  void advance(Descent<Solution> d, bool may_set_aside) {
+  // answer below one whose cold solve agrees), a slow one (with a horizon > 0, IkOptions::slow_start_horizon) is set
+  // aside, or stopped when it stalled where another descent stalled (stalledWhereAnotherStalled).
+  void advance(Descent<Solution> d, double horizon) {
     const int iterations = d.iterations, evaluations = d.evaluations, jacobians = d.jacobians;
-    const double horizon = may_set_aside ? o_.slow_start_horizon : 0.0;
     detail::advance(
         d, set_, goal_, o_, map_, [this](const Solution& s, Eigen::MatrixXd& A) { return map_.differentiate(s, A); },
-        [horizon](const Descent<Solution>& x) { return detail::isSlow(x, horizon); });
+        [this, horizon](const Descent<Solution>& x) {
+          return detail::isSlow(x, horizon) ||
+                 (detail::isSlow(x, o_.slow_start_horizon) && stalledWhereAnotherStalled(x));
+        });
     summary_.iterations += d.iterations - iterations;
     summary_.evaluations += d.evaluations - evaluations;
     summary_.jacobians += d.jacobians - jacobians;
+    if (!d.stopped && stalledWhereAnotherStalled(d)) {
+      d.stopped = true;
+      d.message = "the tip error stopped decreasing where another start's descent had stalled (a local minimum)";
+    }
     if (!d.stopped) {
       aside_.push_back(std::move(d));
       return;
     }
+    if (!d.reached) stalled_.push_back(d.point.tip_position);
     int rank = d.reached ? 0 : 2;
     if (d.reached && check_branch_) {
       ++summary_.evaluations;
@@ -245,6 +267,7 @@ class Run {
   IkSummary summary_;
   std::optional<Descent<Solution>> best_;
   std::vector<Descent<Solution>> aside_;  // slow descents set aside (cold start and restarts)
+  std::vector<Eigen::Vector3d> stalled_;  // tips where descents ended without reaching
   int rank_ = 3;                          // 0 reached (cold solve agrees), 1 reached on another branch, 2 not reached
   bool check_branch_ = false;
 };

@@ -118,34 +118,44 @@ TEST(Ik, ColdReachesTargetsMadeByForwardKinematics) {
 }
 
 TEST(Ik, SettingSlowStartsAsideLosesNoTarget) {
-  // medmpd_lung (the example robot with the most starts per target): with slow descents set aside and resumed only
-  // when no start reaches, every target that running each start to its end reaches is reached too, the answers check
-  // out, and the descents take fewer iterations in all.
-  const Robot r = example("medmpd_lung.yaml");
-  Workspace ws;
-  IkOptions sequential;
-  sequential.slow_start_horizon = 0.0;
-  int reached = 0, reached_sequential = 0, iterations = 0, iterations_sequential = 0, more_starts = 0;
-  int k = 0;
-  for (const Eigen::Vector3d& target : reachableTargets(r, 100, 2024)) {
-    IkOptions o;
-    o.seed = sequential.seed = static_cast<std::uint64_t>(++k);
-    const IkResult res = inverseKinematics(r, IkTarget(target), ws, o);
-    const IkResult seq = inverseKinematics(r, IkTarget(target), ws, sequential);
-    expectAnswerMatchesForwardKinematics(r, res, target);
-    const bool ok = res.summary.reached() && !res.summary.branch_dependent;
-    const bool ok_sequential = seq.summary.reached() && !seq.summary.branch_dependent;
-    EXPECT_TRUE(ok || !ok_sequential) << "target " << k;
-    reached += ok;
-    reached_sequential += ok_sequential;
-    iterations += res.summary.iterations;
-    iterations_sequential += seq.summary.iterations;
-    more_starts += seq.summary.starts > 1;
+  // medmpd_lung and medmpd_liver (the example robots with the most starts per target and the slowest single cold IK):
+  // with slow descents set aside, resumed only when no start reaches, and stopped where another start already stalled,
+  // every target that running each start to its end reaches is reached too, the answers check out, and the descents
+  // take fewer iterations, in all and for the target that needs the most.
+  for (const char* name : {"medmpd_lung.yaml", "medmpd_liver.yaml"}) {
+    SCOPED_TRACE(name);
+    const Robot r = example(name);
+    Workspace ws;
+    IkOptions sequential;
+    sequential.slow_start_horizon = 0.0;
+    int reached = 0, reached_sequential = 0, iterations = 0, iterations_sequential = 0, more_starts = 0;
+    int most = 0, most_sequential = 0;
+    int k = 0;
+    for (const Eigen::Vector3d& target : reachableTargets(r, 100, 2024)) {
+      IkOptions o;
+      o.seed = sequential.seed = static_cast<std::uint64_t>(++k);
+      const IkResult res = inverseKinematics(r, IkTarget(target), ws, o);
+      const IkResult seq = inverseKinematics(r, IkTarget(target), ws, sequential);
+      expectAnswerMatchesForwardKinematics(r, res, target);
+      const bool ok = res.summary.reached() && !res.summary.branch_dependent;
+      const bool ok_sequential = seq.summary.reached() && !seq.summary.branch_dependent;
+      EXPECT_TRUE(ok || !ok_sequential) << "target " << k;
+      reached += ok;
+      reached_sequential += ok_sequential;
+      iterations += res.summary.iterations;
+      iterations_sequential += seq.summary.iterations;
+      more_starts += seq.summary.starts > 1;
+      most = std::max(most, res.summary.iterations);
+      most_sequential = std::max(most_sequential, seq.summary.iterations);
+    }
+    std::printf("%s: iterations %d (most %d per target), sequential %d (most %d)\n", name, iterations, most,
+                iterations_sequential, most_sequential);
+    EXPECT_GE(reached, reached_sequential);
+    EXPECT_GE(reached, 99);
+    EXPECT_GT(more_starts, 0);  // the targets exercised the restarts
+    EXPECT_LT(iterations, iterations_sequential);
+    EXPECT_LT(most, most_sequential);
   }
-  EXPECT_GE(reached, reached_sequential);
-  EXPECT_GE(reached, 99);
-  EXPECT_GT(more_starts, 0);  // the targets exercised the restarts
-  EXPECT_LT(iterations, iterations_sequential);
 }
 
 TEST(Ik, WarmStartReachesANearbyTargetOnItsBranch) {

@@ -46,7 +46,8 @@ struct IkOptions {
   int cold_candidates = 32;
   /// Cold start and restarts: a descent that is slow — at the rate its error fell over its last two iterations, it
   /// would need more than this many further iterations — is set aside for the next start; the set-aside descents are
-  /// resumed (the smallest error first) only when no start reaches the target with a cold-solve-consistent equilibrium.
+  /// resumed (the smallest error first) only when no start reaches the target with a cold-solve-consistent
+  /// equilibrium. A slow descent that stalls where another already stalled (the same local minimum) is stopped.
   /// 0: every descent runs to its end before the next start.
   double slow_start_horizon = 5.0;
   std::uint64_t seed = 1;  ///< Of the random configurations (the result is deterministic for a given seed).

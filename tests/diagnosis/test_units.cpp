@@ -22,6 +22,17 @@ namespace {
 Robot pairB() {
   return io::loadRobot(std::string(CTR_SOURCE_DIR) + "/examples/robots/tube_pair_B.yaml");
 }
+// Tube pair B and its default actuation sweep, without time.
+struct PairBSweep {
+  Robot r = pairB();
+  std::vector<Configuration> cmd;
+  Eigen::VectorXd time;
+  PairBSweep() {
+    ActuationOptions a;
+    a.dt = 0;
+    makeActuation(r, a, cmd, time);
+  }
+};
 }  // namespace
 
 TEST(Effect, ParseAndNames) {
@@ -187,15 +198,11 @@ TEST(Statistics, HacIntervalsCoverUnderSerialCorrelation) {
 }
 
 TEST(Diagnose, NullSweepGivesEmptyVerdictAndJson) {
-  const Robot r = pairB();
-  std::vector<Configuration> cmd;
-  Eigen::VectorXd time;
-  ActuationOptions a;
-  a.dt = 0;
-  makeActuation(r, a, cmd, time);
+  const PairBSweep w;
+  const Robot& r = w.r;
   SimulationOptions s;
   s.seed = 7;
-  const io::Recording rec = simulateRecording(r, cmd, time, {}, s);
+  const io::Recording rec = simulateRecording(r, w.cmd, w.time, {}, s);
   DiagnoseOptions o;
   o.candidates = {EffectKind::TorsionalStiffness, EffectKind::ActuatorOffset, EffectKind::Precurvature};
   const DiagnosisReport rep = diagnose(r, rec, o);
@@ -352,12 +359,8 @@ TEST(Import, HugeColumnNumbersAreRejected) {
 // 1.6 x its limit (computed on a null recording) is accepted by the BIC criterion of every seed, one 0.4 x its limit by
 // none; the limit of a parameter the recording does not depend on is infinite.
 TEST(DetectionLimits, SeparateWhatTheFitCanAndCannotSee) {
-  const Robot r = pairB();
-  std::vector<Configuration> cmd;
-  Eigen::VectorXd time;
-  ActuationOptions a;
-  a.dt = 0;
-  makeActuation(r, a, cmd, time);
+  const PairBSweep w;
+  const Robot& r = w.r;
   SimulationOptions s;
   s.seed = 3;
   FitOptions fo;
@@ -365,7 +368,7 @@ TEST(DetectionLimits, SeparateWhatTheFitCanAndCannotSee) {
   fo.noise.tip_position = s.position_sd;
   fo.noise.tip_tangent = s.tangent_sd;
   Workspace ws;
-  const io::Recording null = simulateRecording(r, cmd, time, {}, s);
+  const io::Recording null = simulateRecording(r, w.cmd, w.time, {}, s);
   const std::vector<char> all(static_cast<std::size_t>(null.rows()), 1);
   const Effect offset = nominalEffect(r, EffectKind::ActuatorOffset, 2);
   const double threshold = 10.0;
@@ -381,7 +384,7 @@ TEST(DetectionLimits, SeparateWhatTheFitCanAndCannotSee) {
       e.value = factor * lim[0];
       SimulationOptions si = s;
       si.seed = seed;
-      const io::Recording rec = simulateRecording(r, cmd, time, {e}, si);
+      const io::Recording rec = simulateRecording(r, w.cmd, w.time, {e}, si);
       const FitResult base = evaluateModel(r, rec, {}, all, fo, ws);
       const FitResult fit = fitEffects(r, rec, {offset}, all, fo, ws);
       const double dbic = bic(rec, fit.residuals, all, 1) - bic(rec, base.residuals, all, 0);

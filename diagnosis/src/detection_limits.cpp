@@ -36,7 +36,7 @@ void assessDetectionLimits(State& s) {
         "detection limits of " + std::to_string(cands.size()) + " candidate(s) not in the final model");
   FitOptions fo = s.fo_alone;
   fo.rows = s.evaluable;
-  std::vector<double> lim;
+  std::vector<DetectionLimit> lim;
   try {
     lim = detectionLimits(s.nominal, s.rec, s.cur.fit.effects, cands, s.evaluable, fo, s.o.bic_threshold, s.ws);
   } catch (const std::exception& e) {  // the verdict stands without them
@@ -48,19 +48,23 @@ void assessDetectionLimits(State& s) {
     const EffectKind kind = cands[i].kind;
     const ParameterRange r = parameterRange(s.nominal, s.rec, kind, cands[i].tube);
     const double reach = std::max(r.hi - cands[i].coordinate(0), cands[i].coordinate(0) - r.lo);
-    DetectionLimit d;
-    d.value = lim[i];
+    const double v = lim[i].value;
+    DetectionNote d;
+    d.value = v;
     const std::string what = std::string(parameterName(kind));
-    if (!std::isfinite(lim[i]))
-      d.text = "Detection limit: no output of this recording depends on its " + what;
-    else if (lim[i] > reach)
+    if (!std::isfinite(v))
+      d.text = lim[i].confounded ? "Detection limit: on top of the final model, no " + what +
+                                       " can be told from the nominal one (its effect is a combination of the final "
+                                       "model's effects, to first order)"
+                                 : "Detection limit: no output of this recording depends on its " + what;
+    else if (v > reach)
       d.text = "Detection limit: on top of the final model, no " + what + " within its range (up to " +
                limitText(kind, reach) + " from the nominal value) can be told from the nominal one (it would take " +
-               limitText(kind, lim[i]) + ")";
+               limitText(kind, v) + ")";
     else
       d.text = "Detection limit: on top of the final model, this recording cannot tell " +
-               (cands[i].coordinate(0) == 0.0 ? what + " < " + limitText(kind, lim[i]) + " from none"
-                                              : what + " within " + limitText(kind, lim[i]) + " of its nominal value") +
+               (cands[i].coordinate(0) == 0.0 ? what + " < " + limitText(kind, v) + " from none"
+                                              : what + " within " + limitText(kind, v) + " of its nominal value") +
                " (first order: the 95 % interval with the residuals' serial correlation, and the BIC threshold; the "
                "held-out test can reject larger ones)";
     s.detection[cands[i].label()] = d;

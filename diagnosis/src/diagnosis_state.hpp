@@ -38,9 +38,9 @@ struct Candidate {
   std::string reason;
 };
 
-/// The smallest size of a candidate not in the final model that the recording could tell from none.
-struct DetectionLimit {
-  double value = 0.0;  ///< In the parameter's units (infinity: the recording does not depend on it).
+/// The detection limit of a candidate not in the final model, with its sentence for the finding.
+struct DetectionNote {
+  double value = 0.0;  ///< In the parameter's units (infinity: no size can be told from none).
   std::string text;    ///< For the finding's explanation.
 };
 
@@ -75,8 +75,8 @@ struct State {
   std::map<std::string, std::vector<std::string>> replaced_by;  ///< Generic label -> library candidates it beat.
   std::vector<FitResult> without;  ///< Refits of `cur` without each of its effects (elimination, confounding).
   MismatchReport final_mismatch;   ///< Locate tests on the final model's residuals.
-  std::map<std::string, DetectionLimit> detection;  ///< Slot label -> detection limit (candidates not in the model).
-  double base_ratio = 1.0;                          ///< Baseline held-out mean square over the noise variance.
+  std::map<std::string, DetectionNote> detection;  ///< Slot label -> detection limit (candidates not in the model).
+  double base_ratio = 1.0;                         ///< Baseline held-out mean square over the noise variance.
 
   /// BIC of model b minus model a, on the rows both evaluated.
   double deltaBic(const Residuals& a, int ka, const Residuals& b, int kb) const;

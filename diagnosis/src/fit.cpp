@@ -498,11 +498,12 @@ FitResult linearizeModel(const Robot& nominal, const io::Recording& rec, const s
   return f;
 }
 
-std::vector<double> detectionLimits(const Robot& nominal, const io::Recording& rec, const std::vector<Effect>& model,
-                                    const std::vector<Effect>& candidates, const std::vector<char>& use,
-                                    const FitOptions& options, double bic_threshold, Workspace& ws) {
+std::vector<DetectionLimit> detectionLimits(const Robot& nominal, const io::Recording& rec,
+                                            const std::vector<Effect>& model, const std::vector<Effect>& candidates,
+                                            const std::vector<char>& use, const FitOptions& options,
+                                            double bic_threshold, Workspace& ws) {
   const double inf = std::numeric_limits<double>::infinity();
-  std::vector<double> limit(candidates.size(), inf);
+  std::vector<DetectionLimit> limit(candidates.size());
   Model m(nominal, rec, model, use, options, ws);
   const int k = m.parameters(), n = m.residuals(), C = m.componentsPerRow();
   if (n == 0) return limit;
@@ -538,7 +539,14 @@ std::vector<double> detectionLimits(const Robot& nominal, const io::Recording& r
   const int rows = n / std::max(1, C);
   const int dof = std::max(1, n - k - 1);
   for (std::size_t i = 0; i < candidates.size(); ++i) {
-    if (!col[i].allFinite() || col[i].squaredNorm() <= 0.0) continue;
+    if (!col[i].allFinite() || col[i].squaredNorm() <= 0.0) continue;  // no output depends on it
+    limit[i].confounded = true;                                        // until a finite limit is found
+    // The part of its prediction change the model's effects cannot take up (their refit): none left, to 1 % (the
+    // one-sided difference of the column against the central ones of the model leaves ~0.2 % of a duplicate), is a
+    // candidate this recording cannot tell from them at any size.
+    Eigen::VectorXd g = col[i];
+    if (k > 0) g -= Jm * Jm.completeOrthogonalDecomposition().solve(col[i]);
+    if (g.squaredNorm() <= 1e-4 * col[i].squaredNorm()) continue;
     Eigen::MatrixXd J(n, k + 1);
     J << Jm, col[i];
     // (a) The 95 % interval half-width of the candidate's coordinate at its value.
@@ -549,10 +557,8 @@ std::vector<double> detectionLimits(const Robot& nominal, const io::Recording& r
     const double var = std::max(classical, hac.covariance(k, k));
     if (!(Hinv(k, k) > 0) || !std::isfinite(var)) continue;
     const double interval = 1.96 * std::sqrt(var) * span[i];
-    // (b) The size whose prediction change, with the model's effects refitted (the column projected off theirs),
-    // lowers BIC by the threshold: sum_q n_q ln(1 + t^2 G_q / E_q) = threshold + ln N.
-    Eigen::VectorXd g = col[i];
-    if (k > 0) g -= Jm * Jm.completeOrthogonalDecomposition().solve(col[i]);
+    // (b) The size whose prediction change, with the model's effects refitted (g), lowers BIC by the threshold:
+    // sum_q n_q ln(1 + t^2 G_q / E_q) = threshold + ln N.
     std::vector<double> G(blocks.size(), 0.0), E(blocks.size(), 0.0), nq(blocks.size(), 0.0);
     double total = 0.0;
     for (int row = 0; row < rows; ++row) {
@@ -580,7 +586,8 @@ std::vector<double> detectionLimits(const Robot& nominal, const io::Recording& r
       for (int it = 0; it < 60; ++it) (gain(0.5 * (lo + hi)) < target ? lo : hi) = 0.5 * (lo + hi);
       bic_limit = hi * span[i];
     }
-    limit[i] = std::max(interval, bic_limit);
+    limit[i].value = std::max(interval, bic_limit);
+    limit[i].confounded = !std::isfinite(limit[i].value);
   }
   return limit;
 }

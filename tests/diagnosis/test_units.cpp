@@ -372,16 +372,16 @@ TEST(DetectionLimits, SeparateWhatTheFitCanAndCannotSee) {
   const std::vector<char> all(static_cast<std::size_t>(null.rows()), 1);
   const Effect offset = nominalEffect(r, EffectKind::ActuatorOffset, 2);
   const double threshold = 10.0;
-  const std::vector<double> lim = detectionLimits(r, null, {}, {offset}, all, fo, threshold, ws);
+  const std::vector<DetectionLimit> lim = detectionLimits(r, null, {}, {offset}, all, fo, threshold, ws);
   ASSERT_EQ(lim.size(), 1u);
-  ASSERT_TRUE(std::isfinite(lim[0]));
-  EXPECT_GT(lim[0], 0.0);
-  EXPECT_LT(lim[0], 0.1);  // a sweep measured to 0.5 deg and 0.1 mm sees a few degrees
-  std::printf("detection limit of actuator_offset[2]: %.3f deg\n", lim[0] * 180 / M_PI);
+  ASSERT_TRUE(std::isfinite(lim[0].value));
+  EXPECT_GT(lim[0].value, 0.0);
+  EXPECT_LT(lim[0].value, 0.1);  // a sweep measured to 0.5 deg and 0.1 mm sees far less than 6 deg
+  std::printf("detection limit of actuator_offset[2]: %.3f deg\n", lim[0].value * 180 / M_PI);
   for (const double factor : {1.6, 0.4}) {
     for (std::uint64_t seed : {11u, 12u, 13u}) {
       Effect e = offset;
-      e.value = factor * lim[0];
+      e.value = factor * lim[0].value;
       SimulationOptions si = s;
       si.seed = seed;
       const io::Recording rec = simulateRecording(r, w.cmd, w.time, {e}, si);
@@ -398,6 +398,11 @@ TEST(DetectionLimits, SeparateWhatTheFitCanAndCannotSee) {
   }
   // A sensor latency on a recording without time: no output depends on it.
   const Effect latency = nominalEffect(r, EffectKind::SensorLatency, 0);
-  const std::vector<double> none = detectionLimits(r, null, {}, {latency}, all, fo, threshold, ws);
-  EXPECT_FALSE(std::isfinite(none[0]));
+  const std::vector<DetectionLimit> none = detectionLimits(r, null, {}, {latency}, all, fo, threshold, ws);
+  EXPECT_FALSE(std::isfinite(none[0].value));
+  EXPECT_FALSE(none[0].confounded);
+  // An offset of tube 2 on top of a model that already holds one: its effect is that effect's, at any size.
+  const std::vector<DetectionLimit> same = detectionLimits(r, null, {offset}, {offset}, all, fo, threshold, ws);
+  EXPECT_FALSE(std::isfinite(same[0].value));
+  EXPECT_TRUE(same[0].confounded);
 }

@@ -4,6 +4,7 @@
 #pragma once
 
 #include <array>
+#include <limits>
 #include <map>
 #include <string>
 #include <vector>
@@ -94,6 +95,16 @@ FitResult fitEffects(const Robot& nominal, const io::Recording& rec, const std::
 FitResult linearizeModel(const Robot& nominal, const io::Recording& rec, const std::vector<Effect>& effects,
                          const std::vector<char>& use, const FitOptions& options, Workspace& ws);
 
+/// @brief detectionLimits() of one candidate.
+struct DetectionLimit {
+  /// The smallest size (distance from its value in `candidates`) the recording can tell from that value, in the
+  /// parameter's units; infinity when no size can be told.
+  double value = std::numeric_limits<double>::infinity();
+  /// Infinite because its prediction change is a combination of the model's effects' (confounded), not because no
+  /// output depends on it.
+  bool confounded = false;
+};
+
 /// @brief How small an effect this recording can tell from none on top of a fitted model, per candidate (first
 /// order, at the model's values): the larger of
 /// - the half-width of the 95 % interval of the candidate's parameter at its value in `candidates` (its nominal value),
@@ -101,11 +112,12 @@ FitResult linearizeModel(const Robot& nominal, const io::Recording& rec, const s
 ///   classical one, as the intervals of linearizeModel), and
 /// - the size at which the candidate, were it present, would lower BIC by `bic_threshold` when fitted (its prediction
 ///   change with the model's effects refitted, against the model's residuals).
-/// In the parameter's units; infinity when the recording does not depend on the parameter. Only candidates with one
-/// coordinate (parameterCount 1). 2k + 1 replays for the model's k coordinates, plus one per candidate.
-std::vector<double> detectionLimits(const Robot& nominal, const io::Recording& rec, const std::vector<Effect>& model,
-                                    const std::vector<Effect>& candidates, const std::vector<char>& use,
-                                    const FitOptions& options, double bic_threshold, Workspace& ws);
+/// Only candidates with one coordinate (parameterCount 1). 2k + 1 replays for the model's k coordinates, plus one per
+/// candidate.
+std::vector<DetectionLimit> detectionLimits(const Robot& nominal, const io::Recording& rec,
+                                            const std::vector<Effect>& model, const std::vector<Effect>& candidates,
+                                            const std::vector<char>& use, const FitOptions& options,
+                                            double bic_threshold, Workspace& ws);
 
 /// @brief Held-out evaluation: for each of `folds` contiguous blocks of rows, the effects are refitted (from
 /// `start`, no grid) on the other blocks and the residuals of the block are kept.

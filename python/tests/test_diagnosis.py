@@ -27,6 +27,9 @@ def test_diagnose_equals_cli(cli, tmp_path):
     assert_same(got, expected, ignore=TIMING)
     assert messages and all(isinstance(m, str) for m in messages)
     assert got["verdict"] == expected["verdict"]
+    # rejected one-parameter candidates say how large they would have had to be to be seen
+    limits = [f["detection_limit"] for f in got["findings"] if not f["accepted"] and "detection_limit" in f]
+    assert limits and all(v > 0 for v in limits)
 
     # a loaded recording gives the same answer, and the Markdown report comes along on request
     recording = ctr.load_recording(rec)

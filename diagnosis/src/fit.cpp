@@ -513,7 +513,7 @@ std::vector<DetectionLimit> detectionLimits(const Robot& nominal, const io::Reco
   const Eigen::MatrixXd Jm = k > 0 ? m.jacobian(x.data(), nullptr) : Eigen::MatrixXd(n, 0);
   // Each candidate's column: a one-sided difference into its range from its value (one replay each).
   std::vector<Eigen::VectorXd> col(candidates.size());
-  std::vector<double> step(candidates.size(), 0.0), span(candidates.size(), 0.0);
+  std::vector<double> span(candidates.size(), 0.0);
   detail::parallelFor(static_cast<int>(candidates.size()), options.threads, ws, [&](int i, Workspace& w) {
     const Effect& c = candidates[static_cast<std::size_t>(i)];
     if (parameterCount(c.kind) != 1) throw std::invalid_argument("detectionLimits: a candidate with one coordinate");
@@ -526,11 +526,11 @@ std::vector<DetectionLimit> detectionLimits(const Robot& nominal, const io::Reco
     const FitResult f = m.evaluate(e, w);
     Eigen::VectorXd r1(n);
     m.weighted(f, r1.data());
-    step[static_cast<std::size_t>(i)] = (v1 - v0) / (r.hi - r.lo);  // in units of the range
     span[static_cast<std::size_t>(i)] = r.hi - r.lo;
-    col[static_cast<std::size_t>(i)] = (r1 - r0) / step[static_cast<std::size_t>(i)];
+    col[static_cast<std::size_t>(i)] = (r1 - r0) / ((v1 - v0) / (r.hi - r.lo));  // per unit of the range
   });
-  // Components per row of each quantity and their independent count (the BIC's n).
+  // Components per row of each quantity and their independent count (the BIC's n); the model's residual sum of
+  // squares per quantity (E_q) and the BIC drop a candidate must reach (the same for every candidate).
   std::vector<std::pair<int, double>> blocks;  // (components, independent components) per quantity, in row order
   for (Quantity q : presentQuantities(rec)) {
     const int cols = q == Quantity::Twist ? static_cast<int>(rec.twist.cols()) : 3;
@@ -538,6 +538,19 @@ std::vector<DetectionLimit> detectionLimits(const Robot& nominal, const io::Reco
   }
   const int rows = n / std::max(1, C);
   const int dof = std::max(1, n - k - 1);
+  std::vector<double> E(blocks.size(), 0.0), nq(blocks.size(), 0.0);
+  for (int row = 0; row < rows; ++row) {
+    Eigen::Index at = static_cast<Eigen::Index>(row) * C;
+    for (std::size_t b = 0; b < blocks.size(); at += blocks[b].first, ++b) {
+      E[b] += r0.segment(at, blocks[b].first).squaredNorm();
+      nq[b] += blocks[b].second;
+    }
+  }
+  double total = 0.0;
+  for (double v : nq) total += v;
+  const double target = bic_threshold + std::log(std::max(1.0, total));
+  Eigen::CompleteOrthogonalDecomposition<Eigen::MatrixXd> model_cod;  // of the model's columns, for every candidate
+  if (k > 0) model_cod.compute(Jm);
   for (std::size_t i = 0; i < candidates.size(); ++i) {
     if (!col[i].allFinite() || col[i].squaredNorm() <= 0.0) continue;  // no output depends on it
     limit[i].confounded = true;                                        // until a finite limit is found
@@ -545,7 +558,7 @@ std::vector<DetectionLimit> detectionLimits(const Robot& nominal, const io::Reco
     // one-sided difference of the column against the central ones of the model leaves ~0.2 % of a duplicate), is a
     // candidate this recording cannot tell from them at any size.
     Eigen::VectorXd g = col[i];
-    if (k > 0) g -= Jm * Jm.completeOrthogonalDecomposition().solve(col[i]);
+    if (k > 0) g -= Jm * model_cod.solve(col[i]);
     if (g.squaredNorm() <= 1e-4 * col[i].squaredNorm()) continue;
     Eigen::MatrixXd J(n, k + 1);
     J << Jm, col[i];
@@ -559,19 +572,12 @@ std::vector<DetectionLimit> detectionLimits(const Robot& nominal, const io::Reco
     const double interval = 1.96 * std::sqrt(var) * span[i];
     // (b) The size whose prediction change, with the model's effects refitted (g), lowers BIC by the threshold:
     // sum_q n_q ln(1 + t^2 G_q / E_q) = threshold + ln N.
-    std::vector<double> G(blocks.size(), 0.0), E(blocks.size(), 0.0), nq(blocks.size(), 0.0);
-    double total = 0.0;
+    std::vector<double> G(blocks.size(), 0.0);
     for (int row = 0; row < rows; ++row) {
-      int at = row * C;
-      for (std::size_t b = 0; b < blocks.size(); ++b) {
+      Eigen::Index at = static_cast<Eigen::Index>(row) * C;
+      for (std::size_t b = 0; b < blocks.size(); at += blocks[b].first, ++b)
         G[b] += g.segment(at, blocks[b].first).squaredNorm();
-        E[b] += r0.segment(at, blocks[b].first).squaredNorm();
-        nq[b] += blocks[b].second;
-        at += blocks[b].first;
-      }
     }
-    for (double v : nq) total += v;
-    const double target = bic_threshold + std::log(std::max(1.0, total));
     auto gain = [&](double t) {
       double s = 0.0;
       for (std::size_t b = 0; b < blocks.size(); ++b)

@@ -21,7 +21,7 @@ void registerDiagnose(CLI::App& app, Action& action) {
                                   noise, branch = toString(BranchRule::Auto);
     int folds = 4, threads = 2, max_effects = 4;
     double bic_threshold = 10.0;
-    bool quiet = false;
+    bool quiet = false, calibrate = false;
   };
   auto o = std::make_shared<Opts>();
   CLI::App* sub =
@@ -51,6 +51,10 @@ void registerDiagnose(CLI::App& app, Action& action) {
   sub->add_option("--threads", o->threads, "Candidates fitted in parallel")->check(CLI::Range(1, 64));
   sub->add_option("--max-effects", o->max_effects, "Largest combination of effects")->check(CLI::Range(0, 6));
   sub->add_option("--bic-threshold", o->bic_threshold, "BIC decrease needed to accept an effect");
+  sub->add_flag("--calibrate", o->calibrate,
+                "When the selected effects leave a remainder, calibrate the robot's description (precurvatures, "
+                "stiffness ratios, torsional stiffness, drive zeros) as a block and select again on top; costs "
+                "minutes on a long log (docs/diagnosis.md)");
   sub->add_flag("--quiet", o->quiet, "No progress on stderr");
   sub->callback([o, &action]() {
     action = [o]() {
@@ -74,6 +78,7 @@ void registerDiagnose(CLI::App& app, Action& action) {
       d.threads = o->threads;
       d.max_effects = o->max_effects;
       d.bic_threshold = o->bic_threshold;
+      d.calibrate_description = o->calibrate;
       if (!o->candidates.empty()) {
         std::stringstream ss(o->candidates);
         std::string item;

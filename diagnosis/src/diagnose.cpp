@@ -26,6 +26,8 @@ const char* toString(DiagnoseProgress::Stage stage) {
       return "accepted";
     case DiagnoseProgress::Stage::Elimination:
       return "elimination";
+    case DiagnoseProgress::Stage::Calibration:
+      return "calibration";
     case DiagnoseProgress::Stage::Remainder:
       return "remainder";
     case DiagnoseProgress::Stage::Done:
@@ -69,6 +71,12 @@ void State::say(DiagnoseProgress::Stage stage, const std::string& message) {
 void State::progressScreened() {
   std::lock_guard<std::mutex> lock(mutex_);
   ++progress.screened;
+}
+
+int State::selected() const {
+  int n = 0;
+  for (const Effect& e : cur.fit.effects) n += calibrated.count(e.label()) == 0;
+  return n;
 }
 
 void State::count(int replays) {
@@ -284,15 +292,26 @@ DiagnosisReport diagnose(const Robot& nominal, const io::Recording& given, const
     rep.warnings.push_back("gravity was not tried: " + gravityUnavailable(nominal));
   s.chunks = std::max(3, std::min(24, rows / 3));
 
-  // 3. Forward selection, backward elimination, the remainder, proxies, generic descriptions, the verdict.
-  for (int round = 1; static_cast<int>(s.cur.fit.effects.size()) < o.max_effects; ++round) {
-    if (!detail::selectionRound(s, round)) break;
+  // 3. Forward selection, backward elimination, the remainder and proxies; with a remainder, the description
+  //    calibrated as a block and the selection again on top; generic descriptions, detection limits, the verdict.
+  auto selectAndCheck = [&](int first_round) {
+    for (int round = first_round; s.selected() < o.max_effects; ++round) {
+      if (!detail::selectionRound(s, round)) break;
+      detail::updateNoise(s, visits);
+    }
+    detail::backwardElimination(s);
     detail::updateNoise(s, visits);
+    detail::assessRemainder(s);
+    s.confounded.clear();  // the proxy tests judge the model as it is now
+    s.removed_partial.clear();
+    detail::checkProxies(s);
+  };
+  selectAndCheck(1);
+  if (detail::calibrateDescription(s, rep.rounds + 1)) {
+    rep.rounds += 1;
+    detail::updateNoise(s, visits);
+    selectAndCheck(rep.rounds + 1);
   }
-  detail::backwardElimination(s);
-  detail::updateNoise(s, visits);
-  detail::assessRemainder(s);
-  detail::checkProxies(s);
   detail::describeRemainder(s);
   detail::assessDetectionLimits(s);
   detail::writeVerdict(s);

@@ -72,6 +72,7 @@ struct State {
   std::map<std::string, std::string> removed;           ///< Accepted, then dropped: why.
   std::map<std::string, std::string> removed_partial;   ///< Accepted, kept in the fit, not named: why.
   std::set<std::string> confounded;                     ///< Labels of removed_partial.
+  std::set<std::string> calibrated;                     ///< Labels accepted with the calibration of the description.
   std::map<std::string, std::vector<std::string>> replaced_by;  ///< Generic label -> library candidates it beat.
   std::vector<FitResult> without;  ///< Refits of `cur` without each of its effects (elimination, confounding).
   MismatchReport final_mismatch;   ///< Locate tests on the final model's residuals.
@@ -88,6 +89,8 @@ struct State {
   void progressScreened();
   /// Adds replays to the report's count (thread-safe).
   void count(int replays);
+  /// Effects of the current model selected one by one (not by the calibration of the description).
+  int selected() const;
   /// The progress counters (round, candidates) are updated by the stages.
   DiagnoseProgress progress;
 
@@ -137,8 +140,17 @@ void refitEachWithout(State& s);
 /// the nominal model's): the later rounds, the remainder and the report use it; the current and baseline held-out
 /// scores are recomputed against it.
 void updateNoise(State& s, const Visits& visits);
-/// Removes accepted effects that later ones made redundant (BIC), refitting the model.
-void backwardElimination(State& s);
+/// Removes accepted effects that later ones made redundant (BIC), refitting the model. `why` (a format with the BIC
+/// change, %+.1f) is the reason recorded for each removed effect.
+void backwardElimination(State& s, const char* why =
+                                       "removed again after the later rounds: without it BIC changes by "
+                                       "only %+.1f, so the other accepted effects explain what it "
+                                       "explained");
+
+/// When the selection leaves a remainder, the description's parameters fitted together on top of the current model
+/// (calibration.cpp): accepted as a block when they pass the selection's BIC and held-out tests, then pruned by
+/// backward elimination. Returns true when the current model was replaced.
+bool calibrateDescription(State& s, int round);
 
 /// Locate tests on the final model's residuals and its held-out error against the noise (formats.md
 /// `unexplained`), into s.rep.unexplained.

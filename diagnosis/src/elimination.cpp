@@ -26,7 +26,7 @@ void refitEachWithout(State& s) {
   for (const FitResult& f : s.without) s.count(f.evaluations);
 }
 
-void backwardElimination(State& s) {
+void backwardElimination(State& s, const char* why) {
   Candidate& cur = s.cur;
   while (cur.fit.effects.size() >= 2) {
     int drop = -1;
@@ -43,10 +43,7 @@ void backwardElimination(State& s) {
     }
     if (drop < 0) break;
     const std::string lab = cur.fit.effects[static_cast<std::size_t>(drop)].label();
-    s.removed[lab] =
-        fmt("removed again after the later rounds: without it BIC changes by only %+.1f, so the other "
-            "accepted effects explain what it explained",
-            best_d);
+    s.removed[lab] = fmt(why, best_d);
     s.say(DiagnoseProgress::Stage::Elimination, "backward elimination: removed " + lab);
     cur.bic += best_d;
     const std::vector<Effect> reduced = s.without[static_cast<std::size_t>(drop)].effects;

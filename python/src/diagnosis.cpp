@@ -67,7 +67,7 @@ void registerDiagnosis(pyb::module_& m) {
       [](const Robot& robot, const pyb::object& recording, const std::string& frame, int folds, int threads,
          int max_effects, double bic_threshold, const std::optional<std::vector<std::string>>& candidates,
          const pyb::object& progress, bool with_report, const std::optional<std::string>& noise,
-         const std::string& branch) {
+         const std::string& branch, bool calibrate) {
         const io::Recording rec = recordingFrom(recording, robot.size());
         if (rec.rows() < 8) {
           const std::string file = pyb::isinstance<io::Recording>(recording) ? std::string("<recording>")
@@ -89,6 +89,7 @@ void registerDiagnosis(pyb::module_& m) {
         d.folds = folds;
         d.threads = threads;
         d.max_effects = max_effects;
+        d.calibrate_description = calibrate;
         d.bic_threshold = bic_threshold;
         if (candidates)
           for (const auto& c : *candidates) {
@@ -135,12 +136,12 @@ void registerDiagnosis(pyb::module_& m) {
       arg("robot"), arg("recording"), arg("frame") = "base", arg("folds") = 4, arg("threads") = 2,
       arg("max_effects") = 4, arg("bic_threshold") = 10.0, arg("candidates") = pyb::none(),
       arg("progress") = pyb::none(), arg("with_report") = false, arg("noise") = pyb::none(),
-      arg("branch") = toString(BranchRule::Auto),
+      arg("branch") = toString(BranchRule::Auto), arg("calibrate") = false,
       "`ctr diagnose`: where the recording (a path or a ctr.Recording) and the nominal robot differ, and which "
       "left-out physics explains it. Returns the dict of the diagnosis JSON (formats.md; the same object as "
       "--json writes); with_report=True returns (dict, Markdown report). progress: a callable taking a str. "
       "noise: the tracker's noise as `--noise` takes it ('tip_position=0.5mm,tip_tangent=1deg'); branch: 'auto', "
-      "'path' or 'rest' (docs/diagnosis.md). Runs without the GIL.");
+      "'path' or 'rest' (docs/diagnosis.md); calibrate: `--calibrate`. Runs without the GIL.");
 }
 
 }  // namespace ctr::py

@@ -73,3 +73,16 @@ def test_diagnose_takes_the_noise_and_the_branch_rule():
         ctr.diagnose(robot, rec, noise="twist=-1deg")
     with pytest.raises(ValueError, match="branch"):
         ctr.diagnose(robot, rec, branch="sideways")
+
+
+def test_diagnose_calibrates_like_the_cli(cli, tmp_path):
+    """calibrate=True is `ctr diagnose --calibrate`: the same dict."""
+    robot_yaml = EXAMPLES / "recordings" / "friction_masked_B.robot.yaml"
+    rec = EXAMPLES / "recordings" / "friction_masked_B.csv"
+    out = tmp_path / "c.json"
+    cli("diagnose", "--robot", robot_yaml, "--recording", rec, "--json", out, "--quiet", "--calibrate",
+        "--candidates", "precurvature,torsional_stiffness,actuator_offset", "--max-effects", "1", "--threads", "1")
+    expected = load_json(out.read_text())
+    got = ctr.diagnose(ctr.load_robot(str(robot_yaml)), rec, calibrate=True, max_effects=1, threads=1,
+                       candidates=["precurvature", "torsional_stiffness", "actuator_offset"])
+    assert_same(got, expected, ignore=TIMING)

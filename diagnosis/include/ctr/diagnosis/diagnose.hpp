@@ -29,6 +29,7 @@ struct DiagnoseProgress {
     LookAlikes,   ///< Encompassing fits of the winner against its look-alikes.
     Accepted,     ///< The round ended (an effect accepted, or none).
     Elimination,  ///< Backward elimination.
+    Calibration,  ///< The description's parameters fitted together (calibrateDescription).
     Remainder,    ///< What the final model leaves; proxies (constancy, confounding); generic descriptions.
     Done,
   };
@@ -48,9 +49,15 @@ const char* toString(DiagnoseProgress::Stage stage);
 
 /// @brief Options of diagnose().
 struct DiagnoseOptions {
-  FrameMode frame = FrameMode::Base;   ///< Unknown: registration estimated in every model (baseline included).
-  int folds = 4;                       ///< Contiguous held-out blocks.
-  int max_effects = 4;                 ///< Largest combination of effects.
+  FrameMode frame = FrameMode::Base;  ///< Unknown: registration estimated in every model (baseline included).
+  int folds = 4;                      ///< Contiguous held-out blocks.
+  int max_effects = 4;                ///< Largest combination of effects selected one by one (the parameters
+                                      ///< of a calibrated description do not count).
+  /// When the selected effects leave a remainder: fit the description's parameters (precurvatures, bending
+  /// stiffness ratios, torsional stiffness) together on top of them and, if the block passes the selection's tests,
+  /// keep the parameters that earn their place and select the other effects again on top (docs/diagnosis.md).
+  bool calibrate_description = false;
+  int calibration_iterations = 20;     ///< Ceres iterations of the calibration's joint fit.
   double bic_threshold = 10.0;         ///< Accept only if BIC drops by more than this ("very strong" evidence).
   double heldout_p = 0.05;             ///< Held-out improvement must be significant at this level.
   double min_heldout_gain = 0.02;      ///< ... and reduce the held-out normalised error by at least this fraction.

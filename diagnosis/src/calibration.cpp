@@ -1,6 +1,7 @@
 // Calibration of the robot's description: a description given as calibration starting values is off in several
 // parameters at once, each too small alone to pass the selection's tests on top of the others' error. When the
-// selection leaves a remainder, the description's parameters are fitted together and accepted (or not) as a block.
+// selection leaves a remainder, what a robot calibration fits (the description's shape and stiffness, the drive
+// zeros) is fitted together and accepted (or not) as a block.
 #include <algorithm>
 #include <cmath>
 
@@ -89,8 +90,8 @@ bool calibrateDescription(State& s, int round) {
   for (const Effect& e : block) labels.push_back(e.label());
   // Parameters the others make redundant are removed (the description may be right in them).
   backwardElimination(s,
-                      "fitted in the calibration of the description, but without it BIC changes by only %+.1f: "
-                      "the description's other parameters explain what it explained");
+                      "removed after the calibration of the description: without it BIC changes by only %+.1f, so "
+                      "the other effects explain what it explained");
   for (const Effect& e : cur.fit.effects) {
     const std::string lab = e.label();
     if (std::find(labels.begin(), labels.end(), lab) == labels.end()) continue;

@@ -53,9 +53,9 @@ struct DiagnoseOptions {
   int folds = 4;                      ///< Contiguous held-out blocks.
   int max_effects = 4;                ///< Largest combination of effects selected one by one (the parameters
                                       ///< of a calibrated description do not count).
-  /// When the selected effects leave a remainder: fit the description's parameters (precurvatures, bending
-  /// stiffness ratios, torsional stiffness) together on top of them and, if the block passes the selection's tests,
-  /// keep the parameters that earn their place and select the other effects again on top (docs/diagnosis.md).
+  /// When the selected effects leave a remainder: fit what a robot calibration fits (precurvatures, bending stiffness
+  /// ratios, torsional stiffness, drive zeros) together on top of them and, if the block passes the selection's
+  /// tests, keep the parameters that earn their place and select the other effects again on top (docs/diagnosis.md).
   bool calibrate_description = false;
   int calibration_iterations = 20;     ///< Ceres iterations of the calibration's joint fit.
   double bic_threshold = 10.0;         ///< Accept only if BIC drops by more than this ("very strong" evidence).

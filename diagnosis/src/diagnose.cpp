@@ -295,12 +295,16 @@ DiagnosisReport diagnose(const Robot& nominal, const io::Recording& given, const
   // 3. Forward selection, backward elimination, the remainder and proxies; with a remainder, the description
   //    calibrated as a block and the selection again on top; generic descriptions, detection limits, the verdict.
   auto selectAndCheck = [&](int first_round) {
+    bool grew = false;
     for (int round = first_round; s.selected() < o.max_effects; ++round) {
       if (!detail::selectionRound(s, round)) break;
+      grew = true;
       detail::updateNoise(s, visits);
     }
-    detail::backwardElimination(s);
-    detail::updateNoise(s, visits);
+    if (grew) {  // else the model is as the previous elimination (or the calibration's pruning) left it
+      detail::backwardElimination(s);
+      detail::updateNoise(s, visits);
+    }
     detail::assessRemainder(s);
     s.confounded.clear();  // the proxy tests judge the model as it is now
     s.removed_partial.clear();

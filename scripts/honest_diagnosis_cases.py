@@ -13,7 +13,8 @@
   outside the library  effects no candidate models (tracker drift, a gear-ratio error, a periodic drive error):
                        right only when nothing is named, `unexplained` is flagged and a generic model describes it.
 
-Usage: scripts/honest_diagnosis_cases.py BUILD_DIR OUT_DIR [--only NAME,...] [--quick]
+Usage: scripts/honest_diagnosis_cases.py BUILD_DIR OUT_DIR [--only NAME,...] [--quick] [--diagnose-args 'ARGS']
+(--diagnose-args: more options for every `ctr diagnose`, e.g. '--calibrate').
 Writes OUT_DIR/NAME.{csv,json} and prints a Markdown table (docs/diagnosis.md). Needs ../shared beside the checkout.
 """
 import csv, json, math, os, random, subprocess, sys, time
@@ -219,6 +220,7 @@ def main():
     if '--only' in sys.argv:
         only = set(sys.argv[sys.argv.index('--only') + 1].split(','))
     C = Cases(build, out, '--quick' in sys.argv)
+    extra = sys.argv[sys.argv.index('--diagnose-args') + 1].split() if '--diagnose-args' in sys.argv else []
     cases = [
         # name, builder, expected (must be named / must be absent), robot, frame
         ('real_baseline', lambda: C.dupont, 'baseline verdict of the real log', DUPONT_ROBOT, 'unknown'),
@@ -248,7 +250,7 @@ def main():
         rec = build_case()
         if isinstance(rec, tuple):
             rec, robot = rec
-        j, wall = C.diagnose(name, rec, robot=robot, frame=frame)
+        j, wall = C.diagnose(name, rec, robot=robot, frame=frame, extra=extra)
         un = j.get('unexplained')
         b = j['baseline']['heldout_rmse'].get('tip_position', float('nan')) * 1e3
         a = j['final']['heldout_rmse'].get('tip_position', float('nan')) * 1e3

@@ -5,6 +5,7 @@
 #include <algorithm>
 #include <cmath>
 
+#include "ctr/diagnosis/statistics.hpp"
 #include "diagnosis_state.hpp"
 
 namespace ctr::diagnosis::detail {
@@ -116,6 +117,34 @@ bool calibrateDescription(State& s, int round) {
   s.progress.accepted = static_cast<int>(cur.fit.effects.size());
   s.say(DiagnoseProgress::Stage::Accepted, "calibration: accepted " + modelName(cur.fit.effects));
   return true;
+}
+
+void keepCalibrationIfBetter(State& s, Snapshot& before) {
+  // Both held-out errors against the noise the model before the calibration was judged with.
+  const Eigen::VectorXd a = rowScores(s.rec, before.cur.cv.heldout, before.fo.noise);
+  const Eigen::VectorXd b = rowScores(s.rec, s.cur.cv.heldout, before.fo.noise);
+  const double p = stats::chunkedBootstrapTest(a, b, s.chunks);
+  const auto means = commonMeans(a, b);
+  const double gain = means[0] > 0 ? 1.0 - means[1] / means[0] : 0.0;
+  const std::string versus =
+      fmt("held-out error %+.1f %% against the model without the calibration, p = %.2g", -100 * gain, p);
+  s.say(DiagnoseProgress::Stage::Calibration, "calibration: the final model's " + versus);
+  if (p < s.o.heldout_p && gain > s.o.min_heldout_gain) return;
+  std::vector<std::string> labels(s.calibrated.begin(), s.calibrated.end());
+  const int replays = s.rep.evaluations;
+  snapshotFields(s) = before.fields();
+  s.rep.evaluations = replays;
+  s.without.clear();
+  const std::string why =
+      "the calibration of the description passed its tests, but the model the selection ended with "
+      "on top of it (" +
+      versus + ") does not predict held-out rows significantly better";
+  s.rep.warnings.push_back(why + ": the result without the calibration is kept");
+  for (const std::string& lab : labels) {
+    const auto f = s.last.find(lab);
+    if (f != s.last.end() && !f->second.accepted) f->second.explanation += " Also " + why + ".";
+  }
+  s.say(DiagnoseProgress::Stage::Calibration, "calibration: not kept; " + why);
 }
 
 }  // namespace ctr::diagnosis::detail

@@ -237,6 +237,10 @@ DiagnosisReport diagnose(const Robot& nominal, const io::Recording& given, const
     }
   };
   estimate();
+  if (detail::checkDiscretisation(s)) {
+    s.base = evaluateModel(nominal, rec, {}, s.all, s.fo, s.ws);
+    estimate();
+  }
   int off_branch = 0;
   for (int k = 0; k < rows; ++k) {
     const std::vector<Alternative>& alt = alternatives[static_cast<std::size_t>(k)];
@@ -311,10 +315,15 @@ DiagnosisReport diagnose(const Robot& nominal, const io::Recording& given, const
     detail::checkProxies(s);
   };
   selectAndCheck(1);
-  if (detail::calibrateDescription(s, rep.rounds + 1)) {
-    rep.rounds += 1;
-    detail::updateNoise(s, visits);
-    selectAndCheck(rep.rounds + 1);
+  if (o.calibrate_description) {
+    detail::Snapshot before;
+    before.fields() = detail::snapshotFields(s);
+    if (detail::calibrateDescription(s, rep.rounds + 1)) {
+      rep.rounds += 1;
+      detail::updateNoise(s, visits);
+      selectAndCheck(rep.rounds + 1);
+      detail::keepCalibrationIfBetter(s, before);
+    }
   }
   detail::describeRemainder(s);
   detail::assessDetectionLimits(s);

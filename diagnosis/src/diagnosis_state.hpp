@@ -9,6 +9,7 @@
 #include <mutex>
 #include <set>
 #include <string>
+#include <tuple>
 #include <vector>
 
 #include "ctr/diagnosis/diagnose.hpp"
@@ -147,10 +148,44 @@ void backwardElimination(State& s, const char* why =
                                        "only %+.1f, so the other accepted effects explain what it "
                                        "explained");
 
+/// The replays' integration steps (s.fo.predict) against the library's default steps on the nominal model, in units of
+/// the noise (s.rep.discretisation); when the error exceeds DiagnoseOptions::max_discretisation_error the default steps
+/// replace them in s.fo and true is returned (the baseline must be replayed again).
+bool checkDiscretisation(State& s);
+
 /// When the selection leaves a remainder, the description's parameters fitted together on top of the current model
 /// (calibration.cpp): accepted as a block when they pass the selection's BIC and held-out tests, then pruned by
 /// backward elimination. Returns true when the current model was replaced.
 bool calibrateDescription(State& s, int round);
+
+/// What the selection has found so far (the parts of State the stages change), to return to.
+struct Snapshot {
+  FitOptions fo, fo_alone;
+  Candidate cur;
+  std::map<std::string, Finding> last;
+  std::vector<std::string> order;
+  std::map<std::string, std::vector<Rival>> rivals_of;
+  std::map<std::string, std::string> removed, removed_partial;
+  std::set<std::string> confounded, calibrated;
+  std::map<std::string, std::vector<std::string>> replaced_by;
+  MismatchReport final_mismatch;
+  DiagnosisReport rep;
+  auto fields() {
+    return std::tie(fo, fo_alone, cur, last, order, rivals_of, removed, removed_partial, confounded, calibrated,
+                    replaced_by, final_mismatch, rep);
+  }
+};
+/// The same parts of the state, in Snapshot's order (snapshot: copy from; restore: copy into).
+inline auto snapshotFields(State& s) {
+  return std::tie(s.fo, s.fo_alone, s.cur, s.last, s.order, s.rivals_of, s.removed, s.removed_partial, s.confounded,
+                  s.calibrated, s.replaced_by, s.final_mismatch, s.rep);
+}
+
+/// After a calibration and the selection on top of it: the result is kept only when its final model predicts the
+/// held-out rows significantly better than the model `before` the calibration (the proxy tests on the calibrated
+/// model may have dropped effects the model before it named); otherwise the state returns to `before`, with the
+/// reason in a warning and in the findings of the calibrated parameters.
+void keepCalibrationIfBetter(State& s, Snapshot& before);
 
 /// Locate tests on the final model's residuals and its held-out error against the noise (formats.md
 /// `unexplained`), into s.rep.unexplained.

@@ -175,6 +175,7 @@ std::string reportToJson(const DiagnosisReport& r) {
     if (f.accepted) {
       x["partial"] = f.partial;
       x["named"] = f.named;
+      if (f.at_range_limit) x["at_range_limit"] = true;
     }
     if (!f.ambiguous_with.empty()) {
       json a = json::array();
@@ -265,6 +266,10 @@ std::string reportToJson(const DiagnosisReport& r) {
     reg["tip_offset"] = r.registration.tip_offset;
     j["registration"] = reg;
   }
+  j["replay_discretisation"] = {{"max_step", r.discretisation.max_step},
+                                {"max_bending_per_step", r.discretisation.max_bending_per_step},
+                                {"error_over_noise", r.discretisation.error_over_noise},
+                                {"refined", r.discretisation.refined}};
   j["rows"] = r.rows;
   j["recording_rows"] = r.recording_rows;
   j["visits"] = r.visits;
@@ -418,7 +423,12 @@ std::string reportToMarkdown(const DiagnosisReport& r, const io::Recording& full
          "correlated model error (never narrower than the independent-residual interval).\n\n";
   }
   for (const auto& w : r.warnings) o << "- warning: " << w << "\n";
-  o << "\n" << r.evaluations << " replays of the sequence, " << f4(r.seconds) << " s.\n";
+  o << "\n"
+    << r.evaluations << " replays of the sequence, " << f4(r.seconds)
+    << " s. Integration steps of the replays: " << f4(1e3 * r.discretisation.max_step) << " mm, "
+    << f4(r.discretisation.max_bending_per_step)
+    << " rad of bending; their error on the nominal replay against the library's default steps: "
+    << f4(r.discretisation.error_over_noise) << " x the noise.\n";
   return o.str();
 }
 

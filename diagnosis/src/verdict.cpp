@@ -28,6 +28,23 @@ std::string noiseWords(const NoiseReport& n) {
   return joinWords(parts);
 }
 
+/// A sentence when a fitted coordinate of `e` lies at a limit of its search range that its nominal value does not lie
+/// at ("" otherwise).
+std::string rangeLimitWords(const State& s, const Effect& e) {
+  const Effect e0 = nominalEffect(s.nominal, e.kind, e.tube);
+  for (int c = 0; c < parameterCount(e.kind); ++c) {
+    const ParameterRange r = parameterRange(s.nominal, s.rec, e.kind, e.tube, c);
+    const double v = e.coordinate(c), v0 = e0.coordinate(c), tol = 1e-6 * (r.hi - r.lo);
+    for (const double bound : {r.lo, r.hi})
+      if (std::abs(v - bound) <= tol && std::abs(v0 - bound) > tol)
+        return fmt(
+            "Its fitted value is at the limit of the search range (%.4g): the recording asks for more, so "
+            "it is a bound, not an estimate.",
+            bound);
+  }
+  return "";
+}
+
 }  // namespace
 
 void writeVerdict(State& s) {
@@ -107,6 +124,12 @@ void writeVerdict(State& s) {
           f.named = false;
           f.explanation =
               "partial explanation, not named: " + describePhysics(e.kind) + "; " + s.removed_partial[key] + ".";
+        }
+        const std::string limit = rangeLimitWords(s, e);
+        if (!limit.empty()) {
+          f.at_range_limit = true;
+          f.explanation += " " + limit;
+          rep.warnings.push_back(key + ": " + limit);
         }
       }
     const auto d = s.detection.find(key);

@@ -115,7 +115,7 @@ TEST(LoadEffects, ParseNamesAndRobot) {
   EXPECT_THROW(parseEffect("tip_load:force=1,2"), std::invalid_argument);
   EXPECT_THROW(parseEffect("tip_load:force=1,2,3,4"), std::invalid_argument);
   EXPECT_THROW(parseEffect("tip_load:mu=1"), std::invalid_argument);
-  EXPECT_THROW(parseEffect("gravity:scale=1"), std::invalid_argument);               // no direction
+  EXPECT_THROW(parseEffect("gravity:scale=1"), std::invalid_argument);  // no direction
   EXPECT_THROW(parseEffect("gravity:scale=1,direction=0,0,0"), std::invalid_argument);
   EXPECT_THROW(parseEffect("gravity:scale=-1,direction=0,0,1"), std::invalid_argument);
   EXPECT_EQ(parseEffectKind("gravity"), EffectKind::Gravity);
@@ -181,7 +181,7 @@ TEST(LoadEffects, InjectionUsesTheLoadedModel) {
   EXPECT_GT(d1.x(), 5e-4);  // sags along +x by more than half a millimetre
   EXPECT_GT(d2.y(), 5e-4);
   const Robot loaded = applyToRobot(r, {parseEffect("gravity:direction=1,0,0")});
-  const Solution s = solve(loaded, q, ws);
+  const Solution s = solve(loaded, q, ws, PredictOptions{}.replay.friction.kinematics);  // the replay's steps
   EXPECT_NEAR((s.tip_position - p1.tip_position.row(0).transpose()).norm(), 0.0, 1e-9);
 }
 
@@ -271,7 +271,8 @@ TEST(LoadsDiagnosis, WeightSeenFromOneSideHasHonestIntervals) {
   ASSERT_NE(u, res.rep.final_uncertainty.end());
   const auto ps = namedParameters(*e, &u->second);
   for (const NamedParameter& p : ps) {
-    const Eigen::Vector3d t = p.name == "scale" ? Eigen::Vector3d(truth.gravityScale(), 0, 0) : truth.gravityDirection();
+    const Eigen::Vector3d t =
+        p.name == "scale" ? Eigen::Vector3d(truth.gravityScale(), 0, 0) : truth.gravityDirection();
     ASSERT_EQ(p.interval95.size(), p.value.size());
     for (std::size_t i = 0; i < p.value.size(); ++i) {
       EXPECT_LE(p.interval95[i][0], t[static_cast<Eigen::Index>(i)]) << p.name << " " << i;

@@ -449,3 +449,122 @@ TEST(DetectionLimits, SeparateWhatTheFitCanAndCannotSee) {
   EXPECT_FALSE(std::isfinite(same[0].value));
   EXPECT_TRUE(same[0].confounded);
 }
+
+// The replays integrate the equilibria with coarser steps than the library's default (kReplayMaxStep,
+// kReplayMaxBending). On every example robot, along its default actuation sweep with boundary friction, their outputs
+// stay within 2 um and 1e-4 rad of the default steps' (docs/diagnosis.md), and that is the coarse steps' error: halving
+// the default steps changes the outputs by less than a tenth of it, or 10 nm (the solves' own tolerance shows there).
+TEST(Discretisation, ReplayStepsStayFarBelowAnyTrackerNoiseOnTheExampleRobots) {
+  const char* robots[] = {"dupont_lab_3tube", "three_tube_generic", "tube_pair_A", "tube_pair_B",
+                          "single_tube",      "proc_intracardiac",  "proc_airway", "proc_sinus",
+                          "medmpd_brain",     "medmpd_liver",       "medmpd_lung"};
+  for (const char* name : robots) {
+    SCOPED_TRACE(name);
+    const Robot r = io::loadRobot(std::string(CTR_SOURCE_DIR) + "/examples/robots/" + name + ".yaml");
+    ActuationOptions a;
+    a.dt = 0;
+    a.rows = 60;
+    std::vector<Configuration> cmd;
+    Eigen::VectorXd time;
+    makeActuation(r, a, cmd, time);
+    const std::vector<Effect> friction = {{EffectKind::BoundaryFriction, 0, 0.1}};
+    PredictOptions replay, library, finer;
+    const KinematicsOptions lib;
+    library.replay.friction.kinematics.max_step = lib.max_step;
+    library.replay.friction.kinematics.max_bending_per_step = lib.max_bending_per_step;
+    finer.replay.friction.kinematics.max_step = lib.max_step / 2;
+    finer.replay.friction.kinematics.max_bending_per_step = lib.max_bending_per_step / 2;
+    EXPECT_EQ(replay.replay.friction.kinematics.max_step, kReplayMaxStep);
+    EXPECT_EQ(SimulationOptions{}.predict.replay.friction.kinematics.max_step, lib.max_step);  // no inverse crime
+    Workspace ws;
+    const Prediction p = predict(r, cmd, time, friction, ws, replay);
+    const Prediction q = predict(r, cmd, time, friction, ws, library);
+    const Prediction h = predict(r, cmd, time, friction, ws, finer);
+    ASSERT_EQ(p.ok, q.ok);
+    ASSERT_EQ(q.ok, h.ok);
+    double coarse_pos = 0, coarse_tan = 0, fine_pos = 0, fine_tan = 0;
+    for (int k = 0; k < p.rows(); ++k) {
+      if (!p.ok[static_cast<std::size_t>(k)]) continue;
+      coarse_pos = std::max(coarse_pos, (p.tip_position.row(k) - q.tip_position.row(k)).cwiseAbs().maxCoeff());
+      coarse_tan = std::max(coarse_tan, (p.tip_tangent.row(k) - q.tip_tangent.row(k)).cwiseAbs().maxCoeff());
+      fine_pos = std::max(fine_pos, (q.tip_position.row(k) - h.tip_position.row(k)).cwiseAbs().maxCoeff());
+      fine_tan = std::max(fine_tan, (q.tip_tangent.row(k) - h.tip_tangent.row(k)).cwiseAbs().maxCoeff());
+    }
+    std::printf("%-18s replay steps vs default: %.3g um, %.3g urad; default vs halved: %.3g um\n", name,
+                1e6 * coarse_pos, 1e6 * coarse_tan, 1e6 * fine_pos);
+    EXPECT_LT(coarse_pos, 2e-6);
+    EXPECT_LT(coarse_tan, 1e-4);
+    EXPECT_LT(fine_pos, std::max(1e-8, 0.1 * coarse_pos));
+  }
+}
+
+// The diagnosis checks its replays' steps against the default steps on every recording: with a sweep's ordinary noise
+// they are kept (error far below max_discretisation_error); when the check fails the default steps are used, and the
+// diagnosis is then the one run with the default steps from the start.
+TEST(Discretisation, ADiagnosisThatRefinesItsStepsIsTheOneAtTheDefaultSteps) {
+  const PairBSweep w;
+  SimulationOptions s;
+  s.seed = 4;
+  const io::Recording rec = simulateRecording(w.r, w.cmd, w.time, {{EffectKind::BoundaryFriction, 0, 0.15}}, s);
+  DiagnoseOptions o;
+  o.candidates = {EffectKind::BoundaryFriction, EffectKind::ActuatorOffset, EffectKind::TorsionalStiffness};
+  const DiagnosisReport plain = diagnose(w.r, rec, o);
+  EXPECT_FALSE(plain.discretisation.refined);
+  EXPECT_EQ(plain.discretisation.max_step, kReplayMaxStep);
+  EXPECT_GT(plain.discretisation.error_over_noise, 0.0);
+  EXPECT_LT(plain.discretisation.error_over_noise, o.max_discretisation_error);
+  ASSERT_EQ(plain.verdict, std::vector<std::string>{"boundary_friction"}) << plain.summary;
+
+  DiagnoseOptions strict = o;
+  strict.max_discretisation_error = 1e-12;
+  const DiagnosisReport refined = diagnose(w.r, rec, strict);
+  DiagnoseOptions at_default = o;
+  const KinematicsOptions lib;
+  at_default.predict.replay.friction.kinematics.max_step = lib.max_step;
+  at_default.predict.replay.friction.kinematics.max_bending_per_step = lib.max_bending_per_step;
+  const DiagnosisReport fine = diagnose(w.r, rec, at_default);
+  EXPECT_TRUE(refined.discretisation.refined);
+  EXPECT_EQ(refined.discretisation.max_step, lib.max_step);
+  EXPECT_EQ(fine.discretisation.error_over_noise, 0.0);  // nothing to check at the default steps
+  EXPECT_EQ(refined.verdict, fine.verdict);
+  ASSERT_EQ(refined.final_effects.size(), fine.final_effects.size());
+  for (std::size_t i = 0; i < fine.final_effects.size(); ++i)
+    EXPECT_EQ(refined.final_effects[i].value, fine.final_effects[i].value);
+  EXPECT_EQ(refined.final.bic, fine.final.bic);
+  EXPECT_NEAR(plain.final_effects[0].value, fine.final_effects[0].value, 1e-3 * fine.final_effects[0].value);
+  bool warned = false;
+  for (const std::string& m : refined.warnings) warned = warned || m.find("integration steps") != std::string::npos;
+  EXPECT_TRUE(warned);
+}
+
+// A fitted value at a limit of its search range is a bound, not an estimate: a drive offset of 0.75 rad (the range
+// ends at 0.6) is accepted at 0.6 and flagged as such (finding, warning, JSON); one of 0.3 rad inside the range is not.
+TEST(Verdict, AValueAtTheLimitOfItsSearchRangeIsReportedAsABound) {
+  const PairBSweep w;
+  DiagnoseOptions o;
+  o.candidates = {EffectKind::ActuatorOffset};
+  for (const double offset : {0.75, 0.3}) {
+    SimulationOptions s;
+    s.seed = 8;
+    const io::Recording rec = simulateRecording(w.r, w.cmd, w.time, {{EffectKind::ActuatorOffset, 2, offset}}, s);
+    const DiagnosisReport rep = diagnose(w.r, rec, o);
+    ASSERT_EQ(rep.final_effects.size(), 1u) << rep.summary;
+    const Finding* f = nullptr;
+    for (const Finding& x : rep.findings)
+      if (x.accepted) f = &x;
+    ASSERT_NE(f, nullptr);
+    bool warned = false;
+    for (const std::string& m : rep.warnings)
+      warned = warned || m.find("limit of the search range") != std::string::npos;
+    if (offset > 0.6) {
+      EXPECT_NEAR(rep.final_effects[0].value, 0.6, 1e-6);
+      EXPECT_TRUE(f->at_range_limit);
+      EXPECT_TRUE(warned);
+      EXPECT_NE(reportToJson(rep).find("\"at_range_limit\": true"), std::string::npos);
+    } else {
+      EXPECT_NEAR(rep.final_effects[0].value, offset, 0.01);
+      EXPECT_FALSE(f->at_range_limit);
+      EXPECT_FALSE(warned);
+    }
+  }
+}

@@ -79,7 +79,11 @@ struct DiagnoseOptions {
   /// Generic models of physics outside the library tried on the remainder (describeRemainder); false: none.
   bool generic_models = true;
   MismatchOptions mismatch;
-  PredictOptions predict;                                 ///< Replay options, the branch rule among them (replay.hpp).
+  PredictOptions predict;  ///< Replay options, the branch rule among them (replay.hpp).
+  /// The replays' integration steps (PredictOptions) are kept when the nominal replay with them differs from the one at
+  /// the library's default steps by less than this fraction of the noise on every row and measured component;
+  /// otherwise every replay uses the default steps (DiagnosisReport::discretisation).
+  double max_discretisation_error = 0.05;
   std::function<void(const DiagnoseProgress&)> progress;  ///< Called at every step (any thread); may be empty.
 };
 
@@ -121,6 +125,9 @@ struct Finding {
   bool partial = false;               ///< Accepted, but a structured remainder is left (see `unexplained`).
   bool named = true;                  ///< Accepted and named in the verdict (false: partial explanation
                                       ///< confounded with the unexplained remainder; kept in the final fit).
+  /// Accepted with a fitted coordinate at a limit of its search range (fit.hpp parameterRange) that its nominal value
+  /// is not at: the recording asks for more, so the value is a bound, not an estimate.
+  bool at_range_limit = false;
   /// Not accepted, one parameter: the smallest size this recording can tell from none on top of the final model
   /// (the larger of the 95 % interval half-width, serial correlation counted, and the size that would pass the BIC
   /// threshold; first order), in the parameter's units; infinity when the recording does not depend on it; NaN when
@@ -176,6 +183,17 @@ struct PlotSeries {
   MismatchReport final_mismatch;  ///< Binned residuals of the final model (for before/after plots).
 };
 
+/// @brief The integration steps of a diagnosis's replays, checked against the library's default steps.
+struct ReplayDiscretisation {
+  double max_step = 0.0;              ///< Longest step (m).
+  double max_bending_per_step = 0.0;  ///< Largest bending per step (rad).
+  /// Largest difference of the nominal replay from the one at the library's default steps, over the rows and measured
+  /// components, as a fraction of the noise level (0 when the steps are the default ones or finer).
+  double error_over_noise = 0.0;
+  /// The error was above DiagnoseOptions::max_discretisation_error: the default steps were used (the fields above).
+  bool refined = false;
+};
+
 /// @brief The diagnosis.
 struct DiagnosisReport {
   std::vector<std::string> verdict;    ///< Effects judged present (JSON names; "X or Y" when the recording cannot
@@ -193,12 +211,13 @@ struct DiagnosisReport {
   NoiseReport noise;              ///< The noise used per quantity, its source and uncertainty.
   Registration registration;      ///< Final model's registration (FrameMode::Unknown).
   FrameMode frame = FrameMode::Base;
-  int rows = 0, folds = 0;  ///< Rows diagnosed (visits, decimated), held-out blocks.
-  int recording_rows = 0;   ///< Rows of the recording as given.
-  int visits = 0;           ///< Rows after collapsing repeated frames (consecutive rows, same command).
-  int stride = 1;           ///< Visits used: every stride-th (see max_rows).
-  int rounds = 0;           ///< Selection rounds run.
-  std::string branch;       ///< Branch rule of the replay ("auto", "path", "rest").
+  int rows = 0, folds = 0;              ///< Rows diagnosed (visits, decimated), held-out blocks.
+  int recording_rows = 0;               ///< Rows of the recording as given.
+  int visits = 0;                       ///< Rows after collapsing repeated frames (consecutive rows, same command).
+  int stride = 1;                       ///< Visits used: every stride-th (see max_rows).
+  int rounds = 0;                       ///< Selection rounds run.
+  std::string branch;                   ///< Branch rule of the replay ("auto", "path", "rest").
+  ReplayDiscretisation discretisation;  ///< The replays' integration steps and their error against the noise.
   double seconds = 0.0;
   int evaluations = 0;  ///< Sequence replays.
   std::vector<std::string> warnings;

@@ -24,6 +24,11 @@ struct CommandHistory {
   std::vector<int> rows;                ///< Log row of each recording row.
 };
 
+/// @brief Longest integration step (m) of the replays' equilibria (KinematicsOptions::max_step; library default 10 mm).
+constexpr double kReplayMaxStep = 0.03;
+/// @brief Largest bending per integration step (rad) of the replays' equilibria (library default 0.12 rad).
+constexpr double kReplayMaxBending = 0.25;
+
 /// @brief Options of a prediction.
 struct PredictOptions {
   /// Full-rate commands of a decimated recording (nullptr: the recording's own rows are the whole log). Owned by
@@ -31,13 +36,17 @@ struct PredictOptions {
   const CommandHistory* history = nullptr;
   /// The replay (replay.hpp): the branch rule, the fine sub-steps of every move (2 deg / 1 mm here) and the coarse
   /// sub-step tried first where the end state does not depend on the sub-steps (10 deg here; tests/diagnosis checks
-  /// the replay equals the fine one to 1e-8).
+  /// the replay equals the fine one to 1e-8). The equilibria are integrated with steps of at most kReplayMaxStep and
+  /// kReplayMaxBending (about half the cost of the library's default steps, tip error below 2 um on the example
+  /// robots); diagnose() checks this error against the noise on every recording (DiagnosisReport::discretisation).
   ReplayOptions replay;
   /// Keep each row's equilibrium (Prediction::solutions), e.g. to linearise the model around it (load screen).
   bool keep_solutions = false;
   PredictOptions() {
     replay.friction.max_rotation_step = 0.035;  // 2 deg
     replay.friction.kinematics.record_backbone = false;
+    replay.friction.kinematics.max_step = kReplayMaxStep;
+    replay.friction.kinematics.max_bending_per_step = kReplayMaxBending;
     replay.coarse_rotation_step = 0.175;  // 10 deg
   }
 };

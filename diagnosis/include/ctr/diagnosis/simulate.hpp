@@ -58,7 +58,14 @@ struct SimulationOptions {
   bool tip_tangent = true;                   ///< Record tip tangent.
   std::optional<Registration> sensor_frame;  ///< Express tips in a sensor frame (for --frame unknown cases).
   std::uint64_t seed = 1;
+  /// The replay; its equilibria are integrated at the library's default steps (KinematicsOptions), finer than a
+  /// diagnosis replays with, so that a diagnosis of a simulated recording does not share its discretisation.
   PredictOptions predict;
+  SimulationOptions() {
+    const KinematicsOptions library;
+    predict.replay.friction.kinematics.max_step = library.max_step;
+    predict.replay.friction.kinematics.max_bending_per_step = library.max_bending_per_step;
+  }
 };
 
 /// @brief A recording of the robot with the effects present (the same forward model as the fit), plus noise.

@@ -198,7 +198,7 @@ Prediction predict(const Robot& nominal, const std::vector<Configuration>& comma
     }
     const Solution& s = row.result.solution;
     p.ok[static_cast<std::size_t>(k)] = 1;
-    if (s.twist.size() == n - 1) p.twist.row(k) = s.twist.transpose();
+    if (n > 1 && s.twist.size() == n - 1) p.twist.row(k) = s.twist.transpose();  // (no twist with one tube)
     p.tip_position.row(k) = s.tip_position.transpose();
     p.tip_tangent.row(k) = s.tipTangent().transpose();
     p.moment[k] = largestMoment(s);

@@ -1,6 +1,6 @@
 #!/bin/sh
 # Builds and runs the concealed-case evaluation of `ctr diagnose`; writes the Markdown tables to $2 (default
-# build-diag/diagnosis_evaluation.md). Usage: scripts/evaluate_diagnosis.sh [--quick] [OUT.md]
+# build-diag/diagnosis_evaluation.md). Usage: scripts/evaluate_diagnosis.sh [--quick|--calibrate] [OUT.md]
 set -e
 here=$(cd "$(dirname "$0")/.." && pwd)
 build=${CTR_BUILD_DIR:-$here/build-diag}

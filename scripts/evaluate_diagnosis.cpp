@@ -1,8 +1,8 @@
 // Evaluation of `ctr diagnose` on concealed cases built with the injection path: random actuation order, noise as
 // large as the effect in single samples, position-only recordings in an unknown frame, 3-tube robots with
 // translations, two effects at once, sensor latency, null cases. Prints a per-case table and a confusion table
-// (Markdown). Build target: ctr_evaluate_diagnosis. Usage: ctr_evaluate_diagnosis [--quick] [--verbose] [--calibrate]
-// [--out FILE.md]
+// (Markdown). Build target: ctr_evaluate_diagnosis.
+// Usage: ctr_evaluate_diagnosis [--quick] [--verbose] [--calibrate] [--out FILE.md]
 #include <algorithm>
 #include <chrono>
 #include <cmath>
@@ -53,251 +53,35 @@ std::vector<Case> cases(bool quick) {
   add({"null_random_B_noisy", "tube_pair_B", {}, ActuationPattern::Random, 60, false, false, 4, false, 2});
   add({"null_walk_3tube_timed", "three_tube_generic", {}, ActuationPattern::RandomWalk, 120, true, true, 1, false, 3});
   add({"null_walk_B_posonly", "tube_pair_B", {}, ActuationPattern::RandomWalk, 120, false, false, 2, true, 4});
-  add({"friction_sweep_A",
-       "tube_pair_A",
-       {{EffectKind::BoundaryFriction, 0, 0.08}},
-       ActuationPattern::Sweep,
-       73,
-       false,
-       false,
-       1,
-       false,
-       5});
-  add({"friction_random_B_noisy",
-       "tube_pair_B",
-       {{EffectKind::BoundaryFriction, 0, 0.06}},
-       ActuationPattern::Random,
-       45,
-       false,
-       false,
-       4,
-       false,
-       6});
-  add({"friction_walk_B_posonly",
-       "tube_pair_B",
-       {{EffectKind::BoundaryFriction, 0, 0.1}},
-       ActuationPattern::RandomWalk,
-       120,
-       false,
-       false,
-       2,
-       true,
-       7});
-  add({"poisson_sweep_A",
-       "tube_pair_A",
-       {{EffectKind::TorsionalStiffness, 0, 0.3}},
-       ActuationPattern::Sweep,
-       73,
-       false,
-       false,
-       3,
-       false,
-       8});
-  add({"precurv_walk_3tube",
-       "three_tube_generic",
-       {{EffectKind::Precurvature, 3, 14.0}},
-       ActuationPattern::RandomWalk,
-       120,
-       true,
-       false,
-       2,
-       false,
-       9});
-  add({"bending_sweep_B",
-       "tube_pair_B",
-       {{EffectKind::BendingStiffness, 2, 0.075}},
-       ActuationPattern::Sweep,
-       73,
-       false,
-       false,
-       1,
-       false,
-       10});
-  add({"backlash_walk_A_noisy",
-       "tube_pair_A",
-       {{EffectKind::ActuatorBacklash, 2, 8 * deg}},
-       ActuationPattern::RandomWalk,
-       120,
-       false,
-       false,
-       4,
-       false,
-       11});
-  add({"offset_walk_3tube_posonly",
-       "three_tube_generic",
-       {{EffectKind::ActuatorOffset, 2, 10 * deg}},
-       ActuationPattern::RandomWalk,
-       120,
-       true,
-       false,
-       2,
-       true,
-       12});
-  add({"latency_walk_A",
-       "tube_pair_A",
-       {{EffectKind::SensorLatency, 0, 0.3}},
-       ActuationPattern::RandomWalk,
-       120,
-       false,
-       true,
-       2,
-       false,
-       13});
-  add({"friction+poisson_sweep_B",
-       "tube_pair_B",
-       {{EffectKind::BoundaryFriction, 0, 0.06}, {EffectKind::TorsionalStiffness, 0, 0.3}},
-       ActuationPattern::Sweep,
-       73,
-       false,
-       false,
-       1,
-       false,
-       14});
-  add({"offset+backlash_walk_B",
-       "tube_pair_B",
-       {{EffectKind::ActuatorOffset, 2, 6 * deg}, {EffectKind::ActuatorBacklash, 2, 10 * deg}},
-       ActuationPattern::RandomWalk,
-       120,
-       false,
-       false,
-       2,
-       false,
-       15});
+  add({"friction_sweep_A", "tube_pair_A", {{EffectKind::BoundaryFriction, 0, 0.08}}, ActuationPattern::Sweep, 73, false, false, 1, false, 5});
+  add({"friction_random_B_noisy", "tube_pair_B", {{EffectKind::BoundaryFriction, 0, 0.06}}, ActuationPattern::Random, 45, false, false, 4, false, 6});
+  add({"friction_walk_B_posonly", "tube_pair_B", {{EffectKind::BoundaryFriction, 0, 0.1}}, ActuationPattern::RandomWalk, 120, false, false, 2, true, 7});
+  add({"poisson_sweep_A", "tube_pair_A", {{EffectKind::TorsionalStiffness, 0, 0.3}}, ActuationPattern::Sweep, 73, false, false, 3, false, 8});
+  add({"precurv_walk_3tube", "three_tube_generic", {{EffectKind::Precurvature, 3, 14.0}}, ActuationPattern::RandomWalk, 120, true, false, 2, false, 9});
+  add({"bending_sweep_B", "tube_pair_B", {{EffectKind::BendingStiffness, 2, 0.075}}, ActuationPattern::Sweep, 73, false, false, 1, false, 10});
+  add({"backlash_walk_A_noisy", "tube_pair_A", {{EffectKind::ActuatorBacklash, 2, 8 * deg}}, ActuationPattern::RandomWalk, 120, false, false, 4, false, 11});
+  add({"offset_walk_3tube_posonly", "three_tube_generic", {{EffectKind::ActuatorOffset, 2, 10 * deg}}, ActuationPattern::RandomWalk, 120, true, false, 2, true, 12});
+  add({"latency_walk_A", "tube_pair_A", {{EffectKind::SensorLatency, 0, 0.3}}, ActuationPattern::RandomWalk, 120, false, true, 2, false, 13});
+  add({"friction+poisson_sweep_B", "tube_pair_B", {{EffectKind::BoundaryFriction, 0, 0.06}, {EffectKind::TorsionalStiffness, 0, 0.3}}, ActuationPattern::Sweep, 73, false, false, 1, false, 14});
+  add({"offset+backlash_walk_B", "tube_pair_B", {{EffectKind::ActuatorOffset, 2, 6 * deg}, {EffectKind::ActuatorBacklash, 2, 10 * deg}}, ActuationPattern::RandomWalk, 120, false, false, 2, false, 15});
   if (!quick) {
     add({"null_sweep_B_posonly", "tube_pair_B", {}, ActuationPattern::Sweep, 73, false, false, 1, true, 16});
     add({"null_random_3tube", "three_tube_generic", {}, ActuationPattern::Random, 80, true, false, 2, false, 17});
-    add({"friction_walk_3tube_timed",
-         "three_tube_generic",
-         {{EffectKind::BoundaryFriction, 0, 0.1}},
-         ActuationPattern::RandomWalk,
-         120,
-         true,
-         true,
-         1,
-         false,
-         18});
-    add({"poisson_random_B_noisy",
-         "tube_pair_B",
-         {{EffectKind::TorsionalStiffness, 0, 0.2}},
-         ActuationPattern::Random,
-         80,
-         false,
-         false,
-         4,
-         false,
-         19});
-    add({"precurv_sweep_A",
-         "tube_pair_A",
-         {{EffectKind::Precurvature, 1, 5.0}},
-         ActuationPattern::Sweep,
-         73,
-         false,
-         false,
-         1,
-         false,
-         20});
-    add({"backlash_sweep_B_posonly",
-         "tube_pair_B",
-         {{EffectKind::ActuatorBacklash, 2, 12 * deg}},
-         ActuationPattern::Sweep,
-         73,
-         false,
-         false,
-         1,
-         true,
-         21});
-    add({"offset_random_A_noisy",
-         "tube_pair_A",
-         {{EffectKind::ActuatorOffset, 2, 8 * deg}},
-         ActuationPattern::Random,
-         80,
-         false,
-         false,
-         4,
-         false,
-         22});
-    add({"latency_walk_3tube_posonly",
-         "three_tube_generic",
-         {{EffectKind::SensorLatency, 0, 0.2}},
-         ActuationPattern::RandomWalk,
-         150,
-         true,
-         true,
-         1,
-         true,
-         23});
-    add({"latency+friction_walk_B",
-         "tube_pair_B",
-         {{EffectKind::SensorLatency, 0, 0.3}, {EffectKind::BoundaryFriction, 0, 0.05}},
-         ActuationPattern::RandomWalk,
-         120,
-         false,
-         true,
-         1,
-         false,
-         24});
-    add({"toffset_walk_3tube",
-         "three_tube_generic",
-         {{EffectKind::TranslationOffset, 3, 0.004}},
-         ActuationPattern::RandomWalk,
-         120,
-         true,
-         false,
-         2,
-         false,
-         25});
-    add({"tbacklash_walk_3tube_posonly",
-         "three_tube_generic",
-         {{EffectKind::TranslationBacklash, 3, 0.003}},
-         ActuationPattern::RandomWalk,
-         150,
-         true,
-         false,
-         1,
-         true,
-         26});
+    add({"friction_walk_3tube_timed", "three_tube_generic", {{EffectKind::BoundaryFriction, 0, 0.1}}, ActuationPattern::RandomWalk, 120, true, true, 1, false, 18});
+    add({"poisson_random_B_noisy", "tube_pair_B", {{EffectKind::TorsionalStiffness, 0, 0.2}}, ActuationPattern::Random, 80, false, false, 4, false, 19});
+    add({"precurv_sweep_A", "tube_pair_A", {{EffectKind::Precurvature, 1, 5.0}}, ActuationPattern::Sweep, 73, false, false, 1, false, 20});
+    add({"backlash_sweep_B_posonly", "tube_pair_B", {{EffectKind::ActuatorBacklash, 2, 12 * deg}}, ActuationPattern::Sweep, 73, false, false, 1, true, 21});
+    add({"offset_random_A_noisy", "tube_pair_A", {{EffectKind::ActuatorOffset, 2, 8 * deg}}, ActuationPattern::Random, 80, false, false, 4, false, 22});
+    add({"latency_walk_3tube_posonly", "three_tube_generic", {{EffectKind::SensorLatency, 0, 0.2}}, ActuationPattern::RandomWalk, 150, true, true, 1, true, 23});
+    add({"latency+friction_walk_B", "tube_pair_B", {{EffectKind::SensorLatency, 0, 0.3}, {EffectKind::BoundaryFriction, 0, 0.05}}, ActuationPattern::RandomWalk, 120, false, true, 1, false, 24});
+    add({"toffset_walk_3tube", "three_tube_generic", {{EffectKind::TranslationOffset, 3, 0.004}}, ActuationPattern::RandomWalk, 120, true, false, 2, false, 25});
+    add({"tbacklash_walk_3tube_posonly", "three_tube_generic", {{EffectKind::TranslationBacklash, 3, 0.003}}, ActuationPattern::RandomWalk, 150, true, false, 1, true, 26});
     // External loads: the descriptions have no density and no load; gravity weighs nitinol tubes. The
     // Dupont-lab robot sags 0.1-0.2 mm under its weight (three_tube_generic: 4 um, invisible at any noise here).
-    add({"gravity_walk_dupont",
-         "dupont_lab_3tube",
-         {parseEffect("gravity:scale=1,direction=0,-1,0")},
-         ActuationPattern::RandomWalk,
-         150,
-         true,
-         false,
-         1,
-         false,
-         27});
-    add({"gravity_random_dupont_noisy",
-         "dupont_lab_3tube",
-         {parseEffect("gravity:scale=1,direction=1,0,0")},
-         ActuationPattern::Random,
-         100,
-         true,
-         false,
-         2,
-         false,
-         28});
-    add({"tipload_random_B_noisy",
-         "tube_pair_B",
-         {parseEffect("tip_load:force=0.02,-0.03,0.01")},
-         ActuationPattern::Random,
-         80,
-         false,
-         false,
-         4,
-         false,
-         29});
-    add({"tipload+offset_walk_dupont",
-         "dupont_lab_3tube",
-         {parseEffect("tip_load:force=-0.02,0.02,0"), {EffectKind::ActuatorOffset, 2, 6 * deg}},
-         ActuationPattern::RandomWalk,
-         120,
-         true,
-         false,
-         2,
-         false,
-         30});
+    add({"gravity_walk_dupont", "dupont_lab_3tube", {parseEffect("gravity:scale=1,direction=0,-1,0")}, ActuationPattern::RandomWalk, 150, true, false, 1, false, 27});
+    add({"gravity_random_dupont_noisy", "dupont_lab_3tube", {parseEffect("gravity:scale=1,direction=1,0,0")}, ActuationPattern::Random, 100, true, false, 2, false, 28});
+    add({"tipload_random_B_noisy", "tube_pair_B", {parseEffect("tip_load:force=0.02,-0.03,0.01")}, ActuationPattern::Random, 80, false, false, 4, false, 29});
+    add({"tipload+offset_walk_dupont", "dupont_lab_3tube", {parseEffect("tip_load:force=-0.02,0.02,0"), {EffectKind::ActuatorOffset, 2, 6 * deg}}, ActuationPattern::RandomWalk, 120, true, false, 2, false, 30});
   }
   return c;
 }
@@ -310,24 +94,16 @@ int main(int argc, char** argv) {
   std::string out, only, robots = std::string(CTR_SOURCE_DIR_EVAL) + "/examples/robots";
   for (int i = 1; i < argc; ++i) {
     const std::string a = argv[i];
-    if (a == "--quick")
-      quick = true;
-    else if (a == "--verbose")
-      verbose = true;
-    else if (a == "--calibrate")
-      calibrate = true;
-    else if (a == "--max-effects" && i + 1 < argc)
-      max_effects = std::atoi(argv[++i]);
-    else if (a == "--out" && i + 1 < argc)
-      out = argv[++i];
-    else if (a == "--only" && i + 1 < argc)
-      only = argv[++i];
-    else if (a == "--robots" && i + 1 < argc)
-      robots = argv[++i];
+    if (a == "--quick") quick = true;
+    else if (a == "--verbose") verbose = true;
+    else if (a == "--calibrate") calibrate = true;
+    else if (a == "--max-effects" && i + 1 < argc) max_effects = std::atoi(argv[++i]);
+    else if (a == "--out" && i + 1 < argc) out = argv[++i];
+    else if (a == "--only" && i + 1 < argc) only = argv[++i];
+    else if (a == "--robots" && i + 1 < argc) robots = argv[++i];
     else {
-      std::cerr
-          << "usage: ctr_evaluate_diagnosis [--quick] [--verbose] [--calibrate] [--max-effects N] [--out FILE.md] "
-             "[--only NAME_SUBSTRING] [--robots DIR]\n";
+      std::cerr << "usage: ctr_evaluate_diagnosis [--quick] [--verbose] [--calibrate] [--max-effects N] [--out FILE.md] "
+                   "[--only NAME_SUBSTRING] [--robots DIR]\n";
       return 2;
     }
   }
@@ -336,7 +112,7 @@ int main(int argc, char** argv) {
   table << "| case | truth | verdict | parameters (true -> fitted) | held-out RMSE before -> after | s | ok |\n"
         << "|---|---|---|---|---|---|---|\n";
   std::map<std::string, std::map<std::string, int>> confusion;  // truth label -> verdict label -> count
-  std::map<std::string, std::array<int, 3>> per_effect;         // kind -> {true positives, misses, false positives}
+  std::map<std::string, std::array<int, 3>> per_effect;          // kind -> {true positives, misses, false positives}
   int correct = 0, total = 0, params_ok = 0, params_total = 0, ambiguous_with_truth = 0;
   for (const Case& k : cases(quick)) {
     if (!only.empty() && k.name.find(only) == std::string::npos) continue;
@@ -428,8 +204,7 @@ int main(int argc, char** argv) {
           params_ok += good;
           char b[240];
           if (vector)
-            std::snprintf(b, sizeof b, "%s -> %s%s; ", e.valueText().c_str(), f.valueText().c_str(),
-                          good ? "" : " (off)");
+            std::snprintf(b, sizeof b, "%s -> %s%s; ", e.valueText().c_str(), f.valueText().c_str(), good ? "" : " (off)");
           else
             std::snprintf(b, sizeof b, "%s %.4g -> %.4g%s; ", parameterName(e.kind), e.value, f.value,
                           good ? "" : " (off)");
@@ -446,23 +221,15 @@ int main(int argc, char** argv) {
     char sec[32];
     std::snprintf(sec, sizeof sec, "%.1f", secs);
     table << "| " << k.name << " | " << tl << " | " << vl << " | " << par.str() << " | " << ho.str() << " | " << sec
-          << " | "
-          << (ok       ? "yes"
-              : covers ? "ambiguous, truth included"
-                       : "**no**")
-          << " |\n";
-    std::cerr << k.name << ": truth " << tl << ", verdict " << vl
-              << (ok       ? "  OK"
-                  : covers ? "  AMBIGUOUS"
-                           : "  WRONG")
+          << " | " << (ok ? "yes" : covers ? "ambiguous, truth included" : "**no**") << " |\n";
+    std::cerr << k.name << ": truth " << tl << ", verdict " << vl << (ok ? "  OK" : covers ? "  AMBIGUOUS" : "  WRONG")
               << " (" << sec << " s)\n";
   }
   std::ostringstream md;
   md << "## Concealed-case evaluation (" << (quick ? "quick" : "full") << ")\n\n" << table.str() << "\n";
-  md << "Verdict exactly right: " << correct << " / " << total
-     << "; ambiguous with the truth among the alternatives: " << ambiguous_with_truth
-     << "; wrong: " << total - correct - ambiguous_with_truth << "; parameters within 20 %: " << params_ok << " / "
-     << params_total << ".\n\n### Confusion table (rows: truth, columns: verdict)\n\n";
+  md << "Verdict exactly right: " << correct << " / " << total << "; ambiguous with the truth among the alternatives: "
+     << ambiguous_with_truth << "; wrong: " << total - correct - ambiguous_with_truth << "; parameters within 20 %: "
+     << params_ok << " / " << params_total << ".\n\n### Confusion table (rows: truth, columns: verdict)\n\n";
   std::set<std::string> cols;
   for (const auto& r : confusion)
     for (const auto& c : r.second) cols.insert(c.first);

@@ -4,6 +4,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <optional>
 #include <stdexcept>
 
@@ -131,7 +132,8 @@ class Run {
   // set aside for the next start and resumed only if none reaches. Turning every tube by the same angle turns
   // the load-free robot rigidly about the base axis: each candidate is first turned so that its tip has the target's
   // azimuth (within the rotation limits), and the candidates are tried in the order of the distance left in the
-  // (radius, height) half-plane, the part of the error this turn cannot remove. (The model is 2 pi periodic in each
+  // (radius, height) half-plane, the part of the error this turn cannot remove; while none is within near_start of the
+  // target there, more are drawn (up to max_cold_candidates). (The model is 2 pi periodic in each
   // rotation: a turned rotation beyond its limit is brought back by whole turns where the limits allow.)
   void restarts(int count) {
     if (count <= 0 || done(true)) return;
@@ -155,13 +157,19 @@ class Run {
     coarse.line_search_steps = std::min(coarse.line_search_steps, kTrialLineSearch);
     std::vector<Candidate> c;
     const int wanted = std::max(o_.cold_candidates, count);
-    for (int k = 0; static_cast<int>(c.size()) < wanted && k < 2 * wanted; ++k) {
+    const int most = std::max(wanted, o_.max_cold_candidates);
+    double nearest = std::numeric_limits<double>::infinity();
+    for (int k = 0;; ++k) {
+      const int have = static_cast<int>(c.size());
+      const int goal = have >= wanted && o_.near_start > 0 && nearest > o_.near_start ? most : wanted;
+      if (have >= goal || k >= 2 * goal) break;  // at most twice as many drawn as kept
       Candidate cand;
       ++summary_.evaluations;
       cand.s = solve(robot_, set_.sample(rng), map_.ws, coarse);
       if (!map_.acceptable(cand.s, nullptr)) continue;
       const Eigen::Vector3d& t = cand.s.tip_position;
       cand.distance = std::hypot(t.head<2>().norm() - target_radius, t.z() - p.z());
+      nearest = std::min(nearest, cand.distance);
       c.push_back(std::move(cand));
     }
     std::stable_sort(c.begin(), c.end(),

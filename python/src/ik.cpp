@@ -237,6 +237,8 @@ void registerIk(pyb::module_& m) {
       .def_readwrite("max_iterations", &IkOptions::max_iterations)
       .def_readwrite("restarts", &IkOptions::restarts)
       .def_readwrite("cold_candidates", &IkOptions::cold_candidates)
+      .def_readwrite("near_start", &IkOptions::near_start)
+      .def_readwrite("max_cold_candidates", &IkOptions::max_cold_candidates)
       .def_readwrite("slow_start_horizon", &IkOptions::slow_start_horizon)
       .def_readwrite("seed", &IkOptions::seed)
       .def_readwrite("damping", &IkOptions::damping)

@@ -44,6 +44,11 @@ struct IkOptions {
   /// Random configurations solved for a cold start or for restarts: this many that converge to a stable equilibrium
   /// from a cold start without continuation (at most twice as many are drawn).
   int cold_candidates = 32;
+  /// When none of the cold_candidates lies within this distance of the target in the (radius, height) half-plane (m),
+  /// more are drawn, until one does or `max_cold_candidates` converged (a start far from the target needs many
+  /// iterations, and the nearest of a few more random configurations is often far nearer). 0: never more.
+  double near_start = 0.02;
+  int max_cold_candidates = 96;  ///< See near_start.
   /// Cold start and restarts: a descent that is slow — at the rate its error fell over its last two iterations, it
   /// would need more than this many further iterations — is set aside for the next start; the set-aside descents are
   /// resumed (the smallest error first) only when no start reaches the target with a cold-solve-consistent

@@ -117,6 +117,42 @@ TEST(Ik, ColdReachesTargetsMadeByForwardKinematics) {
   }
 }
 
+// The default options against `other` on the same reachable targets (bench_ik's) and seeds: every default answer
+// checks out by forward kinematics, and every target `other` reaches is reached by the default too.
+struct DefaultVersus {
+  int reached = 0, reached_other = 0;        // reached with a cold-solve-consistent equilibrium
+  int iterations = 0, iterations_other = 0;  // in all
+  int most = 0, most_other = 0;              // for the target that needs the most
+  int several_starts_other = 0;              // targets where `other` needed more than one start
+  int more_solves = 0;                       // targets where the default solved more configurations
+};
+DefaultVersus compareWithDefault(const Robot& r, IkOptions other, int targets) {
+  Workspace ws;
+  DefaultVersus v;
+  int k = 0;
+  for (const Eigen::Vector3d& target : reachableTargets(r, targets, 2024)) {
+    IkOptions o;
+    o.seed = other.seed = static_cast<std::uint64_t>(++k);
+    const IkResult res = inverseKinematics(r, IkTarget(target), ws, o);
+    const IkResult ref = inverseKinematics(r, IkTarget(target), ws, other);
+    expectAnswerMatchesForwardKinematics(r, res, target);
+    const bool ok = res.summary.reached() && !res.summary.branch_dependent;
+    const bool ok_other = ref.summary.reached() && !ref.summary.branch_dependent;
+    EXPECT_TRUE(ok || !ok_other) << "target " << k;
+    v.reached += ok;
+    v.reached_other += ok_other;
+    v.iterations += res.summary.iterations;
+    v.iterations_other += ref.summary.iterations;
+    v.most = std::max(v.most, res.summary.iterations);
+    v.most_other = std::max(v.most_other, ref.summary.iterations);
+    v.several_starts_other += ref.summary.starts > 1;
+    v.more_solves += res.summary.evaluations > ref.summary.evaluations;
+  }
+  std::printf("iterations %d (most %d per target), other options %d (most %d)\n", v.iterations, v.most,
+              v.iterations_other, v.most_other);
+  return v;
+}
+
 TEST(Ik, SettingSlowStartsAsideLosesNoTarget) {
   // medmpd_lung and medmpd_liver (the example robots with the most starts per target and the slowest single cold IK):
   // with slow descents set aside, resumed only when no start reaches, and stopped where another start already stalled,
@@ -124,37 +160,14 @@ TEST(Ik, SettingSlowStartsAsideLosesNoTarget) {
   // take fewer iterations, in all and for the target that needs the most.
   for (const char* name : {"medmpd_lung.yaml", "medmpd_liver.yaml"}) {
     SCOPED_TRACE(name);
-    const Robot r = example(name);
-    Workspace ws;
     IkOptions sequential;
     sequential.slow_start_horizon = 0.0;
-    int reached = 0, reached_sequential = 0, iterations = 0, iterations_sequential = 0, more_starts = 0;
-    int most = 0, most_sequential = 0;
-    int k = 0;
-    for (const Eigen::Vector3d& target : reachableTargets(r, 100, 2024)) {
-      IkOptions o;
-      o.seed = sequential.seed = static_cast<std::uint64_t>(++k);
-      const IkResult res = inverseKinematics(r, IkTarget(target), ws, o);
-      const IkResult seq = inverseKinematics(r, IkTarget(target), ws, sequential);
-      expectAnswerMatchesForwardKinematics(r, res, target);
-      const bool ok = res.summary.reached() && !res.summary.branch_dependent;
-      const bool ok_sequential = seq.summary.reached() && !seq.summary.branch_dependent;
-      EXPECT_TRUE(ok || !ok_sequential) << "target " << k;
-      reached += ok;
-      reached_sequential += ok_sequential;
-      iterations += res.summary.iterations;
-      iterations_sequential += seq.summary.iterations;
-      more_starts += seq.summary.starts > 1;
-      most = std::max(most, res.summary.iterations);
-      most_sequential = std::max(most_sequential, seq.summary.iterations);
-    }
-    std::printf("%s: iterations %d (most %d per target), sequential %d (most %d)\n", name, iterations, most,
-                iterations_sequential, most_sequential);
-    EXPECT_GE(reached, reached_sequential);
-    EXPECT_GE(reached, 99);
-    EXPECT_GT(more_starts, 0);  // the targets exercised the restarts
-    EXPECT_LT(iterations, iterations_sequential);
-    EXPECT_LT(most, most_sequential);
+    const DefaultVersus v = compareWithDefault(example(name), sequential, 100);
+    EXPECT_GE(v.reached, v.reached_other);
+    EXPECT_GE(v.reached, 99);
+    EXPECT_GT(v.several_starts_other, 0);  // the targets exercised the restarts
+    EXPECT_LT(v.iterations, v.iterations_other);
+    EXPECT_LT(v.most, v.most_other);
   }
 }
 
@@ -164,31 +177,12 @@ TEST(Ik, SettingSlowStartsAsideLosesNoTarget) {
 TEST(Ik, DrawingANearerStartLosesNoTargetAndShortensTheWorst) {
   for (const char* name : {"proc_airway.yaml", "medmpd_liver.yaml"}) {
     SCOPED_TRACE(name);
-    const Robot r = example(name);
-    Workspace ws;
     IkOptions plain;
     plain.near_start = 0.0;
-    int reached = 0, reached_plain = 0, most = 0, most_plain = 0, drew_more = 0, k = 0;
-    for (const Eigen::Vector3d& target : reachableTargets(r, 200, 2024)) {  // bench_ik's targets
-      IkOptions o;
-      o.seed = plain.seed = static_cast<std::uint64_t>(++k);
-      const IkResult res = inverseKinematics(r, IkTarget(target), ws, o);
-      const IkResult ref = inverseKinematics(r, IkTarget(target), ws, plain);
-      expectAnswerMatchesForwardKinematics(r, res, target);
-      const bool ok = res.summary.reached() && !res.summary.branch_dependent;
-      const bool ok_plain = ref.summary.reached() && !ref.summary.branch_dependent;
-      EXPECT_TRUE(ok || !ok_plain) << "target " << k;
-      reached += ok;
-      reached_plain += ok_plain;
-      most = std::max(most, res.summary.iterations);
-      most_plain = std::max(most_plain, ref.summary.iterations);
-      drew_more += res.summary.evaluations > ref.summary.evaluations;
-    }
-    std::printf("%s: most iterations per target %d (plain ranking %d); more candidates drawn for %d targets\n", name,
-                most, most_plain, drew_more);
-    EXPECT_GE(reached, reached_plain);
-    EXPECT_GT(drew_more, 0);  // the targets exercised it
-    EXPECT_LT(most, most_plain);
+    const DefaultVersus v = compareWithDefault(example(name), plain, 200);
+    EXPECT_GE(v.reached, v.reached_other);
+    EXPECT_GT(v.more_solves, 0);  // the targets exercised it
+    EXPECT_LT(v.most, v.most_other);
   }
 }
 

@@ -423,12 +423,20 @@ std::string reportToMarkdown(const DiagnosisReport& r, const io::Recording& full
          "correlated model error (never narrower than the independent-residual interval).\n\n";
   }
   for (const auto& w : r.warnings) o << "- warning: " << w << "\n";
+  const ReplayDiscretisation& d = r.discretisation;
   o << "\n"
     << r.evaluations << " replays of the sequence, " << f4(r.seconds)
-    << " s. Integration steps of the replays: " << f4(1e3 * r.discretisation.max_step) << " mm, "
-    << f4(r.discretisation.max_bending_per_step)
-    << " rad of bending; their error on the nominal replay against the library's default steps: "
-    << f4(r.discretisation.error_over_noise) << " x the noise.\n";
+    << " s. Integration steps of the replays: " << f4(1e3 * d.max_step) << " mm, " << f4(d.max_bending_per_step)
+    << " rad of bending";
+  const KinematicsOptions library;
+  if (d.refined)
+    o << " (the library's default steps: the longer ones differed by " << f4(d.error_over_noise)
+      << " x the noise on the nominal replay).\n";
+  else if (d.max_step <= library.max_step && d.max_bending_per_step <= library.max_bending_per_step)
+    o << " (the library's default steps or finer).\n";
+  else
+    o << "; their error on the nominal replay against the library's default steps: " << f4(d.error_over_noise)
+      << " x the noise.\n";
   return o.str();
 }
 

@@ -5,7 +5,6 @@
 #include <algorithm>
 #include <cmath>
 
-#include "ctr/diagnosis/statistics.hpp"
 #include "diagnosis_state.hpp"
 
 namespace ctr::diagnosis::detail {
@@ -27,6 +26,14 @@ bool isCalibrated(const Effect& e, FrameMode frame) {
       return false;
   }
 }
+
+/// " Also <text>." after the explanation of every finding of `labels` that was not accepted.
+void addToRejectedFindings(State& s, const std::vector<std::string>& labels, const std::string& text) {
+  for (const std::string& lab : labels) {
+    const auto f = s.last.find(lab);
+    if (f != s.last.end() && !f->second.accepted) f->second.explanation += " Also " + text + ".";
+  }
+}
 }  // namespace
 
 bool calibrateDescription(State& s, int round) {
@@ -37,10 +44,7 @@ bool calibrateDescription(State& s, int round) {
     if (isGeneric(e.kind)) return false;  // the remainder is already described as physics outside the library
   std::vector<Effect> block;
   for (const Effect& slot : s.slots) {
-    if (!isCalibrated(slot, o.frame)) continue;
-    bool in = false;
-    for (const Effect& e : cur.fit.effects) in = in || e.sameSlot(slot);
-    if (!in) block.push_back(slot);
+    if (isCalibrated(slot, o.frame) && !s.inModel(slot)) block.push_back(slot);
   }
   if (block.size() < 2) return false;  // one parameter alone was tried by the selection
   std::string names;
@@ -75,20 +79,17 @@ bool calibrateDescription(State& s, int round) {
           "held-out error by %.1f %% ",
           static_cast<double>(block.size()), -dbic, 100 * gain) +
       fmt("(one-sided p = %.2g)", p);
+  std::vector<std::string> labels;
+  for (const Effect& e : block) labels.push_back(e.label());
   if (!c.pass) {
     const std::string note = c.failed ? "the calibration of the description " + c.reason
                                       : "calibrated with the description's other parameters: " + tested +
                                             ", not enough to accept the calibration";
-    for (const Effect& e : block) {
-      const auto f = s.last.find(e.label());
-      if (f != s.last.end() && !f->second.accepted) f->second.explanation += " Also " + note + ".";
-    }
+    addToRejectedFindings(s, labels, note);
     return false;
   }
   cur = std::move(c);
   s.without.clear();
-  std::vector<std::string> labels;
-  for (const Effect& e : block) labels.push_back(e.label());
   // Parameters the others make redundant are removed (the description may be right in them).
   backwardElimination(s,
                       "removed after the calibration of the description: without it BIC changes by only %+.1f, so "
@@ -121,15 +122,12 @@ bool calibrateDescription(State& s, int round) {
 
 void keepCalibrationIfBetter(State& s, Snapshot& before) {
   // Both held-out errors against the noise the model before the calibration was judged with.
-  const Eigen::VectorXd a = rowScores(s.rec, before.cur.cv.heldout, before.fo.noise);
-  const Eigen::VectorXd b = rowScores(s.rec, s.cur.cv.heldout, before.fo.noise);
-  const double p = stats::chunkedBootstrapTest(a, b, s.chunks);
-  const auto means = commonMeans(a, b);
-  const double gain = means[0] > 0 ? 1.0 - means[1] / means[0] : 0.0;
+  const HeldOutComparison h = compareHeldOut(rowScores(s.rec, before.cur.cv.heldout, before.fo.noise),
+                                             rowScores(s.rec, s.cur.cv.heldout, before.fo.noise), s.chunks);
   const std::string versus =
-      fmt("held-out error %+.1f %% against the model without the calibration, p = %.2g", -100 * gain, p);
+      fmt("held-out error %+.1f %% against the model without the calibration, p = %.2g", -100 * h.gain, h.p);
   s.say(DiagnoseProgress::Stage::Calibration, "calibration: the final model's " + versus);
-  if (p < s.o.heldout_p && gain > s.o.min_heldout_gain) return;
+  if (h.p < s.o.heldout_p && h.gain > s.o.min_heldout_gain) return;
   std::vector<std::string> labels(s.calibrated.begin(), s.calibrated.end());
   const int replays = s.rep.evaluations;
   snapshotFields(s) = before.fields();
@@ -140,10 +138,7 @@ void keepCalibrationIfBetter(State& s, Snapshot& before) {
       "on top of it (" +
       versus + ") does not predict held-out rows significantly better";
   s.rep.warnings.push_back(why + ": the result without the calibration is kept");
-  for (const std::string& lab : labels) {
-    const auto f = s.last.find(lab);
-    if (f != s.last.end() && !f->second.accepted) f->second.explanation += " Also " + why + ".";
-  }
+  addToRejectedFindings(s, labels, why);
   s.say(DiagnoseProgress::Stage::Calibration, "calibration: not kept; " + why);
 }
 

@@ -27,9 +27,7 @@ void assessDetectionLimits(State& s) {
   std::vector<Effect> cands;
   for (const Effect& slot : s.slots) {
     if (isGeneric(slot.kind) || parameterCount(slot.kind) != 1) continue;
-    bool in_model = false;
-    for (const Effect& e : s.cur.fit.effects) in_model = in_model || e.sameSlot(slot);
-    if (!in_model) cands.push_back(nominalEffect(s.nominal, slot.kind, slot.tube));
+    if (!s.inModel(slot)) cands.push_back(nominalEffect(s.nominal, slot.kind, slot.tube));
   }
   if (cands.empty()) return;
   s.say(DiagnoseProgress::Stage::Remainder,

@@ -79,6 +79,10 @@ int State::selected() const {
   return n;
 }
 
+bool State::inModel(const Effect& slot) const {
+  return std::any_of(cur.fit.effects.begin(), cur.fit.effects.end(), [&](const Effect& e) { return e.sameSlot(slot); });
+}
+
 void State::count(int replays) {
   std::lock_guard<std::mutex> lock(mutex_);
   rep.evaluations += replays;
@@ -125,9 +129,7 @@ double rowScoreOf(const io::Recording& rec, int k, const Solution& sol, const Re
       const Eigen::Vector3d t = sol.tipTangent();
       pred = q == Quantity::TipPosition ? reg.mapPosition(sol.tip_position, t) : reg.mapTangent(t);
     }
-    const Eigen::MatrixXd& M = q == Quantity::Twist         ? rec.twist
-                               : q == Quantity::TipPosition ? rec.tip_position
-                                                            : rec.tip_tangent;
+    const Eigen::MatrixXd& M = measured(rec, q);
     for (Eigen::Index c = 0; c < M.cols() && c < pred.size(); ++c) {
       if (!std::isfinite(M(k, c))) continue;
       double r = M(k, c) - pred[c];

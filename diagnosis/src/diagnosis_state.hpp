@@ -92,6 +92,8 @@ struct State {
   void count(int replays);
   /// Effects of the current model selected one by one (not by the calibration of the description).
   int selected() const;
+  /// The current model has an effect in this slot (kind, tube).
+  bool inModel(const Effect& slot) const;
   /// The progress counters (round, candidates) are updated by the stages.
   DiagnoseProgress progress;
 
@@ -99,6 +101,14 @@ struct State {
   std::chrono::steady_clock::time_point t0_;
   std::mutex mutex_;
 };
+
+/// Held-out scores of two models on the same rows (same noise): the block bootstrap p that `after` predicts them
+/// better than `before`, and the fraction by which its mean score is lower.
+struct HeldOutComparison {
+  double p = 1.0;
+  double gain = 0.0;
+};
+HeldOutComparison compareHeldOut(const Eigen::VectorXd& before, const Eigen::VectorXd& after, int chunks);
 
 /// Held-out test of a candidate's model against the current one, on the rows both evaluated: cross-validation
 /// (one-step from its linearisation when asked and available), bootstrap p and gain. Returns the replays used.

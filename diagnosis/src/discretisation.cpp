@@ -24,12 +24,8 @@ bool checkDiscretisation(State& s) {
   for (Quantity q : presentQuantities(s.rec)) {
     const double sigma = s.fo.noise.of(q);
     if (!(sigma > 0)) continue;
-    const Eigen::MatrixXd& pa = q == Quantity::Twist         ? a.twist
-                                : q == Quantity::TipPosition ? a.tip_position
-                                                             : a.tip_tangent;
-    const Eigen::MatrixXd& pb = q == Quantity::Twist         ? b.twist
-                                : q == Quantity::TipPosition ? b.tip_position
-                                                             : b.tip_tangent;
+    const Eigen::MatrixXd& pa = predicted(a, q);
+    const Eigen::MatrixXd& pb = predicted(b, q);
     for (int r = 0; r < s.rec.rows(); ++r) {
       if (!s.evaluable[static_cast<std::size_t>(r)]) continue;
       for (Eigen::Index c = 0; c < pa.cols(); ++c) {

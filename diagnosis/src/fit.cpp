@@ -228,9 +228,7 @@ class Model {
       const bool failed = k < f.prediction.rows() && !f.prediction.ok[static_cast<std::size_t>(k)];
       for (Quantity q : layout_.quantities) {
         const Eigen::MatrixXd& R = f.residuals.of(q);
-        const Eigen::MatrixXd& M = q == Quantity::Twist         ? rec_.twist
-                                   : q == Quantity::TipPosition ? rec_.tip_position
-                                                                : rec_.tip_tangent;
+        const Eigen::MatrixXd& M = measured(rec_, q);
         const double s = o_.noise.of(q) > 0 ? o_.noise.of(q) : 1.0;
         for (Eigen::Index c = 0; c < R.cols(); ++c) {
           const double v = R(k, c);
@@ -617,9 +615,7 @@ CrossValidation crossValidate(const Robot& nominal, const io::Recording& rec, co
   o.intervals = false;
   o.max_iterations = max_iterations;
   for (Quantity q : presentQuantities(rec)) {
-    const Eigen::MatrixXd& M = q == Quantity::Twist         ? rec.twist
-                               : q == Quantity::TipPosition ? rec.tip_position
-                                                            : rec.tip_tangent;
+    const Eigen::MatrixXd& M = measured(rec, q);
     cv.heldout.of(q) = Eigen::MatrixXd::Constant(rows, M.cols(), std::numeric_limits<double>::quiet_NaN());
   }
   std::vector<FitResult> fits(static_cast<std::size_t>(nf));

@@ -6,7 +6,6 @@
 #include <algorithm>
 #include <cmath>
 
-#include "ctr/diagnosis/statistics.hpp"
 #include "diagnosis_state.hpp"
 #include "parallel.hpp"
 
@@ -146,9 +145,9 @@ void describeRemainder(State& s) {
     d.heldout_rmse = s.cur.cv.rmse;
     double p = 1.0;
     d.heldout_ratio = s.heldoutRatio(s.cur.cv, p);
-    const auto means = commonMeans(lib.cv.row_score, s.cur.cv.row_score);
-    d.heldout_gain = means[0] > 0 ? 1.0 - means[1] / means[0] : 0.0;
-    d.heldout_p = stats::chunkedBootstrapTest(lib.cv.row_score, s.cur.cv.row_score, s.chunks);
+    const HeldOutComparison h = compareHeldOut(lib.cv.row_score, s.cur.cv.row_score, s.chunks);
+    d.heldout_gain = h.gain;
+    d.heldout_p = h.p;
     const auto r = s.replaced_by.find(g.label());
     if (r != s.replaced_by.end()) d.replaces = r->second;
     s.say(Stage::Remainder, "described: " + g.label() + ": " + d.description +

@@ -67,6 +67,13 @@ Eigen::MatrixXd& Residuals::of(Quantity q) {
   return q == Quantity::Twist ? twist : q == Quantity::TipPosition ? tip_position : tip_tangent;
 }
 
+const Eigen::MatrixXd& measured(const io::Recording& rec, Quantity q) {
+  return q == Quantity::Twist ? rec.twist : q == Quantity::TipPosition ? rec.tip_position : rec.tip_tangent;
+}
+const Eigen::MatrixXd& predicted(const Prediction& p, Quantity q) {
+  return q == Quantity::Twist ? p.twist : q == Quantity::TipPosition ? p.tip_position : p.tip_tangent;
+}
+
 Residuals computeResiduals(const io::Recording& rec, const Prediction& p) {
   Residuals r;
   if (rec.hasTwist()) {

@@ -21,6 +21,14 @@ bool screenedFirst(EffectKind k) {
 }
 }  // namespace
 
+HeldOutComparison compareHeldOut(const Eigen::VectorXd& before, const Eigen::VectorXd& after, int chunks) {
+  HeldOutComparison h;
+  h.p = stats::chunkedBootstrapTest(before, after, chunks);
+  const auto means = commonMeans(before, after);
+  h.gain = means[0] > 0 ? 1.0 - means[1] / means[0] : 0.0;
+  return h;
+}
+
 // Held-out test of a candidate's model against the current one, on the rows both evaluated: cross-validation
 // (one-step from its linearisation when asked and available), bootstrap p and gain. Returns the replays used.
 int heldOut(State& S, Candidate& c, Workspace& tws, int threads, bool one_step) {
@@ -33,9 +41,9 @@ int heldOut(State& S, Candidate& c, Workspace& tws, int threads, bool one_step) 
   c.cv = crossValidate(nominal, rec, c.fit.effects, o.folds, fo, tws, o.cv_iterations, threads,
                        one_step ? &c.fit : nullptr);
   c.cv_done = true;
-  c.heldout_p = stats::chunkedBootstrapTest(cur.cv.row_score, c.cv.row_score, chunks);
-  const auto means = commonMeans(cur.cv.row_score, c.cv.row_score);
-  c.gain = means[0] > 0 ? 1.0 - means[1] / means[0] : 0.0;
+  const HeldOutComparison h = compareHeldOut(cur.cv.row_score, c.cv.row_score, chunks);
+  c.heldout_p = h.p;
+  c.gain = h.gain;
   return c.cv.evaluations;
 }
 
@@ -89,8 +97,7 @@ bool selectionRound(State& S, int round) {
   auto nparams = [](const std::vector<Effect>& e) { return coordinateCount(e); };
   std::vector<Effect> todo;
   for (const Effect& slot : S.slots) {
-    bool in = false;
-    for (const Effect& e : cur.fit.effects) in = in || e.sameSlot(slot);
+    bool in = S.inModel(slot);
     // Distributed friction is expensive; once its probe showed no effect it is not retried on top.
     const auto seen = S.last.find(slot.label());
     if (slot.kind == EffectKind::DistributedFriction && seen != S.last.end() && seen->second.heldout_rmse.empty() &&

@@ -60,6 +60,11 @@ struct Residuals {
   Eigen::MatrixXd& of(Quantity q);
 };
 
+/// @brief The recording's values of a quantity, rows x components.
+const Eigen::MatrixXd& measured(const io::Recording& rec, Quantity q);
+/// @brief A prediction's values of a quantity, rows x components.
+const Eigen::MatrixXd& predicted(const Prediction& p, Quantity q);
+
 /// @brief Residuals of a prediction (already mapped to the sensor frame when needed).
 Residuals computeResiduals(const io::Recording& rec, const Prediction& p);
 

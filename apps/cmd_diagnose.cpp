@@ -19,7 +19,8 @@ void registerDiagnose(CLI::App& app, Action& action) {
   struct Opts {
     std::string robot, recording, frame = toString(diagnosis::FrameMode::Base), json, report, plot, candidates, html,
                                   noise, branch = toString(BranchRule::Auto);
-    int folds = 4, threads = 2, max_effects = 4;
+    int folds = 4, threads = 2, max_effects = diagnosis::DiagnoseOptions{}.max_effects,
+        max_rows = diagnosis::DiagnoseOptions{}.max_rows;
     double bic_threshold = 10.0;
     bool quiet = false, calibrate = false;
   };
@@ -50,6 +51,10 @@ void registerDiagnose(CLI::App& app, Action& action) {
   sub->add_option("--folds", o->folds, "Contiguous held-out blocks")->check(CLI::Range(2, 20));
   sub->add_option("--threads", o->threads, "Candidates fitted in parallel")->check(CLI::Range(1, 64));
   sub->add_option("--max-effects", o->max_effects, "Largest combination of effects")->check(CLI::Range(0, 6));
+  sub->add_option("--max-rows", o->max_rows,
+                  "Longer recordings are decimated to every k-th distinct row (the replay still follows the whole "
+                  "path); 0: use every row (slower; docs/diagnosis.md)")
+      ->check(CLI::NonNegativeNumber);
   sub->add_option("--bic-threshold", o->bic_threshold, "BIC decrease needed to accept an effect");
   sub->add_flag("--calibrate", o->calibrate,
                 "When the selected effects leave a remainder, calibrate the robot's description (precurvatures, "
@@ -77,6 +82,7 @@ void registerDiagnose(CLI::App& app, Action& action) {
       d.folds = o->folds;
       d.threads = o->threads;
       d.max_effects = o->max_effects;
+      d.max_rows = o->max_rows;
       d.bic_threshold = o->bic_threshold;
       d.calibrate_description = o->calibrate;
       if (!o->candidates.empty()) {

@@ -179,9 +179,10 @@ DiagnosisReport diagnose(const Robot& nominal, const io::Recording& given, const
                            " visits (their spread is the "
                            "tracker's jitter, reported with the noise)");
   if (stride > 1)
-    rep.warnings.push_back("the recording has " + std::to_string(vrec.rows()) + " distinct rows; every " +
-                           std::to_string(stride) + "th was used (" + std::to_string(rows) +
-                           " rows) to bound the run time (max_rows = " + std::to_string(o.max_rows) + ")");
+    rep.warnings.push_back("the recording has " + std::to_string(vrec.rows()) + " distinct rows; one in " +
+                           std::to_string(stride) + " was used (" + std::to_string(rows) +
+                           " rows) to bound the run time (max_rows = " + std::to_string(o.max_rows) +
+                           ", --max-rows 0 uses every row)");
   s.all.assign(static_cast<std::size_t>(rows), 1);
   s.last_block.assign(static_cast<std::size_t>(rows), 0);
   {

@@ -48,14 +48,14 @@ void checkConstancy(State& s) {
   Candidate& cur = s.cur;
   const std::vector<char>& evaluable = s.evaluable;
   const int rows = rec.rows();
-  auto deltaBic = [&](const Residuals& a, int ka, const Residuals& b, int kb) { return s.deltaBic(a, ka, b, kb); };
   auto remainderVariable = [&]() { return remainderVariableOf(s); };
   // 3b. With a structured remainder, an accepted effect may be a proxy absorbing part of physics it does not model.
   // A real effect has one value for the whole recording; a proxy's fitted value follows whatever part of the
   // mismatch the rows it is fitted on hold. Two parameter-constancy checks: the held-out folds (contiguous blocks in
   // time) and a split of the rows in two halves by the configuration variable where the remainder is largest (each
   // half refitted with its own intervals). An effect whose values disagree beyond their uncertainty (z > 3) and by
-  // more than a quarter of its size is dropped from the verdict.
+  // more than a quarter of its size is not named; it stays in the fit as a partial explanation, so the named effects
+  // are judged in the model that predicts best (dropping it would move their values to absorb what it took up).
   if (!rep.unexplained.present || cur.fit.effects.empty()) return;
   {
     const std::unique_ptr<ConfigVariable> split = remainderVariable();
@@ -84,7 +84,6 @@ void checkConstancy(State& s) {
                                                        ho, tws, coordinateCount(cur.fit.effects));
     });
     s.count(halves[0].evaluations + halves[1].evaluations);
-    std::vector<std::size_t> unstable;
     for (std::size_t j = 0; j < cur.fit.effects.size(); ++j) {
       const Effect& e = cur.fit.effects[j];
       if (isGeneric(e.kind)) continue;  // a description of the remainder, never named
@@ -125,35 +124,24 @@ void checkConstancy(State& s) {
         if (tu && !time_unstable)
           why_time = "its fitted " + cname +
                      fmt(" changes between held-out blocks in time (%.4g to %.4g, against a 95 %% interval of width "
-                         "%.3g): it absorbs part of a mismatch it does not model, so it is not named",
+                         "%.3g): it absorbs part of a mismatch it does not model, so it is a partial explanation, "
+                         "not named",
                          lo, hi, width);
         if (su && !split_unstable)
           why_split = "its fitted " + cname + " depends on which rows it is fitted on (" + fmt("%.4g", va) + " with " +
                       split_name + " below its median, " +
                       fmt("%.4g above, z = %.1f): it absorbs part of a mismatch it does not ", vb, z) +
-                      "model, so it is not named";
+                      "model, so it is a partial explanation, not named";
         time_unstable = time_unstable || tu;
         split_unstable = split_unstable || su;
       }
       if (time_unstable || split_unstable) {
-        unstable.push_back(j);
-        s.removed[e.label()] = time_unstable ? why_time : why_split;
+        const std::string lab = e.label();
+        s.confounded.insert(lab);
+        s.removed_partial[lab] = time_unstable ? why_time : why_split;
         s.say(DiagnoseProgress::Stage::Remainder,
-              "constancy: " + e.label() + " is not constant over the recording; dropped");
+              "constancy: " + lab + " is not constant over the recording; kept in the fit, not named");
       }
-    }
-    if (!unstable.empty()) {
-      s.without.clear();
-      const std::vector<Effect> reduced = withoutEffects(s, unstable);
-      FitResult f = fitEffects(nominal, rec, reduced, s.all, s.fo_alone, ws, coordinateCount(reduced));
-      s.count(f.evaluations);
-      cur.bic += deltaBic(cur.fit.residuals, coordinateCount(cur.fit.effects), f.residuals, coordinateCount(f.effects));
-      cur.fit = std::move(f);
-      cur.cv = cur.fit.effects.empty() ? s.baseline_cv
-                                       : crossValidate(nominal, rec, cur.fit.effects, o.folds, fo, ws, o.cv_iterations,
-                                                       o.threads, o.one_step_cv ? &cur.fit : nullptr);
-      if (cur.fit.effects.empty()) cur.fit = s.base;
-      assessRemainder(s);
     }
   }
 }
@@ -216,7 +204,8 @@ void checkConfounding(State& s) {
     if (s.without.size() != cur.fit.effects.size()) refitEachWithout(s);
     const std::string vname = v ? v->name : "time";
     for (std::size_t j = 0; j < cur.fit.effects.size(); ++j) {
-      if (isGeneric(cur.fit.effects[j].kind)) continue;  // a description of the remainder, never named
+      if (isGeneric(cur.fit.effects[j].kind)) continue;              // a description of the remainder, never named
+      if (s.confounded.count(cur.fit.effects[j].label())) continue;  // not constant: already not named
       const FitResult& f = s.without[j];
       const std::vector<char> m = commonRows(cur.fit.residuals, f.residuals, evaluable);
       const int k = coordinateCount(cur.fit.effects), kw = coordinateCount(f.effects);

@@ -224,7 +224,9 @@ void writeVerdict(State& s) {
            fmt(" (together %.0f %% of the mismatch). ", 100 * u.fraction_explained) + rmse_change;
   } else {
     t += (u.present ? "Left out (a partial explanation): " : "Left out: ") + listEffects(true) + ". ";
-    if (!partial.empty()) t += "Also in the fit, but not named (confounded with the remainder): " + partial + ". ";
+    if (!partial.empty())
+      t += "Also in the fit, but not named (they may stand in for part of the remainder; see their findings): " +
+           partial + ". ";
     t += rmse_change;
     if (u.present) {
       t += fmt(" The candidates explain %.0f %% of the mismatch; ", 100 * u.fraction_explained) + u.where +

@@ -67,7 +67,7 @@ void registerDiagnosis(pyb::module_& m) {
       [](const Robot& robot, const pyb::object& recording, const std::string& frame, int folds, int threads,
          int max_effects, double bic_threshold, const std::optional<std::vector<std::string>>& candidates,
          const pyb::object& progress, bool with_report, const std::optional<std::string>& noise,
-         const std::string& branch, bool calibrate) {
+         const std::string& branch, bool calibrate, int max_rows) {
         const io::Recording rec = recordingFrom(recording, robot.size());
         if (rec.rows() < 8) {
           const std::string file = pyb::isinstance<io::Recording>(recording) ? std::string("<recording>")
@@ -86,9 +86,11 @@ void registerDiagnosis(pyb::module_& m) {
         if (folds < 2 || folds > 20) throw pyb::value_error("folds: must be in 2..20");
         if (threads < 1 || threads > 64) throw pyb::value_error("threads: must be in 1..64");
         if (max_effects < 0 || max_effects > 6) throw pyb::value_error("max_effects: must be in 0..6");
+        if (max_rows < 0) throw pyb::value_error("max_rows: must be >= 0 (0: every row)");
         d.folds = folds;
         d.threads = threads;
         d.max_effects = max_effects;
+        d.max_rows = max_rows;
         d.calibrate_description = calibrate;
         d.bic_threshold = bic_threshold;
         if (candidates)
@@ -134,14 +136,16 @@ void registerDiagnosis(pyb::module_& m) {
         return out;
       },
       arg("robot"), arg("recording"), arg("frame") = "base", arg("folds") = 4, arg("threads") = 2,
-      arg("max_effects") = 4, arg("bic_threshold") = 10.0, arg("candidates") = pyb::none(),
-      arg("progress") = pyb::none(), arg("with_report") = false, arg("noise") = pyb::none(),
-      arg("branch") = toString(BranchRule::Auto), arg("calibrate") = false,
+      arg("max_effects") = diagnosis::DiagnoseOptions{}.max_effects, arg("bic_threshold") = 10.0,
+      arg("candidates") = pyb::none(), arg("progress") = pyb::none(), arg("with_report") = false,
+      arg("noise") = pyb::none(), arg("branch") = toString(BranchRule::Auto), arg("calibrate") = false,
+      arg("max_rows") = diagnosis::DiagnoseOptions{}.max_rows,
       "`ctr diagnose`: where the recording (a path or a ctr.Recording) and the nominal robot differ, and which "
       "left-out physics explains it. Returns the dict of the diagnosis JSON (formats.md; the same object as "
       "--json writes); with_report=True returns (dict, Markdown report). progress: a callable taking a str. "
       "noise: the tracker's noise as `--noise` takes it ('tip_position=0.5mm,tip_tangent=1deg'); branch: 'auto', "
-      "'path' or 'rest' (docs/diagnosis.md); calibrate: `--calibrate`. Runs without the GIL.");
+      "'path' or 'rest' (docs/diagnosis.md); calibrate: `--calibrate`; max_rows: `--max-rows`. Runs without the "
+      "GIL.");
 }
 
 }  // namespace ctr::py

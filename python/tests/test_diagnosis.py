@@ -59,6 +59,18 @@ def test_diagnose_releases_the_gil():
     assert len(ticks) > 5
 
 
+def test_diagnose_decimates_to_max_rows():
+    """max_rows from Python: the 73-row recording with max_rows=30 uses one row in 3 (25 rows); a negative value
+    raises."""
+    robot = ctr.load_robot(str(EXAMPLES / "recordings" / "friction_masked_B.robot.yaml"))
+    rec = ctr.load_recording(str(EXAMPLES / "recordings" / "friction_masked_B.csv"))
+    got = ctr.diagnose(robot, rec, candidates=["boundary_friction"], max_effects=1, threads=1, max_rows=30)
+    assert got["stride"] == 3 and got["rows"] == 25
+    assert ctr.diagnose(robot, rec, candidates=["boundary_friction"], max_effects=0, threads=1)["stride"] == 1
+    with pytest.raises(ValueError, match="max_rows"):
+        ctr.diagnose(robot, rec, max_rows=-1)
+
+
 def test_diagnose_takes_the_noise_and_the_branch_rule():
     """--noise and --branch from Python: the noise is reported as given, the rule as asked; bad values raise."""
     robot = ctr.load_robot(str(EXAMPLES / "recordings" / "friction_masked_B.robot.yaml"))

@@ -7,6 +7,7 @@
 #include <cmath>
 
 #include <fstream>
+#include <optional>
 
 #include "actuation_cases.hpp"
 #include "ctr/diagnosis/diagnose.hpp"
@@ -49,6 +50,14 @@ std::vector<int> failedRows(const DiagnosisReport& rep) {
   std::vector<int> v;
   for (const FailedRow& f : rep.failed_rows) v.push_back(f.row);
   return v;
+}
+
+// The real Dupont-lab log (../shared), imported; empty when it is not beside the checkout.
+const std::string kRealLog =
+    std::string(CTR_SHARED_DIR) + "/data/dupont-lab-ctr-trajectory-hjhdog1/jointTipTrajectory_measured_short.txt";
+std::optional<io::Recording> realLog() {
+  if (!std::ifstream(kRealLog)) return std::nullopt;
+  return importTable(kRealLog, dupontLabImportOptions());
 }
 
 }  // namespace
@@ -205,20 +214,29 @@ TEST(Diagnose, TranslationOffsetOfAStageIsNamed) {
 }
 
 namespace {
-// Pair B random walk whose tube-2 drive really turned 8 % more than commanded (a gear-ratio error: no candidate).
-io::Recording gearRatioRecording(const Robot& r) {
-  Eigen::VectorXd time;
-  const std::vector<Configuration> cmd = walk(r, 150, 0.1, 5, false, time);
+// The commands of a walk logged while the tube-2 drive really turned to turned(command) (no candidate models it):
+// position 0.1 mm, tangent 0.2 deg, twist 0.5 deg noise.
+template <class Turned>
+io::Recording driveErrorRecording(const Robot& r, const std::vector<Configuration>& cmd, const Eigen::VectorXd& time,
+                                  Turned turned, unsigned seed) {
   std::vector<Configuration> truth = cmd;
-  for (Configuration& q : truth) q.alpha[1] *= 1.08;
+  for (Configuration& q : truth) q.alpha[1] = turned(q.alpha[1]);
   SimulationOptions s;
   s.position_sd = 1e-4;
   s.tangent_sd = 0.2 * M_PI / 180;
   s.twist_sd = 0.5 * M_PI / 180;
-  s.seed = 5;
+  s.seed = seed;
   io::Recording rec = simulateRecording(r, truth, time, {}, s);
   rec.commands = cmd;  // the log shows the commands, not what the drive did
   return rec;
+}
+
+// Pair B random walk whose tube-2 drive really turned 8 % more than commanded (a gear-ratio error).
+io::Recording gearRatioRecording(const Robot& r) {
+  Eigen::VectorXd time;
+  const std::vector<Configuration> cmd = walk(r, 150, 0.1, 5, false, time);
+  return driveErrorRecording(
+      r, cmd, time, [](double a) { return 1.08 * a; }, 5);
 }
 }  // namespace
 
@@ -240,6 +258,41 @@ TEST(Diagnose, EffectOutsideTheLibraryIsUnexplainedNotNamed) {
       EXPECT_TRUE(f.partial);
       EXPECT_FALSE(f.named) << f.effect.label();
     }
+}
+
+// A stand-in whose value follows the rows it is fitted on: the tube-2 drive turns 20 deg further than commanded
+// whenever its command is above the median (say a cable that catches on one side; no candidate models it), with the
+// drive offset as the only candidate and no generic model. The offset takes up part of it, but its value differs
+// between the halves of the rows split by alpha_2 (0 and 20 deg): it stays in the fit (the final model predicts
+// held-out rows better than the nominal one) as a partial explanation, not named.
+TEST(Diagnose, AnEffectWhoseValueIsNotConstantStaysInTheFitUnnamed) {
+  const Robot r = robot("tube_pair_B");
+  Eigen::VectorXd time;
+  const std::vector<Configuration> cmd = walk(r, 150, 0.1, 5, false, time);
+  std::vector<double> a2;
+  for (const Configuration& q : cmd) a2.push_back(q.alpha[1]);
+  std::nth_element(a2.begin(), a2.begin() + a2.size() / 2, a2.end());
+  const double median = a2[a2.size() / 2];
+  const io::Recording rec = driveErrorRecording(
+      r, cmd, time, [median](double a) { return a > median ? a + 20 * M_PI / 180 : a; }, 7);
+  DiagnoseOptions o;
+  o.candidates = {EffectKind::ActuatorOffset};
+  o.generic_models = false;
+  const DiagnosisReport rep = diagnose(r, rec, o);
+  EXPECT_TRUE(rep.verdict.empty()) << rep.summary;
+  ASSERT_TRUE(rep.unexplained.present) << rep.summary;
+  ASSERT_EQ(rep.final_effects.size(), 1u) << rep.summary;
+  EXPECT_EQ(rep.final_effects[0].kind, EffectKind::ActuatorOffset);
+  EXPECT_EQ(rep.final_effects[0].tube, 2);
+  for (const Finding& f : rep.findings)
+    if (f.accepted) {
+      EXPECT_EQ(f.effect.label(), rep.final_effects[0].label());
+      EXPECT_FALSE(f.named);
+      EXPECT_TRUE(f.partial);
+      EXPECT_TRUE(contains(f.explanation, "depends on which rows it is fitted on")) << f.explanation;
+    }
+  EXPECT_LT(rep.final.heldout_score, rep.baseline.heldout_score);
+  EXPECT_TRUE(contains(rep.summary, "not named")) << rep.summary;
 }
 
 TEST(Diagnose, TrackerDriftIsUnexplainedNotNamed) {
@@ -264,11 +317,9 @@ TEST(Diagnose, TrackerDriftIsUnexplainedNotNamed) {
 // is recovered on top of whatever the real data needs (candidates restricted to the shift group and latency to keep
 // the test short; scripts/honest_diagnosis_cases.py runs the whole log with the full library).
 TEST(RealLog, AnOffsetWrittenIntoTheRealLogIsRecovered) {
-  const std::string path =
-      std::string(CTR_SHARED_DIR) + "/data/dupont-lab-ctr-trajectory-hjhdog1/jointTipTrajectory_measured_short.txt";
-  std::ifstream f(path);
-  if (!f) GTEST_SKIP() << "no " << path;
-  io::Recording rec = importTable(path, dupontLabImportOptions());
+  std::optional<io::Recording> real = realLog();
+  if (!real) GTEST_SKIP() << "no " << kRealLog;
+  io::Recording rec = *real;
   const int rows = 300;
   rec.commands.resize(rows);
   rec.time.conservativeResize(rows);
@@ -287,6 +338,63 @@ TEST(RealLog, AnOffsetWrittenIntoTheRealLogIsRecovered) {
   EXPECT_NEAR(found->value, offset, 0.2 * offset) << rep.summary;
   EXPECT_NE(std::find(rep.verdict.begin(), rep.verdict.end(), "actuator_offset"), rep.verdict.end()) << rep.summary;
   EXPECT_TRUE(rep.failed_rows.empty());
+}
+
+// Two drive errors written into the whole real log at once (scripts/honest_diagnosis_cases.py real_two_drives): an
+// 8 deg play of the tube-2 drive (the command logged half the play ahead of the tube in the direction of motion) and
+// a 6 deg offset of tube 1. Both are named beside the log's own latency and friction, the play with the 8 deg inside
+// its 95 % interval, the offset with 6 deg (and the 6 deg plus the log's own 2.9 deg) inside its interval; the
+// log's Poisson-ratio stand-in stays in the fit, not named. Candidates restricted to the lag and shift groups (the
+// full library gives the same values; docs/diagnosis.md "Evidence"). Not in the sanitizer set (~28 s in Release).
+TEST(RealLogTwoDrives, APlayAndAnOffsetWrittenIntoTheRealLogAreBothNamed) {
+  std::optional<io::Recording> real = realLog();
+  if (!real) GTEST_SKIP() << "no " << kRealLog;
+  io::Recording rec = *real;
+  const double play = 8 * M_PI / 180, offset = 6 * M_PI / 180;
+  double direction = 0, ref = rec.commands.front().alpha[1];
+  for (Configuration& q : rec.commands) {
+    const double a = q.alpha[1];  // direction of motion of the logged angle, ignoring encoder noise below 1e-4 rad
+    if (a - ref > 1e-4) {
+      direction = 1;
+      ref = a;
+    } else if (ref - a > 1e-4) {
+      direction = -1;
+      ref = a;
+    } else if (direction > 0) {
+      ref = std::max(ref, a);
+    } else if (direction < 0) {
+      ref = std::min(ref, a);
+    }
+    q.alpha[1] = a + 0.5 * play * direction;
+    q.alpha[0] -= offset;
+  }
+  DiagnoseOptions o;
+  o.frame = FrameMode::Unknown;
+  o.candidates = {EffectKind::SensorLatency,  EffectKind::BoundaryFriction,   EffectKind::ActuatorBacklash,
+                  EffectKind::ActuatorOffset, EffectKind::TorsionalStiffness, EffectKind::TranslationOffset};
+  const DiagnosisReport rep = diagnose(robot("dupont_lab_3tube"), rec, o);
+  auto named = [&](EffectKind kind, int tube) -> const Finding* {
+    for (const Finding& fi : rep.findings)
+      if (fi.accepted && fi.named && fi.effect.kind == kind && fi.effect.tube == tube) return &fi;
+    return nullptr;
+  };
+  auto covers = [](const Finding& fi, double v) {
+    const auto& iv = fi.parameters.back().interval95.at(0);
+    return iv[0] <= v && v <= iv[1];
+  };
+  const Finding* b = named(EffectKind::ActuatorBacklash, 2);
+  const Finding* a = named(EffectKind::ActuatorOffset, 1);
+  ASSERT_NE(b, nullptr) << rep.summary;
+  ASSERT_NE(a, nullptr) << rep.summary;
+  EXPECT_TRUE(covers(*b, play)) << b->effect.valueText();
+  EXPECT_TRUE(covers(*a, offset) && covers(*a, offset + 2.9 * M_PI / 180)) << a->effect.valueText();
+  EXPECT_NE(named(EffectKind::SensorLatency, 0), nullptr) << rep.summary;
+  bool poisson_in_fit = false;
+  for (const Effect& e : rep.final_effects) poisson_in_fit = poisson_in_fit || e.kind == EffectKind::TorsionalStiffness;
+  EXPECT_TRUE(poisson_in_fit) << rep.summary;
+  EXPECT_EQ(named(EffectKind::TorsionalStiffness, 0), nullptr) << rep.summary;
+  // Held-out tip error: 7.06 -> 2.71 mm.
+  EXPECT_LT(rep.final.heldout_rmse.at("tip_position"), 0.5 * rep.baseline.heldout_rmse.at("tip_position"));
 }
 
 // A twist-only recording sees only relative rotations: an offset of tube 2 by +8 deg and of tube 1 by -8 deg fit it

@@ -51,7 +51,7 @@ const char* toString(DiagnoseProgress::Stage stage);
 struct DiagnoseOptions {
   FrameMode frame = FrameMode::Base;  ///< Unknown: registration estimated in every model (baseline included).
   int folds = 4;                      ///< Contiguous held-out blocks.
-  int max_effects = 4;                ///< Largest combination of effects selected one by one (the parameters
+  int max_effects = 6;                ///< Largest combination of effects selected one by one (the parameters
                                       ///< of a calibrated description do not count).
   /// When the selected effects leave a remainder: fit what a robot calibration fits (precurvatures, bending stiffness
   /// ratios, torsional stiffness, drive zeros) together on top of them and, if the block passes the selection's
@@ -72,7 +72,7 @@ struct DiagnoseOptions {
                                        ///< screening BIC (plus all within twice bic_threshold of the best); the
                                        ///< round's winner alone is then refitted jointly.
   double unreliable_fraction = 0.05;   ///< More failed rows than this fraction make the verdict unreliable.
-  int max_rows = 300;                  ///< Longer recordings are decimated uniformly (every k-th row, history kept
+  int max_rows = 600;                  ///< Longer recordings are decimated uniformly (every k-th row, history kept
                                        ///< by the quasi-static sub-stepping) to bound the run time; 0 = never.
   /// Noise given by the user (a tracker's specification); the quantities not given are estimated (noise.hpp).
   GivenNoise noise;
@@ -123,8 +123,9 @@ struct Finding {
   double delta_bic = 0.0;             ///< BIC(model with it) - BIC(model of its round).
   std::vector<Rival> ambiguous_with;  ///< Look-alikes this recording cannot tell from it (accepted only).
   bool partial = false;               ///< Accepted, but a structured remainder is left (see `unexplained`).
-  bool named = true;                  ///< Accepted and named in the verdict (false: partial explanation
-                                      ///< confounded with the unexplained remainder; kept in the final fit).
+  bool named = true;                  ///< Accepted and named in the verdict (false: a partial explanation kept in
+                                      ///< the final fit, its value not constant over the recording or confounded
+                                      ///< with the unexplained remainder; the explanation says which).
   /// Accepted with a fitted coordinate at a limit of its search range (fit.hpp parameterRange) that its nominal value
   /// is not at: the recording asks for more, so the value is a bound, not an estimate.
   bool at_range_limit = false;

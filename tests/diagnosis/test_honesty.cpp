@@ -6,7 +6,6 @@
 #include <algorithm>
 #include <cmath>
 
-#include <fstream>
 #include <optional>
 
 #include "actuation_cases.hpp"
@@ -14,6 +13,7 @@
 #include "ctr/diagnosis/import.hpp"
 #include "ctr/diagnosis/simulate.hpp"
 #include "ctr/io/robot_yaml.hpp"
+#include "real_log.hpp"
 
 using namespace ctr;
 using namespace ctr::diagnosis;
@@ -50,14 +50,6 @@ std::vector<int> failedRows(const DiagnosisReport& rep) {
   std::vector<int> v;
   for (const FailedRow& f : rep.failed_rows) v.push_back(f.row);
   return v;
-}
-
-// The real Dupont-lab log (../shared), imported; empty when it is not beside the checkout.
-const std::string kRealLog =
-    std::string(CTR_SHARED_DIR) + "/data/dupont-lab-ctr-trajectory-hjhdog1/jointTipTrajectory_measured_short.txt";
-std::optional<io::Recording> realLog() {
-  if (!std::ifstream(kRealLog)) return std::nullopt;
-  return importTable(kRealLog, dupontLabImportOptions());
 }
 
 }  // namespace
@@ -317,8 +309,8 @@ TEST(Diagnose, TrackerDriftIsUnexplainedNotNamed) {
 // is recovered on top of whatever the real data needs (candidates restricted to the shift group and latency to keep
 // the test short; scripts/honest_diagnosis_cases.py runs the whole log with the full library).
 TEST(RealLog, AnOffsetWrittenIntoTheRealLogIsRecovered) {
-  std::optional<io::Recording> real = realLog();
-  if (!real) GTEST_SKIP() << "no " << kRealLog;
+  std::optional<io::Recording> real = test::realLog();
+  if (!real) GTEST_SKIP() << "no " << test::kRealLog;
   io::Recording rec = *real;
   const int rows = 300;
   rec.commands.resize(rows);
@@ -347,8 +339,8 @@ TEST(RealLog, AnOffsetWrittenIntoTheRealLogIsRecovered) {
 // log's Poisson-ratio stand-in stays in the fit, not named. Candidates restricted to the lag and shift groups (the
 // full library gives the same values; docs/diagnosis.md "Evidence"). Not in the sanitizer set (~28 s in Release).
 TEST(RealLogTwoDrives, APlayAndAnOffsetWrittenIntoTheRealLogAreBothNamed) {
-  std::optional<io::Recording> real = realLog();
-  if (!real) GTEST_SKIP() << "no " << kRealLog;
+  std::optional<io::Recording> real = test::realLog();
+  if (!real) GTEST_SKIP() << "no " << test::kRealLog;
   io::Recording rec = *real;
   const double play = 8 * M_PI / 180, offset = 6 * M_PI / 180;
   double direction = 0, ref = rec.commands.front().alpha[1];

@@ -7,12 +7,12 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
-#include <fstream>
 
 #include "ctr/diagnosis/diagnose.hpp"
 #include "ctr/diagnosis/import.hpp"
 #include "ctr/diagnosis/simulate.hpp"
 #include "ctr/io/robot_yaml.hpp"
+#include "real_log.hpp"
 
 using namespace ctr;
 using namespace ctr::diagnosis;
@@ -195,11 +195,9 @@ TEST(PoseSet, NoVerdictRestsOnAnOffBranchRow) {
 // A null recording of the real Dupont-lab design on the real joint path, measured like the real log (1 mm, 1.5 deg,
 // an unknown tracker frame): an empty verdict and no unexplained remainder.
 TEST(RealDesign, NullRecordingMeasuredLikeTheRealLogRaisesNoAlarm) {
-  const std::string path =
-      std::string(CTR_SHARED_DIR) + "/data/dupont-lab-ctr-trajectory-hjhdog1/jointTipTrajectory_measured_short.txt";
-  std::ifstream f(path);
-  if (!f) GTEST_SKIP() << "no " << path;
-  const io::Recording real = importTable(path, dupontLabImportOptions());
+  const std::optional<io::Recording> loaded = test::realLog();
+  if (!loaded) GTEST_SKIP() << "no " << test::kRealLog;
+  const io::Recording& real = *loaded;
   const Robot r = robot("dupont_lab_3tube");
   SimulationOptions s;
   s.twist = false;

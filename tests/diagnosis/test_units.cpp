@@ -7,7 +7,6 @@
 
 #include <algorithm>
 #include <cmath>
-#include <fstream>
 #include <map>
 
 #include "ctr/diagnosis/diagnose.hpp"
@@ -15,6 +14,7 @@
 #include "ctr/diagnosis/simulate.hpp"
 #include "ctr/diagnosis/statistics.hpp"
 #include "ctr/io/robot_yaml.hpp"
+#include "real_log.hpp"
 
 using namespace ctr;
 using namespace ctr::diagnosis;
@@ -118,11 +118,9 @@ TEST(Import, MappingUnwrapAndDupontFormat) {
   unwrapAngles(a);
   EXPECT_NEAR(a[1], 2 * M_PI - 3.0, 1e-12);
   EXPECT_NEAR(a[3], 3.1, 1e-12);
-  const std::string path =
-      std::string(CTR_SHARED_DIR) + "/data/dupont-lab-ctr-trajectory-hjhdog1/jointTipTrajectory_measured_short.txt";
-  std::ifstream f(path);
-  if (!f) GTEST_SKIP() << "no " << path;
-  const io::Recording rec = importTable(path, dupontLabImportOptions());
+  const std::optional<io::Recording> loaded = test::realLog();
+  if (!loaded) GTEST_SKIP() << "no " << test::kRealLog;
+  const io::Recording& rec = *loaded;
   EXPECT_EQ(rec.rows(), 1307);
   EXPECT_EQ(rec.tubes, 3);
   EXPECT_TRUE(rec.hasTime() && rec.hasTipPosition() && rec.hasTipTangent() && !rec.hasTwist());

@@ -7,6 +7,8 @@
 #include <iostream>
 #include <sstream>
 
+#include "ctr/model/replay.hpp"
+
 namespace ctr::cli {
 
 double parseNumber(const std::string& text0, const std::string& what, bool angle) {
@@ -151,6 +153,19 @@ CLI::Validator finiteAtLeast(bool strict) {
 
 CLI::Validator finitePositive() { return finiteAtLeast(true); }
 CLI::Validator finiteNonNegative() { return finiteAtLeast(false); }
+
+CLI::Validator branchRuleValidator() {
+  return CLI::Validator(
+      [](std::string& text) -> std::string {
+        try {
+          parseBranchRule(text);
+        } catch (const std::invalid_argument& e) {
+          return e.what();
+        }
+        return "";
+      },
+      "path|rest");
+}
 
 void FrictionCli::add(CLI::App* app) {
   app->add_option("--boundary-friction", boundary, "Lumped friction coefficient mu' (overrides the robot's)")

@@ -56,6 +56,8 @@ void checkOutputPath(const std::string& option, const std::string& path,
 CLI::Validator finitePositive();
 /// @brief CLI11 check: a finite number >= 0.
 CLI::Validator finiteNonNegative();
+/// @brief CLI11 check: a branch rule parseBranchRule accepts (its message names the valid ones).
+CLI::Validator branchRuleValidator();
 
 }  // namespace ctr::cli
 

@@ -18,7 +18,7 @@ namespace ctr::cli {
 void registerDiagnose(CLI::App& app, Action& action) {
   struct Opts {
     std::string robot, recording, frame = toString(diagnosis::FrameMode::Base), json, report, plot, candidates, html,
-                                  noise, branch = toString(BranchRule::Auto);
+                                  noise, branch = toString(BranchRule::Path);
     int folds = 4, threads = 2, max_effects = diagnosis::DiagnoseOptions{}.max_effects,
         max_rows = diagnosis::DiagnoseOptions{}.max_rows;
     double bic_threshold = 10.0;
@@ -44,10 +44,10 @@ void registerDiagnose(CLI::App& app, Action& action) {
                   "tip_position=0.5mm,tip_tangent=1deg,twist=2deg; quantities not given are estimated from the "
                   "recording (repeated poses, else neighbouring rows)");
   sub->add_option("--branch", o->branch,
-                  "How the replay reaches each row's equilibrium: auto (continuation along moves of at most 30 deg / "
-                  "10 mm from the previous row, from rest after larger ones), path (always continuation: the robot "
-                  "moved straight between rows), rest (always from rest: the path between rows is unknown)")
-      ->check(CLI::IsMember({toString(BranchRule::Auto), toString(BranchRule::Path), toString(BranchRule::Rest)}));
+                  "How the replay reaches each row's equilibrium: path (default: continuation along the move from the "
+                  "previous row, whatever its size -- rows are in the order taken; other equilibria after long "
+                  "moves are listed in branch_ambiguous_rows), rest (from rest: the robot was re-homed between rows)")
+      ->check(branchRuleValidator());
   sub->add_option("--folds", o->folds, "Contiguous held-out blocks")->check(CLI::Range(2, 20));
   sub->add_option("--threads", o->threads, "Candidates fitted in parallel")->check(CLI::Range(1, 64));
   sub->add_option("--max-effects", o->max_effects, "Largest combination of effects")->check(CLI::Range(0, 6));

@@ -75,7 +75,7 @@ void registerInject(CLI::App* parent, Action& action) {
     std::string robot, actuation, pattern = "sweep", out, truth, measure = "twist,tip_position,tip_tangent";
     std::vector<std::string> effects;
     std::string noise_twist = "0.5deg", noise_tangent = "0.2deg", repeat_tangent = "0",
-                branch = toString(BranchRule::Auto);
+                branch = toString(BranchRule::Path);
     double noise_position = 1e-4, dt = 0.1, step_deg = 10, max_speed = 1.0, returns = 0.0, repeat_position = 0.0;
     int rows = 150, frames = 1;
     bool translate = false, sensor_frame = false;
@@ -100,10 +100,11 @@ void registerInject(CLI::App* parent, Action& action) {
       ->check(CLI::Range(0.0, 0.9));
   sub->add_option("--frames", o->frames, "Log every pose this many times in a row (a tracker's repeated frames)")
       ->check(CLI::Range(1, 1000));
-  sub->add_option("--branch", o->branch,
-                  "How the robot reaches each row: auto, path (straight between rows), rest (from rest); as "
-                  "`ctr simulate --branch`")
-      ->check(CLI::IsMember({toString(BranchRule::Auto), toString(BranchRule::Path), toString(BranchRule::Rest)}));
+  sub->add_option(
+         "--branch", o->branch,
+         "How the robot reaches each row: path (default: straight from the previous row), rest (from rest); as "
+         "`ctr simulate --branch`")
+      ->check(branchRuleValidator());
   sub->add_option("--effect", o->effects,
                   "Effect to inject, e.g. boundary_friction:mu=0.12, "
                   "actuator_backlash:tube=2,width=12deg, tip_load:force=0.05,0,-0.1 (N, base "

@@ -10,7 +10,7 @@ namespace ctr::cli {
 
 void registerSimulate(CLI::App& app, Action& action) {
   struct Opts {
-    std::string robot, actuation, out, branch = toString(BranchRule::Auto);
+    std::string robot, actuation, out, branch = toString(BranchRule::Path);
     bool allow_failures = false;
     FrictionCli friction;
     LoadsCli loads;
@@ -24,10 +24,9 @@ void registerSimulate(CLI::App& app, Action& action) {
   sub->add_option("--out", o->out, "Recording CSV to write (formats.md columns)")->required();
   sub->add_flag("--allow-failures", o->allow_failures, "Write rows that did not converge with empty measurements");
   sub->add_option("--branch", o->branch,
-                  "How each row's equilibrium is reached: auto (continuation along small moves from the previous "
-                  "row, from rest after the first row and moves beyond 30 deg / 10 mm), path (always continuation), "
-                  "rest (always from rest); docs/friction.md \"Replaying a sequence\"")
-      ->check(CLI::IsMember({toString(BranchRule::Auto), toString(BranchRule::Path), toString(BranchRule::Rest)}));
+                  "How each row's equilibrium is reached: path (default: continuation along the move from the previous "
+                  "row), rest (from rest: the robot re-homed between rows); docs/friction.md \"Replaying a sequence\"")
+      ->check(branchRuleValidator());
   o->friction.add(sub);
   o->loads.add(sub);
   sub->callback([o, &action]() {

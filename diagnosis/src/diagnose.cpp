@@ -91,7 +91,7 @@ void State::count(int replays) {
 void updateNoise(State& s, const Visits& visits) {
   if (s.cur.fit.effects.empty()) return;
   const NoiseReport fin =
-      estimateNoise(s.rec, s.cur.fit.residuals, s.cur.fit.prediction.reached, s.evaluable, s.o.noise, &visits);
+      estimateNoise(s.rec, s.cur.fit.residuals, s.cur.fit.prediction, s.evaluable, s.o.noise, &visits);
   bool changed = false;
   for (auto& [q, e] : s.rep.noise.by_quantity) {
     const auto f = fin.by_quantity.find(q);
@@ -144,24 +144,25 @@ double rowScoreOf(const io::Recording& rec, int k, const Solution& sol, const Re
 
 }  // namespace detail
 
-DiagnosisReport diagnose(const Robot& nominal, const io::Recording& given, const DiagnoseOptions& o) {
+namespace {
+
+/// What a pass leaves for the glitch screen: the final model's residuals, the noise and the rows it used.
+struct PassResult {
+  Residuals residuals;
+  NoiseLevels noise;
+  std::vector<char> evaluable;
+  std::vector<int> origin;
+};
+
+/// One diagnosis of the rows `rec` (visits of `given`, every stride-th), with the rows in `outliers` left out of
+/// every fit, test and score after the baseline replay.
+DiagnosisReport diagnosePass(const Robot& nominal, const io::Recording& given, const Visits& visits,
+                             const io::Recording& rec, int stride, const DiagnoseOptions& o,
+                             const std::vector<std::pair<int, OutlierRow>>& outliers, PassResult& out) {
   using detail::fmt;
   using Stage = DiagnoseProgress::Stage;
-  if (given.tubes != nominal.size())
-    throw std::invalid_argument("recording has " + std::to_string(given.tubes) + " tubes, robot '" + nominal.name() +
-                                "' has " + std::to_string(nominal.size()));
-  // 1. The rows diagnosed: repeated frames (consecutive rows with one command) averaged into visits, then every
-  //    stride-th visit of a long recording (the replay passes through the path between them).
-  const Visits visits = collapseFrames(given);
   const io::Recording& vrec = visits.recording;
-  const int stride = (o.max_rows > 0 && vrec.rows() > o.max_rows) ? (vrec.rows() + o.max_rows - 1) / o.max_rows : 1;
-  const io::Recording decimated = stride > 1 ? decimateRecording(vrec, stride) : io::Recording{};
-  const io::Recording& rec = stride > 1 ? decimated : vrec;  // = diagnosedRows(given, stride)
   const int rows = rec.rows();
-  if (rows < 8)
-    throw std::invalid_argument("recording has " + std::to_string(rows) + " distinct rows" +
-                                (visits.anyRepeated() ? " (after averaging repeated frames)" : "") +
-                                "; at least 8 are needed");
   DiagnosisReport rep;
   rep.frame = o.frame;
   rep.rows = rows;
@@ -218,6 +219,15 @@ DiagnosisReport diagnose(const Robot& nominal, const io::Recording& given, const
     rep.failed_rows.push_back(
         {s.origin[static_cast<std::size_t>(k)], s.base.prediction.reason[static_cast<std::size_t>(k)], "nominal"});
   }
+  for (const auto& [k, row] : outliers) s.evaluable[static_cast<std::size_t>(k)] = 0;
+  for (const auto& [k, row] : outliers) rep.outlier_rows.push_back(row);
+  if (!outliers.empty()) {
+    rep.warnings.push_back(std::to_string(outliers.size()) +
+                           " row(s) look like tracker glitches (their residuals under the final model are far beyond "
+                           "the noise and their neighbours') and are excluded from every fit, test and score "
+                           "(outlier_rows)");
+    s.say(Stage::Baseline, rep.warnings.back());
+  }
   if (nfailed == rows)
     throw std::runtime_error(
         "the nominal model could not evaluate any row of the recording (row 1: " + s.base.prediction.reason[0] + ")");
@@ -230,11 +240,11 @@ DiagnosisReport diagnose(const Robot& nominal, const io::Recording& given, const
   auto estimate = [&]() {
     s.fo.rows = s.evaluable;  // (the registration already skipped failed rows: their predictions are NaN)
     excludeRows(s.base.residuals, s.evaluable);
-    rep.noise = estimateNoise(rec, s.base.residuals, s.base.prediction.reached, s.evaluable, o.noise, &visits);
+    rep.noise = estimateNoise(rec, s.base.residuals, s.base.prediction, s.evaluable, o.noise, &visits);
     s.fo.noise = rep.noise.levels();
     if (o.frame == FrameMode::Unknown) {
       s.base = evaluateModel(nominal, rec, {}, s.all, s.fo, s.ws);
-      rep.noise = estimateNoise(rec, s.base.residuals, s.base.prediction.reached, s.evaluable, o.noise, &visits);
+      rep.noise = estimateNoise(rec, s.base.residuals, s.base.prediction, s.evaluable, o.noise, &visits);
       s.fo.noise = rep.noise.levels();
       s.base = evaluateModel(nominal, rec, {}, s.all, s.fo, s.ws);
     }
@@ -334,6 +344,60 @@ DiagnosisReport diagnose(const Robot& nominal, const io::Recording& given, const
   rep.seconds = s.progress.seconds;
   s.say(Stage::Done, fmt("done in %.1f s: %.0f round(s), %.0f replays", rep.seconds, rep.rounds, rep.evaluations));
   rep.seconds = s.progress.seconds;
+  out.residuals = s.cur.fit.residuals;
+  out.noise = s.fo.noise;
+  out.evaluable = s.evaluable;
+  out.origin = s.origin;
+  return rep;
+}
+
+}  // namespace
+
+DiagnosisReport diagnose(const Robot& nominal, const io::Recording& given, const DiagnoseOptions& o) {
+  if (given.tubes != nominal.size())
+    throw std::invalid_argument("recording has " + std::to_string(given.tubes) + " tubes, robot '" + nominal.name() +
+                                "' has " + std::to_string(nominal.size()));
+  // 1. The rows diagnosed: repeated frames (consecutive rows with one command) averaged into visits, then every
+  //    stride-th visit of a long recording (the replay passes through the path between them).
+  const Visits visits = collapseFrames(given);
+  const io::Recording& vrec = visits.recording;
+  const int stride = (o.max_rows > 0 && vrec.rows() > o.max_rows) ? (vrec.rows() + o.max_rows - 1) / o.max_rows : 1;
+  const io::Recording decimated = stride > 1 ? decimateRecording(vrec, stride) : io::Recording{};
+  const io::Recording& rec = stride > 1 ? decimated : vrec;  // = diagnosedRows(given, stride)
+  const int rows = rec.rows();
+  if (rows < 8)
+    throw std::invalid_argument("recording has " + std::to_string(rows) + " distinct rows" +
+                                (visits.anyRepeated() ? " (after averaging repeated frames)" : "") +
+                                "; at least 8 are needed");
+  // 2-3. The diagnosis; then rows that look like tracker glitches under its final model are left out and the diagnosis
+  //      runs again (up to twice), so that neither the fitted values nor the noise rest on them.
+  std::vector<std::pair<int, OutlierRow>> outliers;
+  PassResult pass;
+  DiagnosisReport rep = diagnosePass(nominal, given, visits, rec, stride, o, outliers, pass);
+  double seconds = rep.seconds;
+  int replays = rep.evaluations;
+  for (int again = 0; again < 2; ++again) {
+    const auto found = detail::screenOutliers(rec, pass.residuals, pass.noise, pass.evaluable, pass.origin,
+                                              o.outlier_alpha, o.max_outlier_fraction);
+    if (found.empty() ||
+        static_cast<double>(outliers.size() + found.size()) > o.max_outlier_fraction * static_cast<double>(rows))
+      break;
+    outliers.insert(outliers.end(), found.begin(), found.end());
+    std::sort(outliers.begin(), outliers.end(), [](const auto& a, const auto& b) { return a.first < b.first; });
+    if (o.progress) {
+      DiagnoseProgress p;
+      p.stage = DiagnoseProgress::Stage::Baseline;
+      p.seconds = seconds;
+      p.message = std::to_string(found.size()) + " row(s) look like tracker glitches under the final model; " +
+                  "diagnosing again without them";
+      o.progress(p);
+    }
+    rep = diagnosePass(nominal, given, visits, rec, stride, o, outliers, pass);
+    seconds += rep.seconds;
+    replays += rep.evaluations;
+  }
+  rep.seconds = seconds;
+  rep.evaluations = replays;
   return rep;
 }
 

@@ -220,6 +220,17 @@ void assessDetectionLimits(State& s);
 /// The verdict, the findings with their final values, failed-row reliability and the summary paragraph.
 void writeVerdict(State& s);
 
+/// Rows whose residual `r` (under the final model, on the rows flagged in `use`) looks like a tracker glitch: beyond
+/// the noise times the residuals' own robust scale (their median over the chi-square median) at a family-wise rate
+/// `alpha` over rows and quantities, alone (neither neighbouring row beyond the limit: a stretch of such rows is model
+/// error), and -- along a densely sampled path, where model error is smooth -- beyond it against the mean of the two
+/// neighbouring rows as well. None when more than `max_fraction` of the rows would be.
+/// Each with its row index in `rec` and the row of the recording as given (`origin`).
+std::vector<std::pair<int, OutlierRow>> screenOutliers(const io::Recording& rec, const Residuals& r,
+                                                       const NoiseLevels& noise, const std::vector<char>& use,
+                                                       const std::vector<int>& origin, double alpha,
+                                                       double max_fraction);
+
 /// Plain words for the significant locate tests of a residual (for `unexplained.where`).
 std::string remainderWords(const MismatchReport& m, double ratio, const NoiseReport& noise);
 

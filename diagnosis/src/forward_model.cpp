@@ -99,19 +99,6 @@ double largestMoment(const Solution& s) {
   return m;
 }
 
-/// Per kept row of a decimated log: was every full-rate step since the previous kept row a path move?
-std::vector<char> denseMoves(const std::vector<Configuration>& full, const std::vector<int>& rows,
-                             const ReplayOptions& ro) {
-  std::vector<char> dense(rows.size(), 0);
-  for (std::size_t k = 1; k < rows.size(); ++k) {
-    bool all = rows[k - 1] >= 0 && rows[k] > rows[k - 1] && rows[k] < static_cast<int>(full.size());
-    for (int i = rows[k - 1] + 1; all && i <= rows[k]; ++i)
-      all = isPathMove(full[static_cast<std::size_t>(i - 1)], full[static_cast<std::size_t>(i)], ro);
-    dense[k] = all;
-  }
-  return dense;
-}
-
 /// Per kept row of a decimated log: the full-rate commands since the previous kept row where a joint reverses (the
 /// friction memory is set at reversals; a straight move between kept rows would miss a reversal in between).
 std::vector<std::vector<Configuration>> reversalsBetween(const std::vector<Configuration>& t,
@@ -158,15 +145,13 @@ Prediction predict(const Robot& nominal, const std::vector<Configuration>& comma
   const bool friction = robot.friction().boundary > 0.0 || robot.friction().distributed > 0.0;
   if (h && static_cast<int>(h->rows.size()) == rows && !h->commands.empty()) {
     // Decimated recording: the actuation effects act on the full-rate log (a latency interpolates between logged
-    // commands 0.1 s apart, not between the kept rows; a backlash sees every reversal), then each row takes its own;
-    // whether the path to a kept row is known is judged on the full-rate steps.
+    // commands 0.1 s apart, not between the kept rows; a backlash sees every reversal), then each row takes its own.
     std::vector<Configuration> full = h->commands;
     for (Configuration& q : full) projectAdmissible(robot, q);
     const std::vector<Configuration> t = transformActuation(full, h->time, effects, &robot);
     p.actuation.resize(static_cast<std::size_t>(rows));
     for (int k = 0; k < rows; ++k)
       p.actuation[static_cast<std::size_t>(k)] = t[static_cast<std::size_t>(h->rows[static_cast<std::size_t>(k)])];
-    known.dense = denseMoves(full, h->rows, ro);
     if (friction) known.via = reversalsBetween(t, h->rows);
   } else {
     p.actuation = transformActuation(commands, time, effects, &robot);

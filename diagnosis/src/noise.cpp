@@ -139,6 +139,46 @@ VarianceEstimate robustEstimate(const std::vector<Difference>& d, std::size_t us
   return v;
 }
 
+/// Differences of residuals along the path at lags 1 and 2 around row k: |r_k - r_{k-1}|^2 / 2 and
+/// |r_{k+1} - r_{k-1}|^2 / 2 (noisy parts), each sigma^2 per component for independent noise.
+struct LagDifferences {
+  double lag1 = 0.0, lag2 = 0.0;
+};
+
+/// Tests whether the differences the estimate uses are those of independent noise: for independent noise the
+/// difference of residuals two rows apart is as large as that of neighbouring rows; a filtered or oversampled stream
+/// (noise shared by neighbouring rows) or model error that changes from row to row makes it larger (a 10-sample
+/// moving average at 50 Hz, every second sample kept: twice as large). One-sided t test of the chunk means (10-30
+/// chunks) of lag2 - lag1 at 0.1 %, and a ratio of their sums above 1.5; gross outliers (as robustEstimate screens
+/// them) left out. Fewer than 100 rows: not tested.
+void testSerialCorrelation(const std::vector<LagDifferences>& d, double variance, double per, NoiseEstimate& est) {
+  if (!(variance > 0)) return;
+  const double c = 2.0 * stats::chiSquareQuantile(0.999, per) * variance;
+  std::vector<double> x;
+  double s1 = 0.0, s2 = 0.0;
+  for (const LagDifferences& l : d) {
+    if (l.lag1 > c || l.lag2 > c) continue;
+    x.push_back((l.lag2 - l.lag1) / (variance * per));
+    s1 += l.lag1;
+    s2 += l.lag2;
+  }
+  if (x.size() < 100 || !(s1 > 0)) return;
+  const int n = static_cast<int>(x.size());
+  est.serial_ratio = s2 / s1;
+  est.serial_p = stats::chunkedMeanTest(Eigen::Map<const Eigen::VectorXd>(x.data(), n), std::clamp(n / 10, 10, 30));
+  est.white = !(est.serial_p < 0.001 && est.serial_ratio > 1.5);
+  if (!est.white) {
+    est.supported = false;
+    char b[300];
+    std::snprintf(b, sizeof b,
+                  "; residuals two rows apart differ %.2f x as much (in variance) as neighbouring ones (1 for "
+                  "independent noise; p = %.2g): a filtered or oversampled stream, or model error from row to row -- "
+                  "the noise cannot be told from these data",
+                  est.serial_ratio, est.serial_p);
+    est.note += b;
+  }
+}
+
 /// The configuration metric of the neighbours: relative angles as (cos, sin), translations over 1 cm (1 ~ 1 rad ~
 /// 1 cm).
 Eigen::MatrixXd configFeatures(const io::Recording& rec) {
@@ -261,13 +301,26 @@ bool NoiseReport::supported() const {
   return true;
 }
 
-NoiseReport estimateNoise(const io::Recording& rec, const Residuals& r, const std::vector<Reached>& reached,
+NoiseReport estimateNoise(const io::Recording& rec, const Residuals& r, const Prediction& p,
                           const std::vector<char>& use, const GivenNoise& given, const Visits* visits) {
   NoiseReport out;
   const int rows = rec.rows();
   auto usable = [&](int k) { return k >= 0 && k < rows && (use.empty() || use[static_cast<std::size_t>(k)]); };
-  auto fromRest = [&](int k) {
-    return k < static_cast<int>(reached.size()) && reached[static_cast<std::size_t>(k)] != Reached::Path;
+  // A row whose path from the previous one is not a short continuation: second differences across it would hold
+  // the model's error over a long move (a coarsely sampled motion, a pose set) or a change of branch.
+  const ReplayOptions steps;
+  auto notAlongPath = [&](int k) {
+    if (k <= 0 || k >= rows) return true;
+    if (k < static_cast<int>(p.reached.size()) && p.reached[static_cast<std::size_t>(k)] != Reached::Path) return true;
+    return isLongMove(rec.commands[static_cast<std::size_t>(k - 1)], rec.commands[static_cast<std::size_t>(k)], steps);
+  };
+  // The model predicts the same at two rows (the same branch and memory): within 1 um and 1e-5 rad, far below any
+  // tracker's noise.
+  auto samePrediction = [&](int a, int b) {
+    auto close = [&](const Eigen::MatrixXd& M, double tol) {
+      return M.rows() <= std::max(a, b) || (M.row(a) - M.row(b)).cwiseAbs().maxCoeff() <= tol;
+    };
+    return close(p.tip_position, 1e-6) && close(p.tip_tangent, 1e-5) && close(p.twist, 1e-5);
   };
   const Eigen::MatrixXd F = configFeatures(rec);
   int typical_frames = 1;
@@ -301,19 +354,23 @@ NoiseReport estimateNoise(const io::Recording& rec, const Residuals& r, const st
       out.by_quantity[q] = est;
       continue;
     }
-    // 1. Repeated poses: rows with the same command reached from rest.
+    // 1. Repeated poses: returns to a pose after a long move (a pose set), where the model predicts the same. Rows
+    //    along a short path (a sweep up and back) are left out: a robot with hysteresis is not in the same state when
+    //    it passes a command in the other direction, and that difference is not noise.
     std::vector<Difference> rep;
     {
       std::vector<int> order;
       for (int k = 0; k < rows; ++k)
-        if (finiteRow(k) && fromRest(k)) order.push_back(k);
+        if (finiteRow(k) && notAlongPath(k)) order.push_back(k);
       std::vector<char> done(order.size(), 0);
       for (std::size_t i = 0; i < order.size(); ++i) {
         if (done[i]) continue;
         int prev = order[i];
         for (std::size_t j = i + 1; j < order.size(); ++j) {
-          if (done[j] || !sameCommand(rec.commands[static_cast<std::size_t>(order[j])],
-                                      rec.commands[static_cast<std::size_t>(prev)]))
+          if (done[j] ||
+              !sameCommand(rec.commands[static_cast<std::size_t>(order[j])],
+                           rec.commands[static_cast<std::size_t>(prev)]) ||
+              !samePrediction(order[j], prev))
             continue;
           done[j] = 1;
           const Eigen::VectorXd e = diff((R.row(order[j]) - R.row(prev)).transpose(), prev) / std::sqrt(2.0);
@@ -331,13 +388,16 @@ NoiseReport estimateNoise(const io::Recording& rec, const Residuals& r, const st
     } else {
       // 2. Neighbours: second differences along path moves, else nearest neighbours in configuration space.
       std::vector<Difference> d;
+      std::vector<LagDifferences> lags;  // for the test of serial correlation
       for (int k = 1; k + 1 < rows; ++k) {
-        if (!(finiteRow(k - 1) && finiteRow(k) && finiteRow(k + 1)) || fromRest(k) || fromRest(k + 1)) continue;
+        if (!(finiteRow(k - 1) && finiteRow(k) && finiteRow(k + 1)) || notAlongPath(k) || notAlongPath(k + 1)) continue;
         const double da = (F.row(k) - F.row(k - 1)).norm(), db = (F.row(k + 1) - F.row(k)).norm();
         const double wa = da + db > 0 ? db / (da + db) : 0.5, wb = 1.0 - wa;
         const Eigen::VectorXd e = diff((R.row(k) - wa * R.row(k - 1) - wb * R.row(k + 1)).transpose(), k) /
                                   std::sqrt(1.0 + wa * wa + wb * wb);
         d.push_back({e.squaredNorm(), std::max(da, db)});
+        lags.push_back({0.5 * diff((R.row(k) - R.row(k - 1)).transpose(), k).squaredNorm(),
+                        0.5 * diff((R.row(k + 1) - R.row(k - 1)).transpose(), k).squaredNorm()});
       }
       // Second differences of independent noise are correlated at lags 1 and 2 (-2/3 and 1/6 for equal weights):
       // the median's degrees of freedom shrink by 1 + 2 (4/9 + 1/36).
@@ -372,6 +432,7 @@ NoiseReport estimateNoise(const io::Recording& rec, const Residuals& r, const st
       v = robustEstimate(d, half, per, efficiency);
       est.source = "neighbours";
       est.supported = true;
+      if (efficiency < 1.0) testSerialCorrelation(lags, v.variance, per, est);
       if (d.size() >= 32) {
         const VarianceEstimate nearest = robustEstimate(d, d.size() / 4, per, efficiency);
         std::vector<Difference> far(d.end() - static_cast<long>(d.size() / 4), d.end());

@@ -234,6 +234,11 @@ std::string reportToJson(const DiagnosisReport& r) {
     branch.push_back(json{{"row", b.row}, {"alternatives_mm", a}, {"excluded", b.excluded}});
   }
   j["branch_ambiguous_rows"] = branch;
+  json outliers = json::array();
+  for (const OutlierRow& o : r.outlier_rows)
+    outliers.push_back(
+        json{{"row", o.row}, {"quantities", o.quantities}, {"residual_over_noise", num(o.residual_over_noise)}});
+  j["outlier_rows"] = outliers;
   j["branch_rule"] = r.branch;
   // The noise of every quantity: sigma (per component; the tangent's per direction normal to it), its source
   // (given, repeated, neighbours), its uncertainty and whether the recording separates it from model error.
@@ -244,12 +249,15 @@ std::string reportToJson(const DiagnosisReport& r) {
            {"dof", std::isfinite(e.dof) ? json(e.dof) : json("infinite")},
            {"interval95", json::array({num(e.interval95[0]), num(e.interval95[1])})},
            {"supported", e.supported},
+           {"white", e.white},
            {"differences", e.pairs},
            {"note", e.note}};
     if (e.jitter > 0) {
       x["jitter"] = num(e.jitter);
       x["frames"] = e.frames;
     }
+    if (e.serial_ratio != 0.0)
+      x["serial_correlation"] = json{{"lag2_over_lag1", num(e.serial_ratio)}, {"p", num(e.serial_p)}};
     if (q == Quantity::TipTangent) x["per"] = "direction normal to the tangent";
     j["noise"][toString(q)] = x;
   }
@@ -342,6 +350,17 @@ std::string reportToMarkdown(const DiagnosisReport& r, const io::Recording& full
         break;
       }
       o << "| " << fr.row << " | " << fr.model << " | " << fr.reason << " |\n";
+    }
+    o << "\n";
+  }
+  if (!r.outlier_rows.empty()) {
+    o << "## Rows that look like tracker glitches\n\nTheir residuals under the final model are far beyond the noise "
+         "and the residuals of their neighbours (docs/diagnosis.md, \"Tracker glitches\"); the diagnosis was run "
+         "again without them.\n\n| row | quantities | residual / noise sigma |\n|---|---|---|\n";
+    for (const OutlierRow& g : r.outlier_rows) {
+      o << "| " << g.row << " | ";
+      for (std::size_t k = 0; k < g.quantities.size(); ++k) o << (k ? ", " : "") << g.quantities[k];
+      o << " | " << f4(g.residual_over_noise) << " |\n";
     }
     o << "\n";
   }

@@ -91,17 +91,55 @@ void writeVerdict(State& s) {
         fmt("%.0f row(s) are reached through a snap of the model (a jump to another equilibrium "
             "branch) and are excluded; the verdict rests on the other rows",
             snapped));
-  // The verdict: named library effects ("X or Y" with look-alikes the recording cannot tell apart).
-  std::set<std::string> seen;
+  // Effects fitted at a limit of their search range are bounds, not estimates: never named.
+  std::map<std::string, std::string> at_limit;
   for (const Effect& e : cur.fit.effects) {
-    if (s.confounded.count(e.label()) || isGeneric(e.kind)) continue;  // partial explanations, descriptions
-    std::string name = toString(e.kind);
-    std::set<std::string> alt;
+    const std::string limit = rangeLimitWords(s, e);
+    if (!limit.empty()) at_limit[e.label()] = limit;
+  }
+  // The verdict: named library effects, each kind once. "X or Y" with look-alikes the recording cannot tell apart,
+  // the one with fewer parameters first; an "X or Y" whose X or Y is also named on its own is left out (the kind is
+  // named once; the finding keeps its look-alikes in ambiguous_with).
+  std::vector<std::vector<EffectKind>> entries;
+  for (const Effect& e : cur.fit.effects) {
+    if (s.confounded.count(e.label()) || isGeneric(e.kind) || at_limit.count(e.label()))
+      continue;  // partial explanations, descriptions, bounds
+    std::vector<EffectKind> kinds{e.kind};
     for (const Rival& r : s.rivals_of[e.label()])
-      if (std::string(toString(r.effect.kind)) != name) alt.insert(toString(r.effect.kind));
-    for (const std::string& a : alt) name += " or " + a;
+      if (std::find(kinds.begin(), kinds.end(), r.effect.kind) == kinds.end()) kinds.push_back(r.effect.kind);
+    std::stable_sort(kinds.begin() + 1, kinds.end(),
+                     [](EffectKind a, EffectKind b) { return std::string(toString(a)) < toString(b); });
+    std::stable_sort(kinds.begin(), kinds.end(),
+                     [](EffectKind a, EffectKind b) { return parameterCount(a) < parameterCount(b); });
+    entries.push_back(kinds);
+  }
+  std::set<EffectKind> alone;
+  for (const auto& k : entries)
+    if (k.size() == 1) alone.insert(k.front());
+  std::set<std::string> seen;
+  for (const auto& kinds : entries) {
+    if (kinds.size() > 1 && std::any_of(kinds.begin(), kinds.end(), [&](EffectKind k) { return alone.count(k); }))
+      continue;
+    std::string name;
+    for (EffectKind k : kinds) name += (name.empty() ? "" : " or ") + std::string(toString(k));
     if (seen.insert(name).second) rep.verdict.push_back(name);
   }
+  // A noise estimated from neighbouring rows whose differences are serially correlated (a filtered or oversampled
+  // stream) cannot be told from these data: no effect is established against it.
+  std::vector<std::string> not_white;
+  for (const auto& [q, e] : rep.noise.by_quantity)
+    if (!e.white) not_white.push_back(toString(q));
+  const std::vector<std::string> would_name = rep.verdict;
+  if (!not_white.empty()) {
+    rep.verdict.clear();
+    rep.warnings.push_back("the noise of " + joinWords(not_white) +
+                           " cannot be told from these data (serially correlated differences between neighbouring "
+                           "rows): no effect is established; give --noise");
+  }
+  const std::string not_established =
+      "not established: the noise of " + joinWords(not_white) +
+      " cannot be told from these data (the differences between neighbouring rows are serially correlated: a "
+      "filtered or oversampled stream, or model error from row to row); give --noise";
   // Findings: accepted ones report the final joint values.
   for (const std::string& key : s.order) {
     Finding f = s.last[key];
@@ -125,11 +163,16 @@ void writeVerdict(State& s) {
           f.explanation =
               "partial explanation, not named: " + describePhysics(e.kind) + "; " + s.removed_partial[key] + ".";
         }
-        const std::string limit = rangeLimitWords(s, e);
-        if (!limit.empty()) {
+        const auto limit = at_limit.find(key);
+        if (limit != at_limit.end()) {
           f.at_range_limit = true;
-          f.explanation += " " + limit;
-          rep.warnings.push_back(key + ": " + limit);
+          f.named = false;
+          f.explanation += " " + limit->second + " Not named.";
+          rep.warnings.push_back(key + ": " + limit->second);
+        }
+        if (!not_white.empty() && f.named) {
+          f.named = false;
+          f.explanation = not_established + ". " + f.explanation;
         }
       }
     const auto d = s.detection.find(key);
@@ -163,6 +206,9 @@ void writeVerdict(State& s) {
              100 * failed_fraction);
   else if (!rep.failed_rows.empty())
     t += std::to_string(rep.failed_rows.size()) + " row(s) could not be evaluated and were excluded (failed_rows). ";
+  if (!rep.outlier_rows.empty())
+    t += std::to_string(rep.outlier_rows.size()) +
+         " sample(s) look like tracker glitches and were left out (outlier_rows). ";
   int excluded = 0;
   for (const BranchAmbiguousRow& b : rep.branch_ambiguous_rows) excluded += b.excluded;
   if (excluded > 0)
@@ -187,7 +233,8 @@ void writeVerdict(State& s) {
   auto listEffects = [&](bool named) {
     std::string x;
     for (const Effect& e : cur.fit.effects) {
-      if (isGeneric(e.kind) || (s.confounded.count(e.label()) == 0) != named) continue;
+      const bool unnamed = s.confounded.count(e.label()) || at_limit.count(e.label());
+      if (isGeneric(e.kind) || unnamed == named) continue;
       x += (x.empty() ? "" : ", ") + e.label() + " (" + e.valueText() + ")";
       const auto& rv = s.rivals_of[e.label()];
       if (!rv.empty()) {
@@ -208,6 +255,18 @@ void writeVerdict(State& s) {
     described += (described.empty() ? "" : " ") + std::string("The remainder is described by ") + g.description +
                  fmt(" (held-out error %.0f %% lower with it, p = %.2g).", 100 * g.heldout_gain, g.heldout_p);
   const std::string partial = listEffects(false);
+  if (!not_white.empty()) {
+    t += "The noise of " + joinWords(not_white) +
+         " cannot be told from these data: the differences between neighbouring rows are serially correlated (a "
+         "filtered or oversampled stream, or model error from row to row), so they understate it and no effect is "
+         "established. ";
+    if (!would_name.empty())
+      t += "Against that estimate the selection would name " + joinWords(would_name) + " (" + listEffects(true) + "). ";
+    t += rmse_change + " Give --noise with the tracker's noise to test against it.";
+    t += " Noise: " + noiseWords(rep.noise) + ".";
+    rep.summary = t;
+    return;
+  }
   const std::string unknown_noise =
       " This recording cannot separate its noise from model error (the noise from neighbouring rows is an upper "
       "bound): give --noise to test against the tracker's noise.";

@@ -10,8 +10,6 @@ namespace ctr {
 
 const char* toString(BranchRule rule) {
   switch (rule) {
-    case BranchRule::Auto:
-      return "auto";
     case BranchRule::Path:
       return "path";
     case BranchRule::Rest:
@@ -21,9 +19,14 @@ const char* toString(BranchRule rule) {
 }
 
 BranchRule parseBranchRule(const std::string& text) {
-  for (BranchRule r : {BranchRule::Auto, BranchRule::Path, BranchRule::Rest})
+  for (BranchRule r : {BranchRule::Path, BranchRule::Rest})
     if (text == toString(r)) return r;
-  throw std::invalid_argument("unknown branch rule '" + text + "' (known: auto, path, rest)");
+  if (text == "auto")
+    throw std::invalid_argument(
+        "branch rule 'auto' (from rest after moves over 30 deg / 10 mm) is not offered: rows are in the order taken, "
+        "so use 'path' (the default: continuation from the previous row) or 'rest' (the robot re-homed between "
+        "rows)");
+  throw std::invalid_argument("unknown branch rule '" + text + "' (known: path, rest)");
 }
 
 const char* toString(Reached r) {
@@ -180,10 +183,9 @@ bool isNew(const Solution& s, const std::vector<Solution>& known) {
   return true;
 }
 
-/// Frictionless branches tracked for the alternatives: the replayed row's own (primary) and the others.
+/// Frictionless branches other than the replayed row's own, tracked for the alternatives.
 struct Branches {
   bool active = false;
-  HysteresisState primary;
   std::vector<HysteresisState> others;
   std::vector<Solution> other_solutions;
 };
@@ -200,12 +202,27 @@ HysteresisState frictionlessState(const Solution& s, const Configuration& q) {
   return st;
 }
 
-/// Stable frictionless equilibria at q other than `primary`: the long way round in one relative rotation at a time,
-/// the continuation from the previous row, the old warm Newton jump from it, and the cold solve.
+/// The frictionless equilibrium on the branch of a replayed row: the row's own for a robot without friction, else
+/// the frictionless solve started from the row's equilibrium (the friction torques are small against the elastic
+/// ones, so Newton stays on the row's branch). Not converged: an empty Solution.
+Solution frictionlessTwin(const Robot& free, bool friction, const StepResult& row, Workspace& ws,
+                          const ReplayOptions& o) {
+  if (!friction) return row.solution;
+  Solution s = solve(free, row.solution.q, ws, o.friction.kinematics, &row.solution);
+  return s.converged() && s.summary.stable ? s : Solution{};
+}
+
+/// Stable frictionless equilibria at q other than `primary` (the replayed row's own branch): the one reached from
+/// rest (the short way), the long way round in one relative rotation at a time, the continuation from the previous
+/// row, the old warm Newton jump from it, and the cold solve.
 void searchAlternatives(const Robot& free, const Configuration& q, const Solution& primary,
                         const HysteresisState* previous, Workspace& ws, const ReplayOptions& o, Branches& b) {
   std::vector<StepResult> found;
   const Configuration home = restOf(q);
+  {
+    Move m = fromRest(free, home, q, ws, o);
+    if (m.ok) found.push_back(std::move(m.r));
+  }
   for (int i = 1; i < q.size(); ++i) {
     const double wrapped = q.alpha[i] - home.alpha[i];
     if (std::abs(wrapped) < 1e-9) continue;
@@ -243,20 +260,15 @@ void searchAlternatives(const Robot& free, const Configuration& q, const Solutio
   }
 }
 
-/// Follows the tracked branches along a path move to q; drops those that end (snap, no convergence, instability) or
-/// merge with the primary branch or with each other.
-void followAlternatives(const Robot& free, const Configuration& q, Workspace& ws, const ReplayOptions& o, Branches& b) {
-  Move p = move(free, b.primary, q, ws, o);
-  if (!p.ok) {
-    b = Branches{};
-    return;
-  }
-  b.primary = p.r.state;
+/// Follows the tracked branches along a short move to q; drops those that end (snap, no convergence, instability) or
+/// merge with the replayed row's branch (`primary`) or with each other.
+void followAlternatives(const Robot& free, const Configuration& q, const Solution& primary, Workspace& ws,
+                        const ReplayOptions& o, Branches& b) {
   std::vector<HysteresisState> others;
   std::vector<Solution> sols;
   for (const HysteresisState& s : b.others) {
     Move m = move(free, s, q, ws, o);
-    if (!m.ok || sameEquilibrium(m.r.solution, p.r.solution) || !isNew(m.r.solution, sols)) continue;
+    if (!m.ok || sameEquilibrium(m.r.solution, primary) || !isNew(m.r.solution, sols)) continue;
     others.push_back(m.r.state);
     sols.push_back(m.r.solution);
   }
@@ -289,13 +301,13 @@ StepResult restAt(const Robot& robot, const Configuration& q, Workspace& ws, con
   return r;
 }
 
-bool isPathMove(const Configuration& from, const Configuration& to, const ReplayOptions& o) {
-  if (from.size() != to.size() || to.size() == 0) return false;
+bool isLongMove(const Configuration& from, const Configuration& to, const ReplayOptions& o) {
+  if (from.size() != to.size() || to.size() == 0) return true;
   double rot = std::abs(to.alpha[0] - from.alpha[0]);
   for (int i = 1; i < to.size(); ++i)
     rot = std::max(rot, std::abs((to.alpha[i] - to.alpha[i - 1]) - (from.alpha[i] - from.alpha[i - 1])));
   const double lin = (to.beta - from.beta).cwiseAbs().maxCoeff();
-  return rot <= o.path_rotation_step && lin <= o.path_translation_step;
+  return rot > o.alternatives_rotation_step || lin > o.alternatives_translation_step;
 }
 
 std::vector<ReplayRow> replay(const Robot& robot, const std::vector<Configuration>& commands, Workspace& ws,
@@ -322,10 +334,8 @@ std::vector<ReplayRow> replay(const Robot& robot, const std::vector<Configuratio
       }
       continue;
     }
-    // The path to this row is known when the rule says so and the move from the last command is small.
-    const bool dense = k < known.dense.size() ? known.dense[k] != 0
-                                              : last_command.size() == q.size() && isPathMove(last_command, q, o);
-    const bool path = good.valid && (o.branch == BranchRule::Path || (o.branch == BranchRule::Auto && dense));
+    const bool path = good.valid && o.branch == BranchRule::Path;
+    const bool long_move = isLongMove(last_command, q, o);
     Move m;
     if (path) {
       if (k < known.via.size())
@@ -354,19 +364,16 @@ std::vector<ReplayRow> replay(const Robot& robot, const std::vector<Configuratio
     row.reason = m.reason;
     last_command = q;
     if (o.find_alternatives) {
-      if (row.reached == Reached::Path && branches.active) {
-        followAlternatives(free, q, ws, o, branches);
-      } else if (row.reached != Reached::Path && m.ok) {
+      const Solution primary = m.ok ? frictionlessTwin(free, friction, m.r, ws, o) : Solution{};
+      if (!primary.converged()) {
+        branches = Branches{};
+      } else if (row.reached != Reached::Path || long_move) {
         const HysteresisState* previous = good.valid ? &good : nullptr;
         branches = Branches{};
-        Move primary = friction ? fromRest(free, restOf(q), q, ws, o) : m;
-        if (primary.ok) {
-          branches.primary = primary.r.state;
-          searchAlternatives(free, q, primary.r.solution, previous, ws, o, branches);
-          branches.active = !branches.others.empty();
-        }
-      } else if (row.reached == Reached::Path && !m.ok) {
-        branches = Branches{};
+        searchAlternatives(free, q, primary, previous, ws, o, branches);
+        branches.active = !branches.others.empty();
+      } else if (branches.active) {
+        followAlternatives(free, q, primary, ws, o, branches);
       }
       if (m.ok && branches.active)
         for (const Solution& s : branches.other_solutions)

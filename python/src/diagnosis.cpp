@@ -138,13 +138,13 @@ void registerDiagnosis(pyb::module_& m) {
       arg("robot"), arg("recording"), arg("frame") = "base", arg("folds") = 4, arg("threads") = 2,
       arg("max_effects") = diagnosis::DiagnoseOptions{}.max_effects, arg("bic_threshold") = 10.0,
       arg("candidates") = pyb::none(), arg("progress") = pyb::none(), arg("with_report") = false,
-      arg("noise") = pyb::none(), arg("branch") = toString(BranchRule::Auto), arg("calibrate") = false,
+      arg("noise") = pyb::none(), arg("branch") = toString(BranchRule::Path), arg("calibrate") = false,
       arg("max_rows") = diagnosis::DiagnoseOptions{}.max_rows,
       "`ctr diagnose`: where the recording (a path or a ctr.Recording) and the nominal robot differ, and which "
       "left-out physics explains it. Returns the dict of the diagnosis JSON (formats.md; the same object as "
       "--json writes); with_report=True returns (dict, Markdown report). progress: a callable taking a str. "
-      "noise: the tracker's noise as `--noise` takes it ('tip_position=0.5mm,tip_tangent=1deg'); branch: 'auto', "
-      "'path' or 'rest' (docs/diagnosis.md); calibrate: `--calibrate`; max_rows: `--max-rows`. Runs without the "
+      "noise: the tracker's noise as `--noise` takes it ('tip_position=0.5mm,tip_tangent=1deg'); branch: 'path' "
+      "(default) or 'rest' (docs/diagnosis.md); calibrate: `--calibrate`; max_rows: `--max-rows`. Runs without the "
       "GIL.");
 }
 

@@ -248,9 +248,9 @@ void registerFriction(pyb::module_& m) {
         return d;
       },
       arg("robot"), arg("alpha"), arg("beta"), arg("options") = pyb::none(), arg("keep_states") = false,
-      arg("branch") = toString(BranchRule::Auto),
+      arg("branch") = toString(BranchRule::Path),
       "Replays K commands (alpha, beta: (K, n)) through the stateful friction model as `ctr simulate` (branch: "
-      "'auto', 'path' or 'rest', docs/friction.md \"Replaying a sequence\"). Dict of arrays: alpha, beta, twist, "
+      "'path' or 'rest', docs/friction.md \"Replaying a sequence\"). Dict of arrays: alpha, beta, twist, "
       "tip_position, tip_tangent (NaN where not converged), stability, converged, stable, snapped, status, message "
       "and reached ('path', 'rest' or 'restart' per row) (+ states: the HysteresisState after each row, with "
       "keep_states). Runs without the GIL.");

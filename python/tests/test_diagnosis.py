@@ -72,15 +72,20 @@ def test_diagnose_decimates_to_max_rows():
 
 
 def test_diagnose_takes_the_noise_and_the_branch_rule():
-    """--noise and --branch from Python: the noise is reported as given, the rule as asked; bad values raise."""
+    """--noise and --branch from Python: the noise is reported as given, the rule as asked (path by default); bad
+    values raise ('auto' with the reason it is not offered)."""
     robot = ctr.load_robot(str(EXAMPLES / "recordings" / "friction_masked_B.robot.yaml"))
     rec = ctr.load_recording(str(EXAMPLES / "recordings" / "friction_masked_B.csv"))
     got = ctr.diagnose(robot, rec, candidates=["boundary_friction"], max_effects=1, threads=1,
-                       noise="twist=0.5deg", branch="path")
+                       noise="twist=0.5deg", branch="rest")
     assert got["noise"]["twist"]["source"] == "given"
     assert abs(got["noise"]["twist"]["sigma"] - math.radians(0.5)) < 1e-12
-    assert got["branch_rule"] == "path"
-    assert "branch_ambiguous_rows" in got
+    assert got["branch_rule"] == "rest"
+    assert "branch_ambiguous_rows" in got and got["outlier_rows"] == []
+    default = ctr.diagnose(robot, rec, candidates=["boundary_friction"], max_effects=0, threads=1)
+    assert default["branch_rule"] == "path"
+    with pytest.raises(ValueError, match="auto"):
+        ctr.diagnose(robot, rec, branch="auto")
     with pytest.raises(ValueError, match="noise"):
         ctr.diagnose(robot, rec, noise="twist=-1deg")
     with pytest.raises(ValueError, match="branch"):

@@ -269,6 +269,8 @@ const std::vector<Case> kCases = {
    "diagnose --robot {ex}/recordings/friction_masked_B.robot.yaml --recording {d}/rec.csv --json {d}/d.json --noise twist=0deg", 2, {"--noise", "positive"}},
   {"DiagnoseUnknownBranch", "diagnose", "unknown --branch rule", "diag", [](Dir& d) { d.write("rec.csv", firstLines(recordingB(), 13)); },
    "diagnose --robot {ex}/recordings/friction_masked_B.robot.yaml --recording {d}/rec.csv --json {d}/d.json --branch sideways", 2, {"--branch", "sideways"}},
+  {"DiagnoseAutoBranch", "diagnose", "--branch auto (not offered: rows are in the order taken)", "diag", [](Dir& d) { d.write("rec.csv", firstLines(recordingB(), 13)); },
+   "diagnose --robot {ex}/recordings/friction_masked_B.robot.yaml --recording {d}/rec.csv --json {d}/d.json --branch auto", 2, {"--branch", "auto", "path", "rest"}},
   {"DiagnoseUnknownCandidate", "diagnose", "unknown effect in --candidates", "diag", [](Dir& d) { d.write("rec.csv", firstLines(recordingB(), 13)); },
    "diagnose --robot {ex}/recordings/friction_masked_B.robot.yaml --recording {d}/rec.csv --json {d}/d.json --candidates boundary_friction,warp_drive", 2, {"--candidates", "warp_drive"}},
   {"DiagnoseJsonIsInput", "diagnose", "--json equal to --recording (output = input)", "diag", [](Dir& d) { d.write("rec.csv", firstLines(recordingB(), 13)); },

@@ -6,6 +6,7 @@
 #include <string>
 
 #include "ctr/diagnosis/import.hpp"
+#include "ctr/diagnosis/noise.hpp"
 
 namespace ctr::diagnosis::test {
 
@@ -17,6 +18,13 @@ inline const std::string kRealLog =
 inline std::optional<io::Recording> realLog() {
   if (!std::ifstream(kRealLog)) return std::nullopt;
   return importTable(kRealLog, dupontLabImportOptions());
+}
+
+/// The noise of the log's EM tracker, given as a lab gives it (`--noise`): the log's own differences between
+/// neighbouring rows are serially correlated (a filtered stream, or model error from row to row), so the noise cannot
+/// be estimated from it and nothing is established without it.
+inline GivenNoise realLogTrackerNoise() {
+  return parseGivenNoise("tip_position=0.5mm,tip_tangent=0.3deg");
 }
 
 }  // namespace ctr::diagnosis::test

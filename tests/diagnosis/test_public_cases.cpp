@@ -1,7 +1,10 @@
-// The public recordings with known truth (../shared/data/recordings): verdict, parameter within 20 %,
-// held-out RMSE down.
+// The public recordings with known truth (../shared/data/recordings, written by an independent simulator): by default
+// (no branch rule, no noise given) the verdict of the truth, each parameter within 15 % (friction within 10 % where
+// the recording has tracker glitches, which must be listed), held-out RMSE down. Set 2 are continuous motions
+// sampled coarsely (10-70 deg between rows): they fail when rows after large moves are reached from rest.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <fstream>
 #include <nlohmann/json.hpp>
 
@@ -27,13 +30,23 @@ TEST_P(PublicCase, VerdictParametersAndHeldOut) {
   const Robot robot = io::loadRobot(base + ".robot.yaml");
   const io::Recording rec = io::loadRecording(base + ".csv", robot.size(), true);
   const DiagnosisReport rep = diagnose(robot, rec, DiagnoseOptions{});
-  const std::vector<std::string> expected = truth["verdict"].get<std::vector<std::string>>();
-  EXPECT_EQ(rep.verdict, expected) << reportToJson(rep);
+  std::vector<std::string> expected = truth["verdict"].get<std::vector<std::string>>(), verdict = rep.verdict;
+  std::sort(expected.begin(), expected.end());
+  std::sort(verdict.begin(), verdict.end());
+  EXPECT_EQ(verdict, expected) << reportToJson(rep);
+  const bool glitches = std::string(GetParam()).find("glitches") != std::string::npos;
+  if (glitches) {
+    EXPECT_GE(rep.outlier_rows.size(), 6u);
+    EXPECT_LE(rep.outlier_rows.size(), 10u);
+    EXPECT_FALSE(rep.unexplained.present) << "glitches reported as physics outside the library";
+  } else {
+    EXPECT_TRUE(rep.outlier_rows.empty()) << rep.outlier_rows.size() << " rows called glitches";
+  }
   for (const Effect& e : rep.final_effects) {
     const std::string p = parameterName(e.kind);
     ASSERT_TRUE(truth.contains(p)) << p;
     const double t = truth[p].get<double>();
-    EXPECT_NEAR(e.value, t, 0.2 * std::abs(t)) << e.label();
+    EXPECT_NEAR(e.value, t, (glitches ? 0.10 : 0.15) * std::abs(t)) << e.label();
     if (truth.contains("tube")) {
       EXPECT_EQ(e.tube, truth["tube"].get<int>());
     }
@@ -49,5 +62,7 @@ TEST_P(PublicCase, VerdictParametersAndHeldOut) {
 
 INSTANTIATE_TEST_SUITE_P(Recordings, PublicCase,
                          ::testing::Values("pub_null_sweep_A", "pub_friction_sweep_B", "pub_poisson_sweep_B",
-                                           "pub_backlash_sweep_A", "pub_offset_sweep_B"));
+                                           "pub_backlash_sweep_A", "pub_offset_sweep_B", "pub_friction_coarse_walk_B",
+                                           "pub_latency_friction_coarse_walk_A", "pub_precurvature_coarse_walk_T3",
+                                           "pub_glitches_friction_walk_B"));
 }  // namespace

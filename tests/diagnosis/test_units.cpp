@@ -536,7 +536,8 @@ TEST(Discretisation, ADiagnosisThatRefinesItsStepsIsTheOneAtTheDefaultSteps) {
 }
 
 // A fitted value at a limit of its search range is a bound, not an estimate: a drive offset of 0.75 rad (the range
-// ends at 0.6) is accepted at 0.6 and flagged as such (finding, warning, JSON); one of 0.3 rad inside the range is not.
+// ends at 0.6) is kept in the fit at 0.6, flagged as such (finding, warning, JSON) and never named; one of 0.3 rad
+// inside the range is named.
 TEST(Verdict, AValueAtTheLimitOfItsSearchRangeIsReportedAsABound) {
   const PairBSweep w;
   DiagnoseOptions o;
@@ -557,11 +558,15 @@ TEST(Verdict, AValueAtTheLimitOfItsSearchRangeIsReportedAsABound) {
     if (offset > 0.6) {
       EXPECT_NEAR(rep.final_effects[0].value, 0.6, 1e-6);
       EXPECT_TRUE(f->at_range_limit);
+      EXPECT_FALSE(f->named);
+      EXPECT_TRUE(rep.verdict.empty()) << "a bound is never a named finding: " << rep.summary;
       EXPECT_TRUE(warned);
       EXPECT_NE(reportToJson(rep).find("\"at_range_limit\": true"), std::string::npos);
     } else {
       EXPECT_NEAR(rep.final_effects[0].value, offset, 0.01);
       EXPECT_FALSE(f->at_range_limit);
+      EXPECT_TRUE(f->named);
+      EXPECT_EQ(rep.verdict, std::vector<std::string>{"actuator_offset"});
       EXPECT_FALSE(warned);
     }
   }

@@ -1,4 +1,4 @@
-// The replay's branch rule: continuation along small moves, from rest after unknown paths; never an unstable
+// The replay's branch rule: continuation from the previous row (or from rest when asked); never an unstable
 // equilibrium; the other stable equilibria listed; the failure rule; the observer.
 #include <gtest/gtest.h>
 
@@ -27,22 +27,51 @@ Configuration pose(double relative) {
 
 }  // namespace
 
-TEST(Replay, AutoFollowsSmallMovesAndReachesLargeOnesFromRest) {
-  const Robot r = bistablePair();
-  Workspace ws;
-  std::vector<Configuration> q;
-  for (int k = 0; k <= 6; ++k) q.push_back(pose(k * 10 * kDeg));  // a sweep: small moves
-  q.push_back(pose(150 * kDeg));                                   // a jump of 90 deg: unknown path
-  q.push_back(pose(155 * kDeg));
-  const std::vector<ReplayRow> rows = replay(r, q, ws);
-  ASSERT_EQ(rows.size(), q.size());
-  EXPECT_EQ(rows[0].reached, Reached::Rest);
-  for (int k = 1; k <= 6; ++k) EXPECT_EQ(rows[static_cast<std::size_t>(k)].reached, Reached::Path) << k;
-  EXPECT_EQ(rows[7].reached, Reached::Rest);
-  EXPECT_EQ(rows[8].reached, Reached::Path);
-  for (const ReplayRow& row : rows) EXPECT_TRUE(row.ok) << row.reason;
-  EXPECT_TRUE(isPathMove(q[0], q[1], ReplayOptions{}));
-  EXPECT_FALSE(isPathMove(q[6], q[7], ReplayOptions{}));
+// Rows are in the order taken: every row after the first is reached by continuation along the move from the previous
+// one, whatever its size. A 140-deg move lands where a sweep through it in 10-deg rows lands.
+TEST(Replay, EveryRowFollowsTheMoveFromThePreviousWhateverItsSize) {
+  for (const Robot& r : {bistablePair(), bistablePair().withFriction({0.1, 0.0})}) {
+    Workspace ws;
+    const std::vector<Configuration> q = {pose(0), pose(10 * kDeg), pose(150 * kDeg), pose(155 * kDeg)};
+    std::vector<Configuration> sweep;
+    for (int k = 0; k <= 15; ++k) sweep.push_back(pose(k * 10 * kDeg));
+    sweep.push_back(pose(155 * kDeg));
+    const std::vector<ReplayRow> rows = replay(r, q, ws), dense = replay(r, sweep, ws);
+    ASSERT_EQ(rows.size(), q.size());
+    EXPECT_EQ(rows[0].reached, Reached::Rest);
+    for (std::size_t k = 1; k < rows.size(); ++k) EXPECT_EQ(rows[k].reached, Reached::Path) << k;
+    for (const ReplayRow& row : rows) ASSERT_TRUE(row.ok) << row.reason;
+    ASSERT_TRUE(dense.back().ok) << dense.back().reason;
+    EXPECT_LT((rows.back().result.solution.tip_position - dense.back().result.solution.tip_position).norm(), 1e-6);
+    EXPECT_FALSE(isLongMove(q[0], q[1], ReplayOptions{}));
+    EXPECT_TRUE(isLongMove(q[1], q[2], ReplayOptions{}));
+  }
+  EXPECT_THROW(parseBranchRule("auto"), std::invalid_argument);
+}
+
+// A pose set whose long relative rotation winds the pair past the symmetric pose: the row is replayed by continuation
+// (on the wound-up branch), and the equilibrium reached from rest (the short way) is listed among its alternatives,
+// with and without friction; the rows after it follow both branches along their short moves.
+TEST(Replay, ALongMovePastAnotherBranchListsTheOneReachedFromRest) {
+  for (const Robot& r : {bistablePair(), bistablePair().withFriction({0.05, 0.0})}) {
+    const Robot free = r.withFriction(FrictionCoefficients{});
+    Workspace ws;
+    ReplayOptions o;
+    o.find_alternatives = true;
+    const std::vector<Configuration> q = {pose(0), pose(200 * kDeg), pose(205 * kDeg)};
+    const std::vector<ReplayRow> rows = replay(r, q, ws, o);
+    for (std::size_t k = 1; k < rows.size(); ++k) {
+      ASSERT_TRUE(rows[k].ok) << k << ": " << rows[k].reason;
+      EXPECT_EQ(rows[k].reached, Reached::Path);
+      const StepResult rest = reachFromRest(free, q[k], ws);
+      ASSERT_TRUE(rest.summary.converged) << rest.summary.message;
+      EXPECT_GT((rows[k].result.solution.tip_position - rest.solution.tip_position).norm(), 0.05) << k;
+      bool listed = false;
+      for (const Alternative& a : rows[k].alternatives)
+        listed = listed || (a.solution.tip_position - rest.solution.tip_position).norm() < 1e-6;
+      EXPECT_TRUE(listed) << k << ": " << rows[k].alternatives.size() << " alternatives";
+    }
+  }
 }
 
 // The rest path (aligned tubes rotated the short way, stick-slip stepping code) lands on the equilibrium that an

@@ -72,8 +72,14 @@ struct DiagnoseOptions {
                                        ///< screening BIC (plus all within twice bic_threshold of the best); the
                                        ///< round's winner alone is then refitted jointly.
   double unreliable_fraction = 0.05;   ///< More failed rows than this fraction make the verdict unreliable.
-  int max_rows = 600;                  ///< Longer recordings are decimated uniformly (every k-th row, history kept
-                                       ///< by the quasi-static sub-stepping) to bound the run time; 0 = never.
+  /// Tracker glitches: after the selection, rows whose residual under the final model is beyond what the noise (times
+  /// the residuals' own robust scale) allows at this family-wise rate are listed as outliers and the diagnosis runs
+  /// again without them (docs/diagnosis.md "Tracker glitches"); 0 = no screen.
+  double outlier_alpha = 0.01;
+  /// ... but only while they are at most this fraction of the rows (more is model error or noise, not glitches).
+  double max_outlier_fraction = 0.1;
+  int max_rows = 600;  ///< Longer recordings are decimated uniformly (every k-th row, history kept
+                       ///< by the quasi-static sub-stepping) to bound the run time; 0 = never.
   /// Noise given by the user (a tracker's specification); the quantities not given are estimated (noise.hpp).
   GivenNoise noise;
   /// Generic models of physics outside the library tried on the remainder (describeRemainder); false: none.
@@ -152,6 +158,14 @@ struct BranchAmbiguousRow {
   bool excluded = false;                ///< The measurement lies nearer an alternative: left out of every fit.
 };
 
+/// @brief A row whose measurement looks like a tracker glitch (formats.md `outlier_rows`): its residual under the
+/// final model is far beyond the noise and its neighbours' residuals; it is left out of every fit, test and score.
+struct OutlierRow {
+  int row = 0;                          ///< 1-based row of the recording as given.
+  std::vector<std::string> quantities;  ///< The measured quantities that are off (JSON names).
+  double residual_over_noise = 0.0;     ///< Largest residual norm of those quantities over its noise sigma.
+};
+
 /// @brief A generic model of physics outside the library (not a library effect) that describes the remainder.
 struct GenericDescription {
   Effect model;                                ///< Fitted generic correction (EffectKind generic kinds).
@@ -203,6 +217,7 @@ struct DiagnosisReport {
   Unexplained unexplained;             ///< Remainder after the final model.
   std::vector<FailedRow> failed_rows;  ///< Rows excluded because a model could not evaluate them.
   std::vector<BranchAmbiguousRow> branch_ambiguous_rows;  ///< Rows with other stable equilibria (replay.hpp).
+  std::vector<OutlierRow> outlier_rows;                   ///< Rows that look like tracker glitches, left out.
   bool reliable = true;               ///< False when more than unreliable_fraction of the rows failed.
   std::vector<Effect> final_effects;  ///< With fitted values.
   std::map<std::string, EffectUncertainty> final_uncertainty;  ///< Intervals and covariance, by Effect::label().
@@ -217,7 +232,7 @@ struct DiagnosisReport {
   int visits = 0;                       ///< Rows after collapsing repeated frames (consecutive rows, same command).
   int stride = 1;                       ///< Visits used: every stride-th (see max_rows).
   int rounds = 0;                       ///< Selection rounds run.
-  std::string branch;                   ///< Branch rule of the replay ("auto", "path", "rest").
+  std::string branch;                   ///< Branch rule of the replay ("path", "rest").
   ReplayDiscretisation discretisation;  ///< The replays' integration steps and their error against the noise.
   double seconds = 0.0;
   int evaluations = 0;  ///< Sequence replays.

@@ -13,6 +13,7 @@
 #include <string>
 #include <vector>
 
+#include "ctr/diagnosis/forward_model.hpp"
 #include "ctr/diagnosis/residuals.hpp"
 #include "ctr/io/recording.hpp"
 #include "ctr/model/replay.hpp"
@@ -56,10 +57,17 @@ struct NoiseEstimate {
   /// True when the recording separates the noise from model error: given, repeated poses, or neighbour differences
   /// that do not grow with the neighbours' distance. False: an upper bound only (sparse pose sets).
   bool supported = true;
-  int pairs = 0;        ///< Differences the estimate rests on.
-  double jitter = 0.0;  ///< Frame-to-frame jitter (0 when the recording has no repeated frames).
-  int frames = 1;       ///< Typical frames per visit (the noise is that of a visit's mean).
-  std::string note;     ///< Plain words: how it was estimated, and any caveat.
+  /// Along a path: whether the residual differences the estimate uses are those of independent noise (differences two
+  /// rows apart no larger than those of neighbouring rows). False: the stream is filtered, oversampled or holds model
+  /// error that changes from row to row; the noise cannot be told from these data and `supported` is false too.
+  /// Always true for other sources.
+  bool white = true;
+  double serial_ratio = 0.0;  ///< Variance of differences two rows apart over that of neighbours (0: not tested).
+  double serial_p = 1.0;      ///< One-sided p-value that it exceeds 1.
+  int pairs = 0;              ///< Differences the estimate rests on.
+  double jitter = 0.0;        ///< Frame-to-frame jitter (0 when the recording has no repeated frames).
+  int frames = 1;             ///< Typical frames per visit (the noise is that of a visit's mean).
+  std::string note;           ///< Plain words: how it was estimated, and any caveat.
 };
 
 /// @brief The noise of every measured quantity.
@@ -73,16 +81,18 @@ struct NoiseReport {
 
 /// @brief Estimates the noise from residuals of a model whose error is smooth along the path and across nearby
 /// configurations (the nominal model). Given values are used as they are. Otherwise, in order:
-/// - repeated: pairs of rows with the same command reached from rest (rows whose path is unknown, so the model
-///   predicts the same for both): their residual differences are pure noise, whatever the model error;
+/// - repeated: pairs of rows with the same command, each reached after a long move (returns to a pose in a pose set),
+///   at which the model predicts the same: their residual differences are pure noise, whatever the model error (rows
+///   along a short path are left out: a sweep passes a command in both directions, with hysteresis in between);
 /// - neighbours: pseudo-residuals that cancel smooth model error -- second differences along the path where
-///   consecutive moves are path moves (continuation), else differences between nearest neighbours in configuration
-///   space. The closer half of the differences is used; when the differences grow with the neighbours' distance
-///   (model error), the estimate is an upper bound (`supported` false).
+///   consecutive moves are continuations shorter than isLongMove's steps (a densely sampled trajectory), else
+///   differences between nearest neighbours in configuration space. The closer half of the differences is used; when
+///   the differences grow with the neighbours' distance (model error), the estimate is an upper bound (`supported`
+///   false).
 /// Every estimate is the mean of squares after a median-based screen of gross outliers (a snap, a glitch), corrected
 /// for the screen (unbiased for Gaussian noise); `dof` counts the noisy components it rests on (fewer for the
 /// correlated second differences). The jitter of repeated frames (visits) bounds the noise from below.
-NoiseReport estimateNoise(const io::Recording& rec, const Residuals& r, const std::vector<Reached>& reached,
+NoiseReport estimateNoise(const io::Recording& rec, const Residuals& r, const Prediction& p,
                           const std::vector<char>& use, const GivenNoise& given = {}, const Visits* visits = nullptr);
 
 }  // namespace ctr::diagnosis

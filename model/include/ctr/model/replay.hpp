@@ -3,16 +3,22 @@
 /// equilibrium branch each row is on, how the friction memory is carried, and what happens after a failed row.
 /// `ctr simulate`, the diagnosis (diagnosis/forward_model.hpp) and the Python module follow this one rule.
 ///
-/// The branch rule. A row whose commanded move from the previous row is small (tube 1's rotation, the rotation of
-/// every tube relative to its outer neighbour and every translation within ReplayOptions::path_rotation_step /
-/// path_translation_step) is reached by continuation along the straight joint-space move, in the stick-slip
-/// sub-steps of step(): the robot followed the commanded path. A row reached by an unknown path (a larger move, as
-/// between the poses of a pose set) is reached *from rest*: the tubes aligned (no relative rotation, no twist, no
-/// friction torque) at the row's translations, then each tube rotated relative to tube 1 the short way (by the
-/// relative angle wrapped to (-pi, pi]) to its command, with the same sub-steps (reachFromRest). The first row is the
-/// robot *at rest* there (restAt): on the branch that rotation reaches, with no friction torque stored. Both are
+/// The branch rule. Rows are in the order taken: between two rows the robot moved. By default (BranchRule::Path) every
+/// row after the first is reached by continuation along the straight joint-space move from the previous row, in the
+/// stick-slip sub-steps of step(), whatever the move's size: the friction memory is carried and a snap on the way is
+/// the model's prediction. With BranchRule::Rest every row after the first is reached *from rest*: the tubes aligned
+/// (no relative rotation, no twist, no friction torque) at the row's translations, then each tube rotated relative to
+/// tube 1 the short way (by the relative angle wrapped to (-pi, pi]) to its command, with the same sub-steps
+/// (reachFromRest) -- what a caller states who knows the robot was re-homed between rows. The first row is the robot
+/// *at rest* there (restAt): on the branch that rotation reaches, with no friction torque stored. Both are
 /// quasi-static continuations from a stable state, so the replayed equilibrium is never an unstable one; a snap on
 /// the way (a jump to another branch) is a prediction of the model, reported as such and not given an output.
+///
+/// A long move (ReplayOptions::alternatives_rotation_step / alternatives_translation_step) can pass another
+/// equilibrium, and the path between two rows of a pose set is not known: with ReplayOptions::find_alternatives the
+/// other stable equilibria at the row's command (among them the one reached from rest) are found after every long
+/// move and followed along the short moves after it (ReplayRow::alternatives), so a caller can tell which rows the
+/// robot may have reached on another branch.
 #pragma once
 
 #include <functional>
@@ -25,14 +31,14 @@ namespace ctr {
 
 /// @brief How a replay reaches each row's equilibrium.
 enum class BranchRule {
-  Auto,  ///< Path for small moves from the previous row, Rest for the first row and larger moves (default).
-  Path,  ///< Every row by continuation along the straight move from the previous row (the path is known).
-  Rest,  ///< Every row from rest (the path between rows is unknown).
+  Path,  ///< Every row by continuation along the straight move from the previous row (rows in the order taken).
+  Rest,  ///< Every row from rest (the robot re-homed between rows).
 };
 
-/// @brief "auto", "path", "rest".
+/// @brief "path", "rest".
 const char* toString(BranchRule rule);
-/// @brief Parses "auto", "path" or "rest"; throws std::invalid_argument naming the valid values.
+/// @brief Parses "path" or "rest"; throws std::invalid_argument naming the valid values (and, for "auto", that a rule
+/// by move size is not offered).
 BranchRule parseBranchRule(const std::string& text);
 
 /// @brief How a row was reached.
@@ -48,20 +54,21 @@ const char* toString(Reached r);
 /// @brief Options of replay().
 struct ReplayOptions {
   FrictionOptions friction;  ///< Sub-steps, snap threshold and solver options of every move.
-  BranchRule branch = BranchRule::Auto;
-  /// Auto: a move whose largest rotation (alpha_1, or alpha_i - alpha_{i-1}) exceeds this is an unknown path (rad;
-  /// 30 deg: a log samples a moving robot much more densely, pose sets move much further).
-  double path_rotation_step = 0.5235987755982988;
-  /// Auto: likewise for the largest translation change (m; 10 mm).
-  double path_translation_step = 0.01;
+  BranchRule branch = BranchRule::Path;
+  /// With find_alternatives: a move whose largest rotation (alpha_1, or alpha_i - alpha_{i-1}) exceeds this (rad;
+  /// 30 deg) is long enough to pass another equilibrium; the other stable equilibria are searched after it.
+  double alternatives_rotation_step = 0.5235987755982988;
+  /// Likewise for the largest translation change (m; 10 mm).
+  double alternatives_translation_step = 0.01;
   /// Coarse sub-step (rad) tried first where the end state does not depend on the sub-steps: moves of a robot
   /// without friction (translations then use coarse_translation_step), and rotation-only moves with at most one
   /// friction site (slip at the target in the direction of motion, or stick from the start). Such a move is
   /// accepted when it converges to a stable equilibrium without a snap, else the fine sub-steps decide. 0 disables.
   double coarse_rotation_step = 0.0;
   double coarse_translation_step = 0.005;  ///< m, frictionless moves only (see coarse_rotation_step).
-  /// Search, at every row reached from rest, for the other stable frictionless equilibria at the command, and follow
-  /// them along the path rows after it (ReplayRow::alternatives). Costs a few continuations per such row.
+  /// Search, at the first row, at every row reached from rest and after every long move, for the other stable
+  /// frictionless equilibria at the command (the one reached from rest among them), and follow them along the short
+  /// moves after it (ReplayRow::alternatives). Costs a few continuations per such row.
   bool find_alternatives = false;
 };
 
@@ -93,9 +100,10 @@ StepResult reachFromRest(const Robot& robot, const Configuration& q, Workspace& 
 /// friction), every contact stuck with no friction torque (initialState on that branch). The first row of a replay.
 StepResult restAt(const Robot& robot, const Configuration& q, Workspace& ws, const FrictionOptions& options = {});
 
-/// @brief True when Auto reaches `to` from `from` by continuation (tube 1's rotation, every tube's rotation relative
-/// to its outer neighbour and every translation within the options' path steps).
-bool isPathMove(const Configuration& from, const Configuration& to, const ReplayOptions& options);
+/// @brief True when the move from `from` to `to` is long enough to pass another equilibrium: tube 1's rotation, a
+/// tube's rotation relative to its outer neighbour or a translation beyond the options' alternatives steps (or the
+/// sizes differ).
+bool isLongMove(const Configuration& from, const Configuration& to, const ReplayOptions& options);
 
 /// @brief What the caller knows of the path between rows that the rows themselves do not show (e.g. the full-rate
 /// log behind a decimated recording). Every member is optional (empty).
@@ -103,9 +111,6 @@ struct ReplayPath {
   /// Per row: commands passed through on the way to it (e.g. the joint reversals of the full-rate log between kept
   /// rows), stepped like rows on path moves but not reported.
   std::vector<std::vector<Configuration>> via;
-  /// Per row (Auto): 1 when the move to it was sampled densely (every step of the full-rate log within the path
-  /// steps), 0 when not. Empty: judged from the rows (isPathMove of consecutive rows).
-  std::vector<char> dense;
 };
 
 /// @brief Called with each row's index and the row as soon as it is replayed. It may take or change the row's
@@ -113,7 +118,8 @@ struct ReplayPath {
 /// replay after that row.
 using ReplayObserver = std::function<bool(std::size_t index, ReplayRow& row)>;
 
-/// @brief Replays the commands in order (see the file comment for the branch rule). Failure rule: a failed row
+/// @brief Replays the commands in order (see the file comment for the branch rule; with BranchRule::Path the commands
+/// in `path.via` are passed through on the way to each row). Failure rule: a failed row
 /// (inadmissible, not converged, no consistent stick/slip set, unstable, snapped) is reported and the replay goes on
 /// from the last evaluated state; when that move fails too, the row is reached from rest (Reached::Restart). A snap
 /// is followed: the replay continues from the branch it landed on. Each move is one step() (sub-stepped by

@@ -89,8 +89,8 @@ Configuration approachStart(const Robot& robot, const Configuration& q, Approach
 /// @brief The state at q after the approach: the robot at rest at approachStart(...) (restAt, as the first row of a
 /// replay), then one step to q. Every neighbouring pair turned by `angle` relative to each other, so the contacts carry
 /// the torques of that direction (slipping when `angle` exceeds their stick range). Rest: restAt(q). Replaying the
-/// commands {approachStart(...), q} (`ctr simulate`, replay.hpp) gives the same state when `angle` is within the
-/// replay's path step (30 deg).
+/// commands {approachStart(...), q} (`ctr simulate`, replay.hpp: every row after the first by continuation) gives the
+/// same state.
 StepResult approachState(const Robot& robot, const Configuration& q, Approach approach, double angle, Workspace& ws,
                          const FrictionOptions& options = {});
 

@@ -6,6 +6,39 @@
 
 #include "diagnosis_state.hpp"
 
+namespace ctr::diagnosis {
+
+std::vector<std::string> verdictNames(const std::vector<std::vector<EffectKind>>& entries) {
+  std::vector<std::vector<EffectKind>> sorted;
+  for (const std::vector<EffectKind>& e : entries) {
+    if (e.empty()) continue;
+    std::vector<EffectKind> kinds;
+    for (EffectKind k : e)
+      if (std::find(kinds.begin(), kinds.end(), k) == kinds.end()) kinds.push_back(k);
+    // The effect's own kind, then its look-alikes by name; the one with fewer parameters first.
+    std::stable_sort(kinds.begin() + 1, kinds.end(),
+                     [](EffectKind a, EffectKind b) { return std::string(toString(a)) < toString(b); });
+    std::stable_sort(kinds.begin(), kinds.end(),
+                     [](EffectKind a, EffectKind b) { return parameterCount(a) < parameterCount(b); });
+    sorted.push_back(kinds);
+  }
+  std::set<EffectKind> alone;
+  for (const auto& k : sorted)
+    if (k.size() == 1) alone.insert(k.front());
+  std::vector<std::string> out;
+  std::set<std::string> seen;
+  for (const auto& kinds : sorted) {
+    if (kinds.size() > 1 && std::any_of(kinds.begin(), kinds.end(), [&](EffectKind k) { return alone.count(k) > 0; }))
+      continue;
+    std::string name;
+    for (EffectKind k : kinds) name += (name.empty() ? "" : " or ") + std::string(toString(k));
+    if (seen.insert(name).second) out.push_back(name);
+  }
+  return out;
+}
+
+}  // namespace ctr::diagnosis
+
 namespace ctr::diagnosis::detail {
 
 namespace {
@@ -97,33 +130,16 @@ void writeVerdict(State& s) {
     const std::string limit = rangeLimitWords(s, e);
     if (!limit.empty()) at_limit[e.label()] = limit;
   }
-  // The verdict: named library effects, each kind once. "X or Y" with look-alikes the recording cannot tell apart,
-  // the one with fewer parameters first; an "X or Y" whose X or Y is also named on its own is left out (the kind is
-  // named once; the finding keeps its look-alikes in ambiguous_with).
+  // The verdict: named library effects, each kind once (verdictNames).
   std::vector<std::vector<EffectKind>> entries;
   for (const Effect& e : cur.fit.effects) {
     if (s.confounded.count(e.label()) || isGeneric(e.kind) || at_limit.count(e.label()))
       continue;  // partial explanations, descriptions, bounds
     std::vector<EffectKind> kinds{e.kind};
-    for (const Rival& r : s.rivals_of[e.label()])
-      if (std::find(kinds.begin(), kinds.end(), r.effect.kind) == kinds.end()) kinds.push_back(r.effect.kind);
-    std::stable_sort(kinds.begin() + 1, kinds.end(),
-                     [](EffectKind a, EffectKind b) { return std::string(toString(a)) < toString(b); });
-    std::stable_sort(kinds.begin(), kinds.end(),
-                     [](EffectKind a, EffectKind b) { return parameterCount(a) < parameterCount(b); });
+    for (const Rival& r : s.rivals_of[e.label()]) kinds.push_back(r.effect.kind);
     entries.push_back(kinds);
   }
-  std::set<EffectKind> alone;
-  for (const auto& k : entries)
-    if (k.size() == 1) alone.insert(k.front());
-  std::set<std::string> seen;
-  for (const auto& kinds : entries) {
-    if (kinds.size() > 1 && std::any_of(kinds.begin(), kinds.end(), [&](EffectKind k) { return alone.count(k); }))
-      continue;
-    std::string name;
-    for (EffectKind k : kinds) name += (name.empty() ? "" : " or ") + std::string(toString(k));
-    if (seen.insert(name).second) rep.verdict.push_back(name);
-  }
+  rep.verdict = verdictNames(entries);
   // A noise estimated from neighbouring rows whose differences are serially correlated (a filtered or oversampled
   // stream) cannot be told from these data: no effect is established against it.
   std::vector<std::string> not_white;

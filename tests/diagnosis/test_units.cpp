@@ -571,3 +571,17 @@ TEST(Verdict, AValueAtTheLimitOfItsSearchRangeIsReportedAsABound) {
     }
   }
 }
+
+// One name per effect in a verdict: a kind named on its own is not named again in an "X or Y"; of look-alikes the one
+// with fewer parameters comes first; identical entries once.
+TEST(Verdict, EachKindIsNamedOnceAndTheSimplerLookAlikeFirst) {
+  using K = EffectKind;
+  EXPECT_EQ(verdictNames({{K::TipLoad, K::Precurvature}, {K::Precurvature}}), std::vector<std::string>{"precurvature"});
+  EXPECT_EQ(verdictNames({{K::Gravity, K::Precurvature}}), std::vector<std::string>{"precurvature or gravity"});
+  EXPECT_EQ(verdictNames({{K::Precurvature, K::TipLoad, K::Gravity}}),
+            std::vector<std::string>{"precurvature or gravity or tip_load"});
+  EXPECT_EQ(verdictNames({{K::TranslationOffset, K::TranslationOffset}, {K::TranslationOffset}, {K::SensorLatency}}),
+            (std::vector<std::string>{"translation_offset", "sensor_latency"}));
+  EXPECT_EQ(verdictNames({{K::SensorLatency, K::ActuatorBacklash}, {K::BoundaryFriction}}),
+            (std::vector<std::string>{"sensor_latency or actuator_backlash", "boundary_friction"}));
+}

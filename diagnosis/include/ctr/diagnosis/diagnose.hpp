@@ -158,6 +158,12 @@ struct BranchAmbiguousRow {
   bool excluded = false;                ///< The measurement lies nearer an alternative: left out of every fit.
 };
 
+/// @brief The verdict's names, one per kind: each entry is a named effect's kind followed by the kinds of the
+/// look-alikes the recording cannot tell it from. An entry reads "X or Y" with the kind of fewer parameters first
+/// (ties: the effect's own kind, then by name); an entry with a kind that another entry names on its own is left out
+/// (that kind is named once; its look-alikes stay in the finding's ambiguous_with); identical entries once.
+std::vector<std::string> verdictNames(const std::vector<std::vector<EffectKind>>& entries);
+
 /// @brief A row whose measurement looks like a tracker glitch (formats.md `outlier_rows`): its residual under the
 /// final model is far beyond the noise and its neighbours' residuals; it is left out of every fit, test and score.
 struct OutlierRow {

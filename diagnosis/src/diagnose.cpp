@@ -219,8 +219,10 @@ DiagnosisReport diagnosePass(const Robot& nominal, const io::Recording& given, c
     rep.failed_rows.push_back(
         {s.origin[static_cast<std::size_t>(k)], s.base.prediction.reason[static_cast<std::size_t>(k)], "nominal"});
   }
-  for (const auto& [k, row] : outliers) s.evaluable[static_cast<std::size_t>(k)] = 0;
-  for (const auto& [k, row] : outliers) rep.outlier_rows.push_back(row);
+  for (const auto& [k, row] : outliers) {
+    s.evaluable[static_cast<std::size_t>(k)] = 0;
+    rep.outlier_rows.push_back(row);
+  }
   if (!outliers.empty()) {
     rep.warnings.push_back(std::to_string(outliers.size()) +
                            " row(s) look like tracker glitches (their residuals under the final model are far beyond "

@@ -67,6 +67,14 @@ GivenNoise parseGivenNoise(const std::string& text) {
   return g;
 }
 
+Eigen::VectorXd noisePart(Quantity q, Eigen::VectorXd e, const Eigen::VectorXd& t) {
+  if (q == Quantity::Twist)
+    for (Eigen::Index c = 0; c < e.size(); ++c) e[c] = std::remainder(e[c], 2 * M_PI);
+  if (q != Quantity::TipTangent || t.size() != 3 || !t.allFinite() || !(t.norm() > 0)) return e;
+  const Eigen::Vector3d u = t.normalized();
+  return e - u * u.dot(e);
+}
+
 bool Visits::anyRepeated() const {
   for (int f : frames)
     if (f > 1) return true;
@@ -80,16 +88,6 @@ constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
 bool sameCommand(const Configuration& a, const Configuration& b) {
   return a.size() == b.size() && ((a.alpha - b.alpha).cwiseAbs().maxCoeff() <= 1e-12) &&
          ((a.beta - b.beta).cwiseAbs().maxCoeff() <= 1e-12);
-}
-
-/// The part of a difference of residuals (or of measurements) that carries noise: twist differences wrapped to
-/// (-pi, pi], a tangent's part normal to the measured tangent t.
-Eigen::VectorXd noisePart(Quantity q, Eigen::VectorXd e, const Eigen::VectorXd& t) {
-  if (q == Quantity::Twist)
-    for (Eigen::Index c = 0; c < e.size(); ++c) e[c] = std::remainder(e[c], 2 * M_PI);
-  if (q != Quantity::TipTangent || t.size() != 3 || !t.allFinite() || !(t.norm() > 0)) return e;
-  const Eigen::Vector3d u = t.normalized();
-  return e - u * u.dot(e);
 }
 
 /// A difference of residuals (noise only, up to model error) with the configuration distance it spans.

@@ -9,20 +9,6 @@
 
 namespace ctr::diagnosis::detail {
 
-namespace {
-
-/// The noisy part of a residual row: the tangent's part normal to the measured tangent (2 dof), the others as they
-/// are.
-Eigen::VectorXd noisyPart(const io::Recording& rec, Quantity q, const Eigen::VectorXd& e, int k) {
-  if (q != Quantity::TipTangent) return e;
-  const Eigen::Vector3d t = measured(rec, q).row(k).transpose();
-  if (!t.allFinite() || !(t.norm() > 0)) return e;
-  const Eigen::Vector3d u = t.normalized();
-  return e - u * u.dot(e);
-}
-
-}  // namespace
-
 std::vector<std::pair<int, OutlierRow>> screenOutliers(const io::Recording& rec, const Residuals& r,
                                                        const NoiseLevels& noise, const std::vector<char>& use,
                                                        const std::vector<int>& origin, double alpha,
@@ -41,9 +27,11 @@ std::vector<std::pair<int, OutlierRow>> screenOutliers(const io::Recording& rec,
     const double dof = rowDof(q, R.cols());
     Eigen::VectorXd z = Eigen::VectorXd::Constant(rows, std::numeric_limits<double>::quiet_NaN());
     std::vector<double> finite;
+    const Eigen::MatrixXd& M = measured(rec, q);
+    auto noisy = [&](const Eigen::VectorXd& e, int k) { return noisePart(q, e, M.row(k).transpose()); };
     for (int k = 0; k < rows; ++k)
       if (usable(k) && R.row(k).allFinite()) {
-        z[k] = noisyPart(rec, q, R.row(k).transpose(), k).squaredNorm() / (sd * sd);
+        z[k] = noisy(R.row(k).transpose(), k).squaredNorm() / (sd * sd);
         finite.push_back(z[k]);
       }
     if (finite.size() < 20) continue;
@@ -68,7 +56,7 @@ std::vector<std::pair<int, OutlierRow>> screenOutliers(const io::Recording& rec,
           !isLongMove(rec.commands[static_cast<std::size_t>(k)], rec.commands[static_cast<std::size_t>(k + 1)], steps);
       if (dense) {
         const Eigen::VectorXd d = (R.row(k) - 0.5 * (R.row(k - 1) + R.row(k + 1))).transpose();
-        const double zd = noisyPart(rec, q, d, k).squaredNorm() / (1.5 * sd * sd);
+        const double zd = noisy(d, k).squaredNorm() / (1.5 * sd * sd);
         if (!(zd > limit)) continue;
       }
       OutlierRow& o = found[k];

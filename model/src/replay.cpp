@@ -335,7 +335,7 @@ std::vector<ReplayRow> replay(const Robot& robot, const std::vector<Configuratio
       continue;
     }
     const bool path = good.valid && o.branch == BranchRule::Path;
-    const bool long_move = isLongMove(last_command, q, o);
+    const bool long_move = o.find_alternatives && isLongMove(last_command, q, o);
     Move m;
     if (path) {
       if (k < known.via.size())
@@ -364,15 +364,18 @@ std::vector<ReplayRow> replay(const Robot& robot, const std::vector<Configuratio
     row.reason = m.reason;
     last_command = q;
     if (o.find_alternatives) {
-      const Solution primary = m.ok ? frictionlessTwin(free, friction, m.r, ws, o) : Solution{};
+      // The row's own frictionless branch, solved only where other branches are searched or followed.
+      const bool search = row.reached != Reached::Path || long_move;
+      const Solution primary =
+          m.ok && (search || branches.active) ? frictionlessTwin(free, friction, m.r, ws, o) : Solution{};
       if (!primary.converged()) {
         branches = Branches{};
-      } else if (row.reached != Reached::Path || long_move) {
+      } else if (search) {
         const HysteresisState* previous = good.valid ? &good : nullptr;
         branches = Branches{};
         searchAlternatives(free, q, primary, previous, ws, o, branches);
         branches.active = !branches.others.empty();
-      } else if (branches.active) {
+      } else {
         followAlternatives(free, q, primary, ws, o, branches);
       }
       if (m.ok && branches.active)

@@ -32,6 +32,11 @@ struct GivenNoise {
 /// item and what is wrong.
 GivenNoise parseGivenNoise(const std::string& text);
 
+/// @brief The part of a residual, or of a difference of residuals or measurements, of quantity `q` that carries noise
+/// (the conventions above): twist components wrapped to (-pi, pi], a tip tangent's part normal to the measured tangent
+/// `t` (a 3-vector; ignored for the other quantities).
+Eigen::VectorXd noisePart(Quantity q, Eigen::VectorXd e, const Eigen::VectorXd& t);
+
 /// @brief Consecutive rows with the same command collapsed into one row (a visit): the robot did not move between
 /// them, so their spread is the tracker's jitter.
 struct Visits {

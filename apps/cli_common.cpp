@@ -7,6 +7,7 @@
 #include <iostream>
 #include <sstream>
 
+#include "ctr/io/file.hpp"
 #include "ctr/model/replay.hpp"
 
 namespace ctr::cli {
@@ -78,9 +79,9 @@ Configuration ConfigOptions::resolve(const Robot& robot, int swept_tube, double 
   // inner tube whose end coincides with the outer tube's end), larger ones are usage errors naming the option.
   const Admissibility adm = projectAdmissible(robot, q);
   if (!adm) {
-    const bool rotation = adm.message.rfind("alpha_", 0) == 0;
+    const bool rotation = adm.actuator == Admissibility::Actuator::Rotation;
     std::string option = rotation ? alpha_option : beta_option;
-    if (rotation && swept_tube >= 0 && adm.message.rfind("alpha_" + std::to_string(swept_tube + 1) + " ", 0) == 0)
+    if (rotation && swept_tube >= 0 && adm.tube == swept_tube + 1)
       option = "--from";
     else if ((rotation ? alpha : beta).empty())
       option += " (default: " + std::string(rotation ? "0" : "straight parts retracted") + ")";
@@ -128,6 +129,29 @@ void checkOutputPath(const std::string& option, const std::string& path,
     if (same)
       throw UsageError(option + ": '" + path + "' is the input file of " + in_option +
                        "; refusing to overwrite an input (choose another output file)");
+  }
+}
+
+CLI::Option* addJsonOption(CLI::App* sub, std::string& target, const std::string& what) {
+  return sub
+      ->add_option("--json", target,
+                   "Write " + what + " as JSON to FILE, or to standard output with - or without a value")
+      ->expected(0, 1)
+      ->default_str(kStandardOutput)
+      ->type_name("[FILE|-]");
+}
+
+void checkOutputTarget(const std::string& option, const std::string& target,
+                       const std::vector<std::pair<std::string, std::string>>& inputs) {
+  if (target != kStandardOutput) checkOutputPath(option, target, inputs);
+}
+
+void writeOutput(const std::string& target, const std::string& text) {
+  if (target.empty()) return;
+  if (target == kStandardOutput) {
+    std::cout << text << std::flush;
+  } else {
+    io::writeFileAtomic(target, text);
   }
 }
 

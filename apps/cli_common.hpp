@@ -38,7 +38,7 @@ struct ConfigOptions {
   /// Configuration for the robot: missing alpha -> zeros; missing beta -> -straight_length of each tube, clamped
   /// to the nesting rules. The rotation of `swept_tube` (0-based, if >= 0; `ctr sweep`) is `swept_angle` (--from).
   /// Projected onto the admissible set when it violates it by at most kAdmissibilityTolerance (rounded values,
-  /// docs/formats-io.md "Admissibility tolerance"). Throws UsageError for wrong counts and for larger violations
+  /// docs/formats.md "Admissibility tolerance"). Throws UsageError for wrong counts and for larger violations
   /// (naming the option and the constraint).
   Configuration resolve(const Robot& robot, int swept_tube = -1, double swept_angle = 0.0) const;
 };
@@ -51,6 +51,20 @@ std::vector<std::string> normalizeArguments(int argc, char** argv);
 /// Empty `path` (output not requested) is accepted. `option` names the output option in the message.
 void checkOutputPath(const std::string& option, const std::string& path,
                      const std::vector<std::pair<std::string, std::string>>& inputs = {});
+
+/// The target of `--json -` and `--csv -`: standard output.
+inline const std::string kStandardOutput = "-";
+
+/// @brief `--json [FILE|-]`, the same in every subcommand: write `what` as JSON to FILE, or to standard output with
+/// `-` or no value.
+CLI::Option* addJsonOption(CLI::App* sub, std::string& target, const std::string& what);
+
+/// @brief checkOutputPath for a target that may be standard output ("-": always accepted).
+void checkOutputTarget(const std::string& option, const std::string& target,
+                       const std::vector<std::pair<std::string, std::string>>& inputs = {});
+
+/// @brief Writes `text` to a target: standard output for "-", else the file (atomically); nothing for "".
+void writeOutput(const std::string& target, const std::string& text);
 
 /// @brief CLI11 check: a finite number > 0 (CLI::PositiveNumber lets nan and inf through).
 CLI::Validator finitePositive();
@@ -66,7 +80,7 @@ CLI::Validator branchRuleValidator();
 namespace ctr::cli {
 
 /// Options --tip-force, --tip-moment, --gravity ("x,y,z" in the base frame; N, N m, m/s^2). Each given option
-/// replaces that entry of the robot's `loads:` block (formats.md); the others are kept.
+/// replaces that entry of the robot's `loads:` block (docs/formats.md); the others are kept.
 struct LoadsCli {
   std::string tip_force, tip_moment, gravity;
   void add(CLI::App* app);

@@ -453,7 +453,8 @@ void registerBench(CLI::App& app, Action& action) {
   bs->add_option("--planners", b->planners, "Query only: comma-separated planner names (default: the query's)");
   bs->add_option("--runs", b->runs, "Query only: runs per planner")->check(finitePositive());
   bs->add_option("--time", b->time, "Query only: time limit per run (s)")->check(finitePositive());
-  bs->add_option("--out", b->out, "Output folder (OMPL logs + run records; query: .log + summary.json)");
+  bs->add_option("--out", b->out, "Output folder (OMPL logs + run records; query: .log + summary.json)")
+      ->type_name("DIR");
   bs->add_option("--shard", b->shard,
                  "Campaign only: run part I of N (0 <= I < N), e.g. $SLURM_ARRAY_TASK_ID/$SLURM_ARRAY_TASK_COUNT");
   bs->add_flag("--quiet", b->quiet, "No progress on stderr");
@@ -462,8 +463,11 @@ void registerBench(CLI::App& app, Action& action) {
       "Check that a campaign's runs are complete (every run once) and write OUT/benchmark.db (Planner Arena, "
       "via OMPL's ompl_benchmark_statistics), OUT/summary.json and optionally an HTML report");
   ms->add_option("dirs", b->dirs, "Output folders of `ctr bench CAMPAIGN.yaml --out DIR` (one or several)")->required();
-  ms->add_option("--out", b->merge_out, "Folder for benchmark.db, summary.json and logs/")->required();
-  ms->add_option("--html", b->html, "Write the campaign report (success rates, time to solution, replay outcomes)");
+  ms->add_option("--out", b->merge_out, "Folder for benchmark.db, summary.json and logs/")
+      ->required()
+      ->type_name("DIR");
+  ms->add_option("--html", b->html, "Write the campaign report (success rates, time to solution, replay outcomes)")
+      ->type_name("FILE");
   ms->add_flag("--allow-incomplete", b->allow_incomplete,
                "Merge what is there and list the missing runs as warnings (duplicates are always an error)");
   ms->add_flag("--quiet", b->quiet, "No progress on stderr");

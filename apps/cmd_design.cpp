@@ -33,13 +33,33 @@ namespace fs = std::filesystem;
 namespace ctr::cli {
 namespace {
 
+/// `--html` without a value: the report in the output folder.
+const std::string kOutReport = "OUT/report.html";
+
+/// The report file of `--html` for the output folder `dir`.
+fs::path reportFile(const std::string& html, const std::string& dir) {
+  return html == kOutReport ? fs::path(dir) / "report.html" : fs::path(html);
+}
+
+/// Checks an `--html FILE` value: an .html file name (`--html` takes an optional value, so a query file written after
+/// it would otherwise be taken for the report and overwritten).
+void checkReportFile(const std::string& html) {
+  if (html.empty() || html == kOutReport) return;
+  const std::string ext = fs::path(html).extension().string();
+  if (ext != ".html" && ext != ".htm")
+    throw UsageError("--html: '" + html +
+                     "' is not an .html file name (give the queries before --html, or write --html=FILE)");
+  checkOutputPath("--html", html);
+}
+
 struct DesignOpts {
   std::vector<std::string> queries;
   std::string out, space, shard, planner;
   long seed = 1;
   int starts = 1, evaluations = 40, population = 8, threads = 0, probe_goals = 3, probe_candidates = 400, confirm = 1;
   double time = 0.0, probe_time = 2.0, plan_time = 0.0, strain_limit = 0.06;
-  bool quiet = false, html = false;
+  bool quiet = false;
+  std::string html;  // --html [FILE]: kOutReport without a value
   // merge
   std::vector<std::string> dirs;
   std::string merge_out;
@@ -88,10 +108,11 @@ std::vector<double> clearanceColumn(const std::string& file, const io::Recording
   return out;
 }
 
-/// DIR/report.html (the design report) and DIR/viewers/STEM.html (the planning viewer of each designed plan). Every
-/// page is built before any is written: a report that fails (a path or query file the result refers to is unreadable)
-/// writes none and says that the design result itself was kept.
-void buildDesignReport(const std::string& dir, std::vector<std::pair<fs::path, std::string>>& pages) {
+/// `report` (the design report of the design written in DIR) and viewers/STEM.html beside it (the planning viewer of
+/// each designed plan). Every page is built before any is written: a report that fails (a path or query file the
+/// result refers to is unreadable) writes none and says that the design result itself was kept.
+void buildDesignReport(const std::string& dir, const fs::path& report,
+                       std::vector<std::pair<fs::path, std::string>>& pages) {
   const std::string result_file = (fs::path(dir) / "result.json").string();
   const std::string result = io::readFile(result_file);
   const nlohmann::json j = nlohmann::json::parse(result);
@@ -101,7 +122,8 @@ void buildDesignReport(const std::string& dir, std::vector<std::pair<fs::path, s
     const std::string stem = design::queryFileStem(name);
     const fs::path csv = fs::path(dir) / "paths" / (stem + ".csv");
     if (!fs::exists(csv)) continue;
-    // The path's rows through the recording reader (formats.md columns; file, line and column in its errors).
+    // The path's rows through the recording reader (docs/formats.md "Planned path"; file, line and column in its
+    // errors).
     const fs::path qfile = fs::path(dir) / "queries" / (stem + ".yaml");
     std::unique_ptr<planner::CtrPlanner> designed;
     if (fs::exists(qfile)) designed = std::make_unique<planner::CtrPlanner>(planner::loadQuery(qfile.string()));
@@ -131,7 +153,7 @@ void buildDesignReport(const std::string& dir, std::vector<std::pair<fs::path, s
       if (q.contains("plan") && !q["plan"].is_null()) vo.info_json = q["plan"].dump();
       const auto start = planner::startCache(*designed->context(), pq.start, pq.history);
       if (start && start->physics_ok) vo.start = start->hysteresis;
-      pages.emplace_back(fs::path(dir) / "viewers" / (stem + ".html"),
+      pages.emplace_back(report.parent_path() / "viewers" / (stem + ".html"),
                          reports::planningHtml(*designed->context(), rec.commands, viewGoal(pq), vo));
       p.viewer = "viewers/" + stem + ".html";
     }
@@ -139,24 +161,24 @@ void buildDesignReport(const std::string& dir, std::vector<std::pair<fs::path, s
   }
   std::string title = "Robot design";
   for (const auto& q : j["queries"]) title += (&q == &j["queries"].front() ? ": " : ", ") + q.value("query", "");
-  pages.emplace_back(fs::path(dir) / "report.html", reports::designHtml(result, plots, title));
+  pages.emplace_back(report, reports::designHtml(result, plots, title));
 }
 
-void writeDesignReport(const std::string& dir) {
+void writeDesignReport(const std::string& dir, const fs::path& report) {
   std::vector<std::pair<fs::path, std::string>> pages;
   const std::string kept = " (" + (fs::path(dir) / "result.json").string() + " and the paths were written; no report)";
   try {
-    buildDesignReport(dir, pages);
+    buildDesignReport(dir, report, pages);
   } catch (const io::InputError& e) {
     throw io::InputError(e.file(), e.line(), e.key(), e.message() + kept);
   } catch (const std::exception& e) {
     throw std::runtime_error(std::string("design report: ") + e.what() + kept);
   }
   for (const auto& [path, html] : pages) {
-    fs::create_directories(path.parent_path());
+    if (path.has_parent_path()) fs::create_directories(path.parent_path());
     reports::writeHtml(path.string(), html);
   }
-  std::cerr << "wrote " << (fs::path(dir) / "report.html").string() << "\n";
+  std::cerr << "wrote " << report.string() << "\n";
 }
 #endif
 
@@ -173,9 +195,10 @@ int runDesign(const DesignOpts& o, const CLI::App* sub) {
   if (sub->count("--strain-limit") && !o.space.empty())
     throw UsageError("--strain-limit: set strain_limit in the design space file (" + o.space + ")");
   if (o.strain_limit > 0.2) throw UsageError("--strain-limit: must be a fraction (0.06 is 6 %)");
-  if (o.html) {
+  if (!o.html.empty()) {
     if (!o.shard.empty()) throw UsageError("--html: a shard has no report of its own; use `ctr design merge --html`");
-    requireHtmlReports("--html");
+    requireHtmlReports(o.html);
+    checkReportFile(o.html);
   }
   design::DesignOptions d;
   d.seed = static_cast<std::uint64_t>(o.seed);
@@ -249,7 +272,7 @@ int runDesign(const DesignOpts& o, const CLI::App* sub) {
           : o.out;
   design::writeDesign(*designer, r, d, shard_label, dir);
 #ifdef CTR_WITH_REPORTS
-  if (o.html) writeDesignReport(dir);
+  if (!o.html.empty()) writeDesignReport(dir, reportFile(o.html, dir));
 #endif
   // Summary on stdout.
   std::cout << (r.solved ? "solved" : "not solved") << ": " << r.message << "\n";
@@ -287,11 +310,12 @@ void registerDesign(CLI::App& app, Action& action) {
       "Design a robot for one or several queries (docs/design.md): search a design space, scoring each candidate by "
       "a goal probe and a friction-aware plan whose replay must be clean; `ctr design merge` joins --shard outputs");
   sub->add_option("queries", o->queries, "Query YAML files (one design for all)");
-  sub->add_option("--out", o->out, "Output folder: robot.yaml, result.json, queries/, paths/, space.yaml");
+  sub->add_option("--out", o->out, "Output folder: robot.yaml, result.json, queries/, paths/, space.yaml")
+      ->type_name("DIR");
   sub->add_option("--space", o->space, "Design space YAML (default: derived from the first query's robot)");
   sub->add_option("--strain-limit", o->strain_limit, "Default space: largest precurvature x outer radius (0.06)")
       ->check(finitePositive());
-  sub->add_option("--seed", o->seed, "Seed of the search (default 1)")->check(finiteNonNegative());
+  sub->add_option("--seed", o->seed, "Seed of the search (default 1)")->check(CLI::NonNegativeNumber)->type_name("INT");
   sub->add_option("--starts", o->starts, "Independent searches (restarts); --shard splits them (default 1)")
       ->check(CLI::Range(1, 100000));
   sub->add_option("--evaluations", o->evaluations, "Candidates per start (default 40)")->check(CLI::Range(1, 1000000));
@@ -300,6 +324,7 @@ void registerDesign(CLI::App& app, Action& action) {
       ->check(CLI::Range(2, 10000));
   sub->add_option("--time", o->time, "Wall-clock budget of the run in s (default: none)")->check(finitePositive());
   sub->add_option("--threads", o->threads, "Candidates evaluated at once (default: the machine's cores)")
+      ->type_name("INT")
       ->check(CLI::Range(1, 1024));
   sub->add_option("--probe-time", o->probe_time, "Goal probe per query and candidate, s (default 2)")
       ->check(finitePositive());
@@ -315,24 +340,35 @@ void registerDesign(CLI::App& app, Action& action) {
       ->check(CLI::Range(0, 100));
   sub->add_option("--shard", o->shard, "Run starts I, I+N, ... of --starts (0 <= I < N) into OUT/shards/");
   sub->add_flag("--quiet", o->quiet, "No progress on stderr");
-  sub->add_flag("--html", o->html,
-                "Also write OUT/report.html (the design against the query's robot, the search, clearance along the "
-                "paths) and OUT/viewers/QUERY.html (the viewer of each designed plan)");
+  sub->add_option("--html", o->html,
+                  "Write the report (the design against the query's robot, the search, clearance along the paths) to "
+                  "FILE (without a value: OUT/report.html) and the viewer of each designed plan to viewers/QUERY.html "
+                  "beside it")
+      ->expected(0, 1)
+      ->default_str(kOutReport)
+      ->type_name("[FILE]");
   CLI::App* ms = sub->add_subcommand(
       "merge", "Join the shards of a design run: the best design over every shard, with its robot, plans and paths");
   ms->add_option("dirs", o->dirs, "Output folders of `ctr design ... --shard I/N --out DIR`")->required();
-  ms->add_option("--out", o->merge_out, "Folder for robot.yaml, result.json, queries/, paths/")->required();
+  ms->add_option("--out", o->merge_out, "Folder for robot.yaml, result.json, queries/, paths/")
+      ->required()
+      ->type_name("DIR");
   ms->add_flag("--allow-incomplete", o->allow_incomplete, "Merge the shards that are there (missing ones listed)");
-  ms->add_flag("--html", o->html, "Also write OUT/report.html and OUT/viewers/QUERY.html (as `ctr design --html`)");
+  ms->add_option("--html", o->html,
+                 "Write the report to FILE (without a value: OUT/report.html), as `ctr design --html`")
+      ->expected(0, 1)
+      ->default_str(kOutReport)
+      ->type_name("[FILE]");
   ms->callback([o, &action]() {
     action = [o]() {
       std::error_code ec;
       if (fs::exists(o->merge_out, ec) && !fs::is_directory(o->merge_out, ec))
         throw UsageError("--out: '" + o->merge_out + "' exists and is not a folder");
-      if (o->html) requireHtmlReports("--html");
+      if (!o->html.empty()) requireHtmlReports(o->html);
+      checkReportFile(o->html);
       const std::string text = design::mergeDesigns(o->dirs, o->merge_out, o->allow_incomplete);
 #ifdef CTR_WITH_REPORTS
-      if (o->html) writeDesignReport(o->merge_out);
+      if (!o->html.empty()) writeDesignReport(o->merge_out, reportFile(o->html, o->merge_out));
 #endif
       const auto j = nlohmann::json::parse(text);
       std::cout << (j.value("solved", false) ? "solved" : "not solved") << ": " << j.value("message", "") << "\n";

@@ -30,14 +30,15 @@ void registerDiagnose(CLI::App& app, Action& action) {
                          "Locate where a recording and the nominal model differ, name the left-out physics, fit it and "
                          "score it on held-out blocks");
   sub->add_option("--robot", o->robot, "Nominal robot description YAML")->required();
-  sub->add_option("--recording", o->recording, "Recording CSV (formats.md), rows in the order taken")->required();
+  sub->add_option("--recording", o->recording, "Recording CSV (docs/formats.md), rows in the order taken")->required();
   sub->add_option("--frame", o->frame,
                   "Frame of measured tips: base, or unknown (registration estimated in every model)")
       ->check(CLI::IsMember({toString(diagnosis::FrameMode::Base), toString(diagnosis::FrameMode::Unknown)}));
-  sub->add_option("--json", o->json, "Diagnosis JSON to write (formats.md)")->required();
+  addJsonOption(sub, o->json, "the diagnosis (docs/formats.md)")->required();
   sub->add_option("--report", o->report, "Plain-language Markdown report to write");
   sub->add_option("--plot-data", o->plot, "Plot data JSON to write (measured/nominal/fitted curves, binned residuals)");
-  sub->add_option("--html", o->html, "Self-contained HTML report to write (plots, candidates; docs/reports.md)");
+  sub->add_option("--html", o->html, "Self-contained HTML report to write (plots, candidates; docs/reports.md)")
+      ->type_name("FILE");
   sub->add_option("--candidates", o->candidates, "Comma-separated effect names to try (default: all)");
   sub->add_option("--noise", o->noise,
                   "The tracker's noise, 1 sigma per component (tangent: per direction normal to it), e.g. "
@@ -49,7 +50,7 @@ void registerDiagnose(CLI::App& app, Action& action) {
                   "moves are listed in branch_ambiguous_rows), rest (from rest: the robot was re-homed between rows)")
       ->check(branchRuleValidator());
   sub->add_option("--folds", o->folds, "Contiguous held-out blocks")->check(CLI::Range(2, 20));
-  sub->add_option("--threads", o->threads, "Candidates fitted in parallel")->check(CLI::Range(1, 64));
+  sub->add_option("--threads", o->threads, "Candidates fitted in parallel")->check(CLI::Range(1, 64))->type_name("INT");
   sub->add_option("--max-effects", o->max_effects, "Largest combination of effects")->check(CLI::Range(0, 6));
   sub->add_option("--max-rows", o->max_rows,
                   "Longer recordings are decimated to every k-th distinct row (the replay still follows the whole "
@@ -64,10 +65,9 @@ void registerDiagnose(CLI::App& app, Action& action) {
   sub->callback([o, &action]() {
     action = [o]() {
       requireHtmlReports(o->html);
-      for (const auto& [opt, path] : {std::pair<std::string, std::string>{"--json", o->json},
-                                      {"--report", o->report},
-                                      {"--plot-data", o->plot},
-                                      {"--html", o->html}})
+      checkOutputTarget("--json", o->json, {{"--robot", o->robot}, {"--recording", o->recording}});
+      for (const auto& [opt, path] :
+           {std::pair<std::string, std::string>{"--report", o->report}, {"--plot-data", o->plot}, {"--html", o->html}})
         checkOutputPath(opt, path, {{"--robot", o->robot}, {"--recording", o->recording}});
       const Robot robot = io::loadRobot(o->robot);
       const io::Recording rec = io::loadRecording(o->recording, robot.size(), true);
@@ -127,15 +127,17 @@ void registerDiagnose(CLI::App& app, Action& action) {
       progress.setDetail(std::to_string(rep.final_effects.size()) + " effect(s) in the final model, " +
                          std::to_string(rep.evaluations) + " replays");
       progress.finish();
-      io::writeFileAtomic(o->json, diagnosis::reportToJson(rep));
+      writeOutput(o->json, diagnosis::reportToJson(rep));
       if (!o->report.empty()) io::writeFileAtomic(o->report, diagnosis::reportToMarkdown(rep, rec));
       if (!o->plot.empty()) io::writeFileAtomic(o->plot, diagnosis::plotDataJson(rep, rec));
 #ifdef CTR_WITH_REPORTS
       if (!o->html.empty()) reports::writeHtml(o->html, reports::diagnosisHtml(rep, rec, "Diagnosis: " + o->recording));
 #endif
-      std::cout << "verdict: [";
-      for (std::size_t k = 0; k < rep.verdict.size(); ++k) std::cout << (k ? ", " : "") << rep.verdict[k];
-      std::cout << "]\n" << rep.summary << "\n";
+      // The verdict and summary in words: on standard output, or on the error stream when the JSON goes there.
+      std::ostream& words = o->json == kStandardOutput ? std::cerr : std::cout;
+      words << "verdict: [";
+      for (std::size_t k = 0; k < rep.verdict.size(); ++k) words << (k ? ", " : "") << rep.verdict[k];
+      words << "]\n" << rep.summary << "\n";
       return kOk;
     };
   });

@@ -38,7 +38,7 @@ struct EnvOptions {
   std::string file;
   double resolution = 0.0;  // 0: the description's
   std::string start;        // named start pose to use as the base pose
-  bool json = false;
+  std::string json;         // --json [FILE|-]
   bool verbose = false;
   bool quiet = false;  // env build: no progress line
 };
@@ -122,14 +122,13 @@ void registerEnv(CLI::App& app, Action& action) {
                                         "Build an environment and print bounds, resolution, occupied volume, "
                                         "base pose, starts, targets and build time");
     addEnvOptions(sub, *o);
-    sub->add_flag("--json", o->json, "Print one JSON object");
+    addJsonOption(sub, o->json, "the information (one object)");
     sub->callback([o, &action]() {
       action = [o]() {
+        checkOutputTarget("--json", o->json, {{"ENV", o->file}});
         const environments::Environment e = buildFrom(*o);
-        if (o->json)
-          std::cout << environments::infoJson(e, 2) << "\n";
-        else
-          printInfo(std::cout, e);
+        writeOutput(o->json, environments::infoJson(e, 2) + "\n");
+        if (o->json != kStandardOutput) printInfo(std::cout, e);
         return static_cast<int>(kOk);
       };
     });
@@ -189,9 +188,10 @@ void registerEnv(CLI::App& app, Action& action) {
         ->check(CLI::IsMember({"free", "occupied"}));
     sub->add_option("--max-distance", o->max_distance, "Clearance saturates at this distance (m)")
         ->check(finitePositive());
-    sub->add_flag("--json", o->env.json, "Print one JSON object");
+    addJsonOption(sub, o->env.json, "the result (one object)");
     sub->callback([o, &action]() {
       action = [o]() {
+        checkOutputTarget("--json", o->env.json, {{"ENV", o->env.file}, {"--robot", o->robot}});
         const Robot robot = io::loadRobot(o->robot);
         const Configuration q = o->config.resolve(robot);
         auto e = std::make_shared<const environments::Environment>(buildFrom(o->env));
@@ -222,7 +222,7 @@ void registerEnv(CLI::App& app, Action& action) {
         const double us_cl = std::chrono::duration<double, std::micro>(t3 - t2).count();
         const Eigen::Vector3d tip = e->basePose() * sol.tip_position;
         auto tubeName = [&](int t) { return t >= 0 ? robot.tube(t).name : std::string(); };
-        if (o->env.json) {
+        if (!o->env.json.empty()) {
           Json j;
           j["environment"] = e->name();
           j["robot"] = robot.name();
@@ -250,8 +250,9 @@ void registerEnv(CLI::App& app, Action& action) {
           j["capsules"] = col.capsules;
           j["narrowphase_calls"] = col.narrowphase_calls;
           j["timing_us"] = {{"collision", us_col}, {"clearance", us_cl}, {"checker_build", t_checker * 1e6}};
-          std::cout << j.dump(2) << "\n";
-        } else {
+          writeOutput(o->env.json, j.dump(2) + "\n");
+        }
+        if (o->env.json != kStandardOutput) {
           std::cout << "environment  " << e->name() << " (base: " << e->basePoseSource() << ")\n";
           std::cout << "robot        " << robot.name() << ", tip at " << fmtMm(tip) << "\n";
           if (col.collision) {

@@ -15,10 +15,10 @@ namespace ctr::cli {
 
 void registerFk(CLI::App& app, Action& action) {
   struct Opts {
-    std::string robot, shape;
+    std::string robot, shape, json;
     ConfigOptions config;
     LoadsCli loads;
-    bool json = false, jacobian = false;
+    bool jacobian = false;
     double ds = 1e-3;
   };
   auto o = std::make_shared<Opts>();
@@ -26,7 +26,7 @@ void registerFk(CLI::App& app, Action& action) {
       "fk", "Forward kinematics (frictionless torsionally compliant model; Cosserat rods under external loads)");
   sub->add_option("--robot", o->robot, "Robot description YAML")->required();
   o->config.add(sub);
-  sub->add_flag("--json", o->json, "Print one JSON object");
+  addJsonOption(sub, o->json, "the solution (one object)");
   o->loads.add(sub);
   sub->add_flag("--jacobian", o->jacobian,
                 "Also give the exact tip Jacobian (6 x 2n: position, rotation w.r.t. alpha then beta) and the 6 x 6 "
@@ -35,7 +35,8 @@ void registerFk(CLI::App& app, Action& action) {
   sub->add_option("--shape-step", o->ds, "Backbone resolution for --shape (m)")->check(finitePositive());
   sub->callback([o, &action]() {
     action = [o]() {
-      checkOutputPath("--shape", o->shape, {{"--robot", o->robot}});
+      checkOutputTarget("--json", o->json, {{"--robot", o->robot}});
+      checkOutputPath("--shape", o->shape, {{"--robot", o->robot}, {"--json", o->json}});
       const Robot robot = o->loads.apply(io::loadRobot(o->robot));
       const Configuration q = o->config.resolve(robot);
       Workspace ws;
@@ -61,14 +62,15 @@ void registerFk(CLI::App& app, Action& action) {
         }
         return a;
       };
-      if (o->json) {
+      if (!o->json.empty()) {
         nlohmann::json j = solutionJson(sol);
         if (jac.ok) {
           j["jacobian"] = rows(jac.actuation);
           j["compliance"] = rows(jac.compliance);
         }
-        std::cout << j.dump() << "\n";
-      } else {
+        writeOutput(o->json, j.dump() + "\n");
+      }
+      if (o->json != kStandardOutput) {
         printSolution(std::cout, sol);
         if (jac.ok) {
           const Eigen::IOFormat fmt(6, 0, " ", "\n", "  ", "");

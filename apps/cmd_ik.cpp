@@ -48,8 +48,9 @@ void registerIk(CLI::App& app, Action& action) {
       ->check(finiteNonNegative());
   sub->add_option("--targets", o->targets,
                   "CSV of tip targets reached in order (tip_x,tip_y,tip_z; optional tip_tx,tip_ty,tip_tz, time)");
-  sub->add_option("--out", o->out, "Write the commands to this actuation CSV (alpha_*, beta_*; ctr simulate reads it)");
-  sub->add_option("--json", o->json, "Write the result as JSON to this file, or - for standard output");
+  sub->add_option("--out", o->out, "Write the commands to this actuation CSV (alpha_*, beta_*; ctr simulate reads it)")
+      ->type_name("FILE");
+  addJsonOption(sub, o->json, "the result");
   o->from.add(sub, "from-");
   sub->add_option("--boundary-friction", o->boundary,
                   "Lumped friction coefficient mu' (overrides the robot's); > 0 makes the inverse friction-aware")
@@ -63,16 +64,18 @@ void registerIk(CLI::App& app, Action& action) {
       ->check(finitePositive());
   sub->add_option("--restarts", o->restarts, "Further random starts when a start does not reach (default 8)")
       ->check(CLI::NonNegativeNumber);
-  sub->add_option("--seed", o->seed, "Seed of the random starts (default 1)");
+  sub->add_option("--seed", o->seed, "Seed of the random starts (default 1)")
+      ->check(CLI::NonNegativeNumber)
+      ->type_name("INT");
   o->loads.add(sub);
   sub->callback([o, &action]() {
     action = [o]() {
-      const bool to_stdout = o->json == "-";
+      const bool to_stdout = o->json == kStandardOutput;
       if (o->target.empty() == o->targets.empty())
         throw UsageError("give exactly one of --target X,Y,Z and --targets PATH.csv");
       if (!o->direction.empty() && o->target.empty())
         throw UsageError("--direction goes with --target; a path gives directions in tip_tx, tip_ty, tip_tz columns");
-      if (!to_stdout) checkOutputPath("--json", o->json, {{"--robot", o->robot}, {"--targets", o->targets}});
+      checkOutputTarget("--json", o->json, {{"--robot", o->robot}, {"--targets", o->targets}});
       checkOutputPath("--out", o->out, {{"--robot", o->robot}, {"--targets", o->targets}, {"--json", o->json}});
 
       Robot robot = o->loads.apply(io::loadRobot(o->robot));

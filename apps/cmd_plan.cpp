@@ -22,18 +22,19 @@ void registerPlan(CLI::App& app, Action& action) {
   auto o = std::make_shared<Opts>();
   CLI::App* sub = app.add_subcommand("plan", "Plan a query (YAML) with friction-aware validity, then replay the path");
   sub->add_option("query", o->query, "Query YAML (docs/planning.md)")->required();
-  sub->add_option("--json", o->json, "Write the result as JSON");
+  addJsonOption(sub, o->json, "the result (also printed as one line on standard output)");
   sub->add_option("--path", o->path, "Write the replayed path CSV (recording columns + hysteresis state)");
-  sub->add_option("--html", o->html, "Write the interactive 3D viewer of the replayed path (self-contained HTML)");
+  sub->add_option("--html", o->html, "Write the interactive 3D viewer of the replayed path (self-contained HTML)")
+      ->type_name("FILE");
   sub->add_option("--planner", o->planner, "Override the query's planner");
   sub->add_option("--mode", o->mode, "Override the mode: exact, robust, frictionless");
   sub->add_option("--time", o->time, "Override the time limit (s)")->check(finitePositive());
-  sub->add_option("--seed", o->seed, "Override the seed")->check(finiteNonNegative());
+  sub->add_option("--seed", o->seed, "Override the seed")->check(CLI::NonNegativeNumber)->type_name("INT");
   sub->add_flag("--cpu-time", o->cpu_time,
                 "Time limit and planning time in CPU seconds of the process (reproducible on a loaded machine)");
   sub->callback([o, &action]() {
     action = [o]() {
-      checkOutputPath("--json", o->json, {{"query", o->query}});
+      checkOutputTarget("--json", o->json, {{"query", o->query}});
       checkOutputPath("--path", o->path, {{"query", o->query}, {"--json", o->json}});
       requireHtmlReports(o->html);
       checkOutputPath("--html", o->html, {{"query", o->query}, {"--json", o->json}, {"--path", o->path}});
@@ -51,7 +52,7 @@ void registerPlan(CLI::App& app, Action& action) {
       const planner::PlanResult r = p.solve();
       const std::string j = planner::resultJson(q, r);
       std::cout << j << "\n";
-      if (!o->json.empty()) io::writeFileAtomic(o->json, j + "\n");
+      if (o->json != kStandardOutput) writeOutput(o->json, j + "\n");
       if (!o->path.empty() && !r.replay.points.empty())
         io::writeFileAtomic(o->path, planner::replayCsv(p.context()->robot(), r.replay));
 #ifdef CTR_WITH_REPORTS

@@ -26,12 +26,12 @@ void registerImport(CLI::App* parent, Action& action) {
   auto o = std::make_shared<Opts>();
   CLI::App* sub = parent->add_subcommand(
       "import",
-      "Convert a lab table (whitespace/comma columns) into a formats.md recording: column mapping, unit "
+      "Convert a lab table (whitespace/comma columns) into a docs/formats.md recording: column mapping, unit "
       "scaling, sign flips, angle unwrapping");
   sub->add_option("--format", o->format, "dupont-lab (hjhdog1/ConcentricTubes jointTipTrajectory) or table")
       ->check(CLI::IsMember({"dupont-lab", "table"}));
   sub->add_option("--input", o->input, "Source table")->required();
-  sub->add_option("--out", o->out, "Recording CSV to write")->required();
+  sub->add_option("--out", o->out, "Recording CSV to write")->required()->type_name("FILE");
   sub->add_option("--column", o->columns,
                   "NAME=COLUMN[*SCALE][+OFFSET] (1-based column; e.g. beta_1=5*0.001, tip_tx=11*-1); repeatable; "
                   "overrides the preset");
@@ -120,8 +120,8 @@ void registerInject(CLI::App* parent, Action& action) {
                   "Tangent error drawn once per visit, per component (rad or deg suffix)");
   sub->add_option("--measure", o->measure, "Recorded quantities: comma list of twist, tip_position, tip_tangent");
   sub->add_flag("--sensor-frame", o->sensor_frame, "Express tips in a random rigid sensor frame (for --frame unknown)");
-  sub->add_option("--seed", o->seed, "Random seed");
-  sub->add_option("--out", o->out, "Recording CSV to write")->required();
+  sub->add_option("--seed", o->seed, "Random seed")->check(CLI::NonNegativeNumber)->type_name("INT");
+  sub->add_option("--out", o->out, "Recording CSV to write")->required()->type_name("FILE");
   sub->add_option("--truth", o->truth, "Truth JSON to write (verdict + parameters)");
   sub->callback([o, &action]() {
     action = [o]() {

@@ -21,7 +21,7 @@ void registerSimulate(CLI::App& app, Action& action) {
   sub->add_option("--robot", o->robot, "Robot description YAML")->required();
   sub->add_option("--actuation", o->actuation, "CSV with alpha_1..n, beta_1..n (and optional time) columns")
       ->required();
-  sub->add_option("--out", o->out, "Recording CSV to write (formats.md columns)")->required();
+  sub->add_option("--out", o->out, "Recording CSV to write (docs/formats.md columns)")->required()->type_name("FILE");
   sub->add_flag("--allow-failures", o->allow_failures, "Write rows that did not converge with empty measurements");
   sub->add_option("--branch", o->branch,
                   "How each row's equilibrium is reached: path (default: continuation along the move from the previous "
@@ -34,7 +34,7 @@ void registerSimulate(CLI::App& app, Action& action) {
       checkOutputPath("--out", o->out, {{"--robot", o->robot}, {"--actuation", o->actuation}});
       const Robot robot = o->loads.apply(o->friction.apply(io::loadRobot(o->robot)));
       io::Recording act = io::loadRecording(o->actuation, robot.size(), false);
-      // Logged rows are rounded: violations up to kAdmissibilityTolerance are projected (docs/formats-io.md
+      // Logged rows are rounded: violations up to kAdmissibilityTolerance are projected (docs/formats.md
       // "Admissibility tolerance"); larger ones name the file, line and row.
       for (int r = 0; r < act.rows(); ++r) {
         const Admissibility adm = projectAdmissible(robot, act.commands[static_cast<std::size_t>(r)]);
@@ -62,7 +62,7 @@ void registerSimulate(CLI::App& app, Action& action) {
         if (!row.ok) {
           // A snap is a prediction (the robot jumps to another branch; where it lands is not quasi-static): the row is
           // written empty with a warning, as the diagnosis leaves it out. Anything else is a failure.
-          const bool snap = row.reason.rfind("snapped", 0) == 0;
+          const bool snap = row.failure == Failure::Snapped;
           failures += snap ? 0 : 1;
           std::cerr << "warning: row " << r + 1 << (snap ? " " : " could not be evaluated: ") << row.reason << "\n";
           continue;

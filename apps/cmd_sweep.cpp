@@ -29,15 +29,17 @@ void registerSweep(CLI::App& app, Action& action) {
   sub->add_option("--to", o->to, "End angle (rad, or e.g. 360deg)")->required();
   sub->add_option("--step", o->step, "Angle step (rad, or e.g. 10deg)")->required();
   sub->add_flag("--both-directions", o->both, "Sweep back to the start afterwards");
-  sub->add_option("--csv", o->csv, "Write the rows to this CSV (default: standard output)");
-  sub->add_option("--html", o->html, "Self-contained HTML plots to write (twist, tip, friction band, stability)");
+  sub->add_option("--csv", o->csv, "Write the rows to FILE, or to standard output with - (the default)")
+      ->type_name("FILE|-");
+  sub->add_option("--html", o->html, "Self-contained HTML plots to write (twist, tip, friction band, stability)")
+      ->type_name("FILE");
   o->config.add(sub);
   o->friction.add(sub);
   o->loads.add(sub);
   sub->callback([o, &action]() {
     action = [o]() {
       requireHtmlReports(o->html);
-      checkOutputPath("--csv", o->csv, {{"--robot", o->robot}});
+      checkOutputTarget("--csv", o->csv, {{"--robot", o->robot}});
       checkOutputPath("--html", o->html, {{"--robot", o->robot}, {"--csv", o->csv}});
       const Robot robot = o->loads.apply(o->friction.apply(io::loadRobot(o->robot)));
       const int n = robot.size();
@@ -116,7 +118,7 @@ void registerSweep(CLI::App& app, Action& action) {
         }
 #endif
       }
-      if (o->csv.empty()) {
+      if (o->csv.empty() || o->csv == kStandardOutput) {
         std::cout << csv.str();
       } else {
         io::writeFileAtomic(o->csv, csv.str());

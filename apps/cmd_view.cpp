@@ -22,7 +22,7 @@ void registerView(CLI::App& app, Action& action) {
   sub->add_option("path", o->path, "Path CSV (ctr plan --path: recording columns + hysteresis state)")->required();
   sub->add_option("--env", o->env, "Environment YAML")->required();
   sub->add_option("--robot", o->robot, "Robot description YAML")->required();
-  sub->add_option("--html", o->html, "HTML file to write")->required();
+  sub->add_option("--html", o->html, "HTML file to write")->required()->type_name("FILE");
   sub->add_option("--query", o->query, "Query YAML: goal, friction override and base start pose of the plan");
   sub->add_option("--env-resolution", o->env_resolution, "Override the environment's octree resolution (m)")
       ->check(finitePositive());
@@ -41,7 +41,7 @@ void registerView(CLI::App& app, Action& action) {
         if (w.find("unknown column") == std::string::npos) std::cerr << "warning: " << o->path << ": " << w << "\n";
       if (rec.rows() == 0) throw UsageError(o->path + ": the path has no rows");
       // Rows written with rounded values: violations up to kAdmissibilityTolerance are projected
-      // (docs/formats-io.md "Admissibility tolerance"); larger ones name the file, line and row.
+      // (docs/formats.md "Admissibility tolerance"); larger ones name the file, line and row.
       for (int k = 0; k < rec.rows(); ++k) {
         const Admissibility a = projectAdmissible(robot, rec.commands[static_cast<std::size_t>(k)]);
         if (!a)

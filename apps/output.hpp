@@ -16,7 +16,7 @@ nlohmann::json solutionJson(const Solution& sol);
 void printSolution(std::ostream& os, const Solution& sol);
 /// "s,x,y,z" CSV of backbone points.
 std::string backboneCsv(const std::vector<BackbonePoint>& pts);
-/// Shortest round-trip representation of a double.
+/// Round-trip representation of a double (17 significant digits).
 std::string num(double v);
 
 }  // namespace ctr::cli

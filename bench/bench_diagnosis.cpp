@@ -9,6 +9,7 @@
 #include "ctr/diagnosis/diagnose.hpp"
 #include "ctr/diagnosis/import.hpp"
 #include "ctr/diagnosis/simulate.hpp"
+#include "ctr/io/data.hpp"
 #include "ctr/io/recording.hpp"
 #include "ctr/io/robot_yaml.hpp"
 
@@ -21,7 +22,7 @@ struct Data {
   io::Recording rec;
 };
 Data load(const char* name) {
-  const std::string base = std::string(CTR_SHARED_DIR) + "/data/recordings/" + name;
+  const std::string base = io::expandDataPath(std::string("${CTR_DATA}/recordings/") + name);
   Robot r = io::loadRobot(base + ".robot.yaml");
   return {r, io::loadRecording(base + ".csv", r.size(), true)};
 }
@@ -88,9 +89,9 @@ BENCHMARK(BM_DiagnoseRandomOrderFriction150)->Unit(benchmark::kSecond)->Iteratio
 // with the given noise (none: estimated from the recording).
 static void diagnoseDupontRecording(benchmark::State& st, const GivenNoise& noise) {
   const std::string path =
-      std::string(CTR_SHARED_DIR) + "/data/dupont-lab-ctr-trajectory-hjhdog1/jointTipTrajectory_measured_short.txt";
+      io::expandDataPath("${CTR_DATA}/dupont-lab-ctr-trajectory-hjhdog1/jointTipTrajectory_measured_short.txt");
   if (!std::ifstream(path)) {
-    st.SkipWithError(("missing " + path).c_str());
+    st.SkipWithError(io::missingDataMessage(path).c_str());
     return;
   }
   const Robot robot = io::loadRobot(std::string(CTR_SOURCE_DIR) + "/examples/robots/dupont_lab_3tube.yaml");

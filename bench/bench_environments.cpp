@@ -14,6 +14,7 @@
 
 #include "ctr/environments/collision.hpp"
 #include "ctr/environments/environment_yaml.hpp"
+#include "ctr/io/data.hpp"
 #include "ctr/io/robot_yaml.hpp"
 #include "ctr/model/kinematics.hpp"
 
@@ -26,8 +27,10 @@ const std::string kExamples = std::string(CTR_SOURCE_DIR) + "/examples";
 const std::string kLung = kExamples + "/environments/medmpd_lung_patient1.yaml";
 const std::string kHeart = kExamples + "/environments/proc_intracardiac.yaml";
 
+const std::string kLungData = "${CTR_DATA}/med-mpd/Lungs/Patient1/vessels.nii.gz";
+
 bool haveLung() {
-  return std::filesystem::exists(std::string(CTR_SOURCE_DIR) + "/../shared/data/med-mpd/Lungs/Patient1/vessels.nii.gz");
+  return std::filesystem::exists(io::expandDataPath(kLungData));
 }
 
 struct Scene {
@@ -105,7 +108,7 @@ void reportTimes(benchmark::State& state, std::vector<double>& us) {
 // Collision of full 3-tube shapes (random admissible configurations) vs the Med-MPD lung at 1 mm.
 void BM_LungCollision(benchmark::State& state, bool prefilter) {
   if (!haveLung()) {
-    state.SkipWithError("Med-MPD data not found (../shared/data/med-mpd)");
+    state.SkipWithError(io::missingDataMessage(kLungData).c_str());
     return;
   }
   Scene& s = lungScene();
@@ -139,7 +142,7 @@ BENCHMARK_CAPTURE(BM_LungCollision, fcl_only, false)->Unit(benchmark::kMicroseco
 // Collision-free shapes only (every capsule has to be cleared, no early exit).
 void BM_LungCollisionFreeShapes(benchmark::State& state) {
   if (!haveLung()) {
-    state.SkipWithError("Med-MPD data not found (../shared/data/med-mpd)");
+    state.SkipWithError(io::missingDataMessage(kLungData).c_str());
     return;
   }
   Scene& s = lungScene();
@@ -162,7 +165,7 @@ BENCHMARK(BM_LungCollisionFreeShapes)->Unit(benchmark::kMicrosecond)->Iterations
 
 void BM_LungClearance(benchmark::State& state) {
   if (!haveLung()) {
-    state.SkipWithError("Med-MPD data not found (../shared/data/med-mpd)");
+    state.SkipWithError(io::missingDataMessage(kLungData).c_str());
     return;
   }
   Scene& s = lungScene();
@@ -182,7 +185,7 @@ BENCHMARK(BM_LungClearance)->Unit(benchmark::kMicrosecond)->Iterations(5000);
 // Environment build from the lung NIfTI at 1 mm (read + decompress, select, rasterise, octree).
 void BM_LungBuild1mm(benchmark::State& state) {
   if (!haveLung()) {
-    state.SkipWithError("Med-MPD data not found (../shared/data/med-mpd)");
+    state.SkipWithError(io::missingDataMessage(kLungData).c_str());
     return;
   }
   for (auto _ : state) {
@@ -196,7 +199,7 @@ BENCHMARK(BM_LungBuild1mm)->Unit(benchmark::kMillisecond)->Iterations(3);
 // Collision checker construction for the lung (FCL octree + distance field over the robot's reach).
 void BM_LungCheckerBuild(benchmark::State& state) {
   if (!haveLung()) {
-    state.SkipWithError("Med-MPD data not found (../shared/data/med-mpd)");
+    state.SkipWithError(io::missingDataMessage(kLungData).c_str());
     return;
   }
   Scene& s = lungScene();

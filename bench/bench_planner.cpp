@@ -7,6 +7,7 @@
 #include <filesystem>
 
 #include "ctr/environments/environment_yaml.hpp"
+#include "ctr/io/data.hpp"
 #include "ctr/io/robot_yaml.hpp"
 #include "ctr/planner/goal.hpp"
 #include "ctr/planner/planner.hpp"
@@ -15,11 +16,11 @@ namespace {
 
 using namespace ctr;
 
-// The planning context of Med-MPD lung patient `patient` with the lung robot (null without ../shared/data/med-mpd).
+// The planning context of Med-MPD lung patient `patient` with the lung robot (null without Med-MPD in the data folder).
 std::shared_ptr<const planner::Context> makeLungContext(int patient) {
   const std::string envf =
       std::string(CTR_SOURCE_DIR) + "/examples/environments/medmpd_lung_patient" + std::to_string(patient) + ".yaml";
-  if (!std::filesystem::exists(std::string(CTR_SHARED_DIR) + "/data/med-mpd")) return nullptr;
+  if (!std::filesystem::exists(io::expandDataPath("${CTR_DATA}/med-mpd"))) return nullptr;
   auto env = std::make_shared<const environments::Environment>(environments::loadEnvironment(envf));
   Robot r = io::loadRobot(std::string(CTR_SOURCE_DIR) + "/examples/robots/medmpd_lung.yaml").withFriction({0.1, 0.0});
   planner::ContextOptions co;
@@ -40,7 +41,7 @@ void reportValidity(benchmark::State& st, std::size_t valid) {
 
 void BM_ValidityCold(benchmark::State& st) {
   auto ctx = lungContext();
-  if (!ctx) return st.SkipWithError("../shared/data/med-mpd not found");
+  if (!ctx) return st.SkipWithError(io::missingDataMessage("${CTR_DATA}/med-mpd").c_str());
   std::mt19937_64 g(1);
   std::vector<Configuration> qs;
   for (int k = 0; k < 512; ++k) qs.push_back(sampleConfiguration(ctx->robot(), ctx->translationSampler(), g));
@@ -51,7 +52,7 @@ void BM_ValidityCold(benchmark::State& st) {
 
 void BM_ValidityAlongMotion(benchmark::State& st) {
   auto ctx = lungContext();
-  if (!ctx) return st.SkipWithError("../shared/data/med-mpd not found");
+  if (!ctx) return st.SkipWithError(io::missingDataMessage("${CTR_DATA}/med-mpd").c_str());
   std::mt19937_64 g(2);
   Configuration q = sampleConfiguration(ctx->robot(), ctx->translationSampler(), g);
   planner::ConfigurationCheck prev = planner::checkFrictionless(*ctx, q, planner::scratch());
@@ -75,7 +76,7 @@ void BM_ValidityAlongMotion(benchmark::State& st) {
 // every shape is collision-free, so the whole capsule chain is checked.
 void BM_ValidityAlongPlannedPath(benchmark::State& st) {
   static std::shared_ptr<const planner::Context> ctx_holder = makeLungContext(2);
-  if (!ctx_holder) return st.SkipWithError("../shared/data/med-mpd not found");
+  if (!ctx_holder) return st.SkipWithError(io::missingDataMessage("${CTR_DATA}/med-mpd").c_str());
   const planner::Context& ctx = *ctx_holder;
   const Configuration a(Eigen::Vector3d(0.0, 0.0, 0.0), Eigen::Vector3d(-0.118, -0.218, -0.318));
   const Configuration b(Eigen::Vector3d(-0.537556, -1.836102, -2.506250),
@@ -103,7 +104,7 @@ void BM_ValidityAlongPlannedPath(benchmark::State& st) {
 
 void BM_FrictionMotionStep(benchmark::State& st) {
   auto ctx = lungContext();
-  if (!ctx) return st.SkipWithError("../shared/data/med-mpd not found");
+  if (!ctx) return st.SkipWithError(io::missingDataMessage("${CTR_DATA}/med-mpd").c_str());
   const Configuration q0(Eigen::Vector3d(0.0, 0.5, -0.5), Eigen::Vector3d(-0.118, -0.218, -0.318));
   const std::shared_ptr<const planner::StateCache> start = planner::startCache(*ctx, q0, planner::StartHistory{});
   if (!start->physics_ok) return st.SkipWithError(("start not valid: " + start->why).c_str());
@@ -123,7 +124,7 @@ void BM_FrictionMotionStep(benchmark::State& st) {
 // the tip of another random configuration (reachable targets), 40 iterations at most.
 void BM_InverseKinematics(benchmark::State& st) {
   auto ctx = lungContext();
-  if (!ctx) return st.SkipWithError("../shared/data/med-mpd not found");
+  if (!ctx) return st.SkipWithError(io::missingDataMessage("${CTR_DATA}/med-mpd").c_str());
   std::mt19937_64 g(4);
   Workspace ws;
   std::vector<std::pair<Configuration, Eigen::Vector3d>> cases;

@@ -8,5 +8,5 @@ mode=${1:-}
 out=${2:-$build/diagnosis_evaluation.md}
 cmake -S "$here" -B "$build" -DCMAKE_BUILD_TYPE=Release >/dev/null
 cmake --build "$build" -j2 --target ctr_evaluate_diagnosis
-"$build/diagnosis/ctr_evaluate_diagnosis" $mode --out "$out"
+"$build/apps/ctr_evaluate_diagnosis" $mode --out "$out"
 echo "wrote $out"

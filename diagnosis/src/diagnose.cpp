@@ -216,8 +216,9 @@ DiagnosisReport diagnosePass(const Robot& nominal, const io::Recording& given, c
     s.evaluable[static_cast<std::size_t>(k)] = s.base.prediction.ok[static_cast<std::size_t>(k)];
     if (s.evaluable[static_cast<std::size_t>(k)]) continue;
     ++nfailed;
-    rep.failed_rows.push_back(
-        {s.origin[static_cast<std::size_t>(k)], s.base.prediction.reason[static_cast<std::size_t>(k)], "nominal"});
+    rep.failed_rows.push_back({s.origin[static_cast<std::size_t>(k)],
+                               s.base.prediction.failure[static_cast<std::size_t>(k)],
+                               s.base.prediction.reason[static_cast<std::size_t>(k)], "nominal"});
   }
   for (const auto& [k, row] : outliers) {
     s.evaluable[static_cast<std::size_t>(k)] = 0;

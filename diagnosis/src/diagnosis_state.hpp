@@ -197,7 +197,7 @@ inline auto snapshotFields(State& s) {
 /// reason in a warning and in the findings of the calibrated parameters.
 void keepCalibrationIfBetter(State& s, Snapshot& before);
 
-/// Locate tests on the final model's residuals and its held-out error against the noise (formats.md
+/// Locate tests on the final model's residuals and its held-out error against the noise (docs/formats.md
 /// `unexplained`), into s.rep.unexplained.
 void assessRemainder(State& s);
 

@@ -25,7 +25,7 @@ struct KindFacts {
   bool generic = false;
 };
 
-// One row per kind, in the order of formats.md.
+// One row per kind, in the order of the effect table of docs/formats.md.
 constexpr KindFacts kFacts[] = {
     {EffectKind::BoundaryFriction, "boundary_friction", "mu", "", false, true, 1, 1},
     {EffectKind::DistributedFriction, "distributed_friction", "mu", "", false, true, 1, 1},

@@ -165,6 +165,7 @@ Prediction predict(const Robot& nominal, const std::vector<Configuration>& comma
   p.tip_tangent.setConstant(rows, 3, nan);
   p.moment.setConstant(rows, nan);
   p.ok.assign(static_cast<std::size_t>(rows), 0);
+  p.failure.assign(static_cast<std::size_t>(rows), Failure::None);
   p.reason.assign(static_cast<std::size_t>(rows), std::string());
   p.reached.assign(static_cast<std::size_t>(rows), Reached::Path);
   p.alternatives.assign(static_cast<std::size_t>(rows), {});
@@ -178,6 +179,7 @@ Prediction predict(const Robot& nominal, const std::vector<Configuration>& comma
     p.alternatives[static_cast<std::size_t>(k)] = std::move(row.alternatives);
     if (!row.ok) {
       ++p.failures;
+      p.failure[static_cast<std::size_t>(k)] = row.failure != Failure::None ? row.failure : Failure::NotConverged;
       p.reason[static_cast<std::size_t>(k)] = row.reason.empty() ? "did not converge" : row.reason;
       continue;
     }

@@ -1,4 +1,4 @@
-// Import of lab tables into the formats.md recording.
+// Import of lab tables into the recording CSV (docs/formats.md "Importing lab tables").
 #include "ctr/diagnosis/import.hpp"
 
 #include <algorithm>

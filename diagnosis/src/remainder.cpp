@@ -1,4 +1,4 @@
-// The remainder: what the final model leaves, located and tested against the noise (formats.md `unexplained`).
+// The remainder: what the final model leaves, located and tested against the noise (docs/formats.md `unexplained`).
 #include <algorithm>
 #include <cmath>
 #include <set>

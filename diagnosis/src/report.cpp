@@ -1,4 +1,4 @@
-// Diagnosis output: formats.md JSON, Markdown report, plot data.
+// Diagnosis output: the JSON of docs/formats.md "Diagnosis", Markdown report, plot data.
 #include <cmath>
 #include <cstdio>
 #include <nlohmann/json.hpp>
@@ -194,7 +194,8 @@ std::string reportToJson(const DiagnosisReport& r) {
   j["findings"] = fs;
   json failed = json::array();
   for (const FailedRow& fr : r.failed_rows)
-    failed.push_back(json{{"row", fr.row}, {"reason", fr.reason}, {"model", fr.model}});
+    failed.push_back(
+        json{{"row", fr.row}, {"failure", toString(fr.failure)}, {"reason", fr.reason}, {"model", fr.model}});
   j["failed_rows"] = failed;
   j["reliable"] = r.reliable;
   if (r.unexplained.present) {
@@ -302,12 +303,16 @@ std::string reportToMarkdown(const DiagnosisReport& r, const io::Recording& full
     << ". Held-out scheme: " << r.folds
     << " contiguous blocks in time (stateful models replayed over the whole sequence).\n\n";
   o << "**Verdict:** ";
+  bool white = true;
+  for (const auto& [q, e] : r.noise.by_quantity) white = white && e.white;
   if (r.verdict.empty())
-    o << (r.unexplained.present ? "not explained by any candidate (a mismatch remains that no effect in the library "
-                                  "explains)"
-          : r.noise.supported() ? "nothing left out (the nominal model explains the data within the noise)"
-                                : "nothing named (the residuals are no larger than the differences between "
-                                  "neighbouring rows; the recording cannot tell its noise from model error)");
+    o << (!white && r.unexplained.present
+              ? "nothing established (the noise cannot be told from these data; give --noise)"
+          : r.unexplained.present ? "not explained by any candidate (a mismatch remains that no effect in the library "
+                                    "explains)"
+          : r.noise.supported()   ? "nothing left out (the nominal model explains the data within the noise)"
+                                  : "nothing named (the residuals are no larger than the differences between "
+                                    "neighbouring rows; the recording cannot tell its noise from model error)");
   for (std::size_t k = 0; k < r.verdict.size(); ++k) o << (k ? ", " : "") << "`" << r.verdict[k] << "`";
   if (!r.verdict.empty() && r.unexplained.present) o << " (partial explanation)";
   if (!r.reliable) o << " — **unreliable** (too many rows could not be evaluated)";

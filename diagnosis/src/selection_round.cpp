@@ -6,7 +6,7 @@
 #include <functional>
 #include <limits>
 
-#include "ctr/diagnosis/load_screen.hpp"
+#include "ctr/diagnosis/first_order_screen.hpp"
 #include "ctr/diagnosis/statistics.hpp"
 #include "diagnosis_state.hpp"
 #include "parallel.hpp"

@@ -160,7 +160,7 @@ io::Recording simulateRecording(const Robot& nominal, const std::vector<Configur
   // expected in random-order recordings; other failures beyond 10 % mean the model cannot simulate this path.
   int hard = 0;
   for (int k = 0; k < rows; ++k)
-    hard += !p.ok[static_cast<std::size_t>(k)] && p.reason[static_cast<std::size_t>(k)].rfind("snapped", 0) != 0;
+    hard += !p.ok[static_cast<std::size_t>(k)] && p.failure[static_cast<std::size_t>(k)] != Failure::Snapped;
   if (hard > rows / 10)
     throw std::runtime_error("simulateRecording: " + std::to_string(hard) + " of " + std::to_string(rows) +
                              " rows could not be evaluated");

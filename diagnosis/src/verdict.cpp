@@ -109,11 +109,12 @@ void writeVerdict(State& s) {
     if (s.evaluable[static_cast<std::size_t>(k)] && k < cur.fit.prediction.rows() &&
         !cur.fit.prediction.ok[static_cast<std::size_t>(k)])
       rep.failed_rows.push_back({s.origin[static_cast<std::size_t>(k)],
+                                 cur.fit.prediction.failure[static_cast<std::size_t>(k)],
                                  cur.fit.prediction.reason[static_cast<std::size_t>(k)], rep.final.model});
   // Rows reached through a snap are excluded (the landing state of a dynamic jump is uncertain) but are a physical
   // prediction of the model, not a failure of it: they count separately from the rows the model could not solve.
   int snapped = 0;
-  for (const FailedRow& fr : rep.failed_rows) snapped += fr.reason.rfind("snapped", 0) == 0;
+  for (const FailedRow& fr : rep.failed_rows) snapped += fr.failure == Failure::Snapped;
   const double failed_fraction = static_cast<double>(rep.failed_rows.size() - static_cast<std::size_t>(snapped)) / rows;
   rep.reliable = failed_fraction <= s.o.unreliable_fraction;
   if (!rep.reliable)
@@ -151,6 +152,21 @@ void writeVerdict(State& s) {
     rep.warnings.push_back("the noise of " + joinWords(not_white) +
                            " cannot be told from these data (serially correlated differences between neighbouring "
                            "rows): no effect is established; give --noise");
+  }
+  // `[]` without `unexplained` says that the nominal model explains the data within noise (docs/formats.md): not so
+  // when effects would be named and only the noise is unknown. The baseline's mismatch is then the remainder.
+  if (!not_white.empty() && !would_name.empty()) {
+    Unexplained& u = rep.unexplained;
+    const std::string would = joinWords(would_name) + " would explain against a noise these data cannot establish";
+    if (!u.present) {
+      u.present = true;
+      u.fraction_explained = 0.0;
+      u.heldout_rmse = rep.baseline.heldout_rmse;
+      u.mismatch = rep.mismatch.findings;
+      u.where = "the nominal model leaves a mismatch that " + would;
+    } else {
+      u.where += "; of the nominal model's mismatch, " + would;
+    }
   }
   const std::string not_established =
       "not established: the noise of " + joinWords(not_white) +

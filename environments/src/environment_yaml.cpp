@@ -15,6 +15,7 @@
 #include "ctr/environments/octomap_source.hpp"
 #include "ctr/environments/pointcloud_source.hpp"
 #include "ctr/environments/voxel_grid.hpp"
+#include "ctr/io/data.hpp"
 #include "ctr/io/input_error.hpp"
 #include "ctr/io/yaml_reader.hpp"
 
@@ -68,10 +69,14 @@ struct Ctx : io::YamlReader {
     if (u == "um") return 1e-6;
     fail(n, key, "unknown unit '" + u + "' (m, cm, mm, um)");
   }
+  /// A file path: relative to the description's folder, or "${CTR_DATA}/..." in the data folder (io/data.hpp).
   std::string path(const YAML::Node& n, const std::string& key) const {
     const std::string p = text(n, key);
     if (p.empty()) fail(n, key, "empty path");
-    return resolve(p);
+    if (!io::isDataPath(p)) return resolve(p);
+    const std::string d = io::expandDataPath(p);
+    if (!fs::exists(d)) fail(n, key, io::missingDataMessage(p));
+    return fs::path(d).lexically_normal().string();
   }
 };
 

@@ -9,6 +9,8 @@
 #include <fstream>
 #include <new>
 
+#include "ctr/io/data.hpp"
+
 namespace fs = std::filesystem;
 
 namespace ctr::io {
@@ -58,17 +60,19 @@ void writeFileAtomic(const std::string& path, const std::string& content) {
 
 std::string readFile(const std::string& path) {
   if (path.empty()) throw InputError("<input>", 0, "", "empty file name");
+  const std::string file = expandDataPath(path);  // "${CTR_DATA}/..." is a file of the data folder
   std::error_code ec;
-  const fs::file_status st = fs::status(path, ec);
+  const fs::file_status st = fs::status(file, ec);
   if (!fs::exists(st)) {
     throw InputError(path, 0, "",
                      ec && ec != std::errc::no_such_file_or_directory ? "cannot access the file: " + ec.message()
+                     : isDataPath(path)                               ? missingDataMessage(path)
                                                                       : std::string("file not found"));
   }
   if (fs::is_directory(st)) throw InputError(path, 0, "", "is a directory, not a file");
   try {
     errno = 0;
-    std::ifstream in(path, std::ios::binary);
+    std::ifstream in(file, std::ios::binary);
     if (!in) throw InputError(path, 0, "", "cannot open the file for reading: " + errnoText(errno));
     // Chunked read with a size cap, so that a device such as /dev/zero cannot exhaust memory.
     constexpr std::size_t kMaxBytes = std::size_t{1} << 30;

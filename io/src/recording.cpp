@@ -62,7 +62,7 @@ Column classify(const std::string& name) {
 
 std::string actuationHelp(int n) {
   const std::string k = n > 0 ? std::to_string(n) : std::string("n");
-  return "a recording needs alpha_1..alpha_" + k + " and beta_1..beta_" + k + " (formats.md)";
+  return "a recording needs alpha_1..alpha_" + k + " and beta_1..beta_" + k + " (docs/formats.md)";
 }
 
 std::string tubesText(int n) { return std::to_string(n) + (n == 1 ? " tube" : " tubes"); }
@@ -80,7 +80,8 @@ Recording parse(const std::string& text, const std::string& src, int tubes, bool
   };
   if (tubes == 0) fail(0, "", "the robot has 0 tubes; cannot read a recording for it");
   const auto lines = contentLines(text);
-  if (lines.empty()) fail(0, "", "empty file; expected a header line with alpha_k, beta_k, ... columns (formats.md)");
+  if (lines.empty())
+    fail(0, "", "empty file; expected a header line with alpha_k, beta_k, ... columns (docs/formats.md)");
 
   // Header.
   const int header_line = lines[0].first;
@@ -135,8 +136,9 @@ Recording parse(const std::string& text, const std::string& src, int tubes, bool
       fail(header_line, tangent_names[i], "missing column; tip tangent needs all of tip_tx, tip_ty, tip_tz");
   }
   if (require_measurement && !has_twist && !has_tip && !has_tangent)
-    fail(header_line, "", "no measured quantity: needs twist_2..twist_n, tip_x/tip_y/tip_z or tip_tx/tip_ty/tip_tz "
-                          "columns besides alpha/beta (formats.md)");
+    fail(header_line, "",
+         "no measured quantity: needs twist_2..twist_n, tip_x/tip_y/tip_z or tip_tx/tip_ty/tip_tz "
+         "columns besides alpha/beta (docs/formats.md)");
   if (lines.size() < 2) fail(header_line, "", "header only: no data rows");
 
   // Rows.

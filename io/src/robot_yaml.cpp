@@ -222,7 +222,7 @@ Tube RobotParser::tube(const YAML::Node& node, int k) {
                                  formatNumber(x));
   };
 
-  // Lengths and diameters are in metres (formats.md): values a robot cannot have are almost always mm or um.
+  // Lengths and diameters are in metres (docs/formats.md): values a robot cannot have are almost always mm or um.
   auto plausible = [&](const std::string& key, double hi) {
     if (!has(key)) return;
     const double x = v[key];
@@ -428,7 +428,7 @@ int firstContentLine(const std::string& text) {
 }
 
 Robot RobotParser::parse(const std::string& text) {
-  const std::string empty_help = "expected a robot description: a map with a 'tubes' list (formats.md)";
+  const std::string empty_help = "expected a robot description: a map with a 'tubes' list (docs/formats.md)";
   const int content_line = firstContentLine(text);
   if (content_line == 0) fail(0, "", "empty file; " + empty_help);
   const YAML::Node root = YAML::Load(text);
@@ -495,7 +495,7 @@ Robot loadRobot(const std::string& path) { return parseRobot(readFile(path), pat
 
 std::string robotToYaml(const Robot& robot) {
   std::ostringstream os;
-  os << "# Concentric tube robot (formats.md). SI units: m, 1/m, N m^2, rad.\n";
+  os << "# Concentric tube robot (docs/formats.md). SI units: m, 1/m, N m^2, rad.\n";
   os << "name: " << yamlString(robot.name()) << "\n";
   os << "tubes:  # outermost first\n";
   for (const Tube& t : robot.tubes()) {

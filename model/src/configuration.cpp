@@ -35,56 +35,59 @@ Configuration interpolate(const Configuration& from, const Configuration& to, do
 Admissibility checkAdmissible(const Robot& robot, const Configuration& q, double tol) {
   const int n = robot.size();
   // The message is formatted only on failure (a stream per call cost ~3 % of a warm planning solve).
-  auto fail = [](const auto&... parts) {
+  using A = Admissibility::Actuator;
+  auto fail = [](A actuator, int tube, const auto&... parts) {
     std::ostringstream os;
     (os << ... << parts);
-    return Admissibility{false, os.str()};
+    return Admissibility{false, actuator, tube, os.str()};
   };
   if (q.alpha.size() != n || q.beta.size() != n)
-    return fail("configuration has ", q.alpha.size(), " rotations and ", q.beta.size(), " translations, robot '",
-                robot.name(), "' has ", n, " tubes");
+    return fail(A::None, 0, "configuration has ", q.alpha.size(), " rotations and ", q.beta.size(),
+                " translations, robot '", robot.name(), "' has ", n, " tubes");
   for (int i = 0; i < n; ++i) {
     if (!std::isfinite(q.alpha[i])) {
-      return fail("alpha_", i + 1, " is not finite");
+      return fail(A::Rotation, i + 1, "alpha_", i + 1, " is not finite");
     }
     if (!std::isfinite(q.beta[i])) {
-      return fail("beta_", i + 1, " is not finite");
+      return fail(A::Translation, i + 1, "beta_", i + 1, " is not finite");
     }
   }
   for (int i = 0; i < n; ++i) {
     if (q.beta[i] > tol) {
-      return fail("beta_", i + 1, " = ", q.beta[i], " m > 0: tubes start inside the actuation unit (beta <= 0)");
+      return fail(A::Translation, i + 1, "beta_", i + 1, " = ", q.beta[i],
+                  " m > 0: tubes start inside the actuation unit (beta <= 0)");
     }
   }
   for (int i = 0; i + 1 < n; ++i) {
     if (q.beta[i + 1] > q.beta[i] + tol) {
-      return fail("beta_", i + 2, " = ", q.beta[i + 1], " m > beta_", i + 1, " = ", q.beta[i],
+      return fail(A::Translation, i + 2, "beta_", i + 2, " = ", q.beta[i + 1], " m > beta_", i + 1, " = ", q.beta[i],
                   " m: inner tubes must start at or behind outer tubes (beta_n <= ... <= beta_1)");
     }
     const double e0 = distalEnd(robot, q, i), e1 = distalEnd(robot, q, i + 1);
     if (e1 < e0 - tol) {
-      return fail("distal end of tube ", i + 2, " (beta_", i + 2, " + L_", i + 2, " = ", e1,
+      return fail(A::Translation, i + 2, "distal end of tube ", i + 2, " (beta_", i + 2, " + L_", i + 2, " = ", e1,
                   " m) is behind the end of tube ", i + 1, " (", e0,
                   " m): inner tubes must extend at least as far (beta_1 + L_1 <= ... <= beta_n + L_n)");
     }
   }
   if (distalEnd(robot, q, n - 1) <= 0.0) {
-    return fail("the innermost tube does not leave the actuation unit (beta_", n, " + L_", n, " <= 0)");
+    return fail(A::Translation, n, "the innermost tube does not leave the actuation unit (beta_", n, " + L_", n,
+                " <= 0)");
   }
   for (int i = 0; i < n; ++i) {
     const Tube& t = robot.tube(i);
     if (t.rotation_limits) {
       auto [lo, hi] = *t.rotation_limits;
       if (q.alpha[i] < lo - tol || q.alpha[i] > hi + tol) {
-        return fail("alpha_", i + 1, " = ", q.alpha[i], " rad is outside rotation_limits [", lo, ", ", hi,
-                    "] of tube '", t.name, "'");
+        return fail(A::Rotation, i + 1, "alpha_", i + 1, " = ", q.alpha[i], " rad is outside rotation_limits [", lo,
+                    ", ", hi, "] of tube '", t.name, "'");
       }
     }
     if (t.translation_limits) {
       auto [lo, hi] = *t.translation_limits;
       if (q.beta[i] < lo - tol || q.beta[i] > hi + tol) {
-        return fail("beta_", i + 1, " = ", q.beta[i], " m is outside translation_limits [", lo, ", ", hi, "] of tube '",
-                    t.name, "'");
+        return fail(A::Translation, i + 1, "beta_", i + 1, " = ", q.beta[i], " m is outside translation_limits [", lo,
+                    ", ", hi, "] of tube '", t.name, "'");
       }
     }
   }

@@ -1,6 +1,7 @@
-// Frictionless quasi-static continuation (continueTo): small steps along the straight line in actuation space, each
-// warm-started from the last, following the equilibrium branch and detecting snaps.
+// Frictionless quasi-static continuation (continueTo): followMove along the straight line in actuation space, each
+// sub-step warm-started from the last; where the branch ends, the robot snaps to a stable equilibrium found cold.
 #include "ctr/model/configuration.hpp"
+#include "ctr/model/follow.hpp"
 #include "ctr/model/kinematics.hpp"
 #include "solvers.hpp"
 
@@ -10,43 +11,39 @@ Solution continueTo(const Robot& robot, const Solution& from, const Configuratio
                     const KinematicsOptions& options) {
   const Admissibility adm = checkAdmissible(robot, q);
   if (!adm) return detail::inadmissibleSolution(q, adm.message, robot.size(), false);
-  if (!from.converged() || from.q.size() != q.size()) {
-    Solution s = solve(robot, q, ws, options, nullptr);
-    return s;
-  }
-  const int steps = subdivisions(from.q, q, options.max_rotation_step, options.max_translation_step);
+  if (!from.converged() || from.q.size() != q.size()) return solve(robot, q, ws, options, nullptr);
   KinematicsOptions inner = options;
-  inner.record_backbone = false;
-  Solution cur = from;
-  bool snapped = false;
+  Solution cur = from, next, cold;
   int iters = 0;
-  for (int k = 1; k <= steps; ++k) {
-    const Configuration qk = interpolate(from.q, q, static_cast<double>(k) / steps);
-    if (k == steps) inner.record_backbone = options.record_backbone;
-    Solution next = solve(robot, qk, ws, inner, &cur);
-    iters += next.summary.iterations;
-    if (!next.converged() || (cur.summary.stable && !next.summary.stable)) {
-      // The branch we followed ended (fold) or was lost: find a stable equilibrium from scratch.
-      Solution cold = solve(robot, qk, ws, inner, nullptr);
-      iters += cold.summary.iterations;
-      if (cold.converged()) {
-        snapped = snapped || cur.summary.stable;
-        next = cold;
-      } else if (!next.converged()) {
-        next.summary.message = "continuation lost the equilibrium: " + next.summary.message;
-        next.summary.iterations = iters;
-        next.summary.continuation_steps = k;
-        return next;
-      }
-    } else if (next.twist.size() && cur.twist.size() == next.twist.size() &&
-               (next.twist - cur.twist).cwiseAbs().maxCoeff() > options.snap_threshold) {
-      snapped = true;
-    }
-    cur = std::move(next);
+  auto at = [&](int k, int steps) -> const KinematicsOptions& {
+    inner.record_backbone = k == steps && options.record_backbone;
+    return inner;
+  };
+  const FollowSummary f = followMove(
+      from.q, q, from.twist, from.summary.stable, options.follow, OnSnap::Continue,
+      [&](const Configuration& qk, int k, int steps) {
+        next = solve(robot, qk, ws, at(k, steps), &cur);
+        iters += next.summary.iterations;
+        return SubStep{&next, Failure::None, {}};
+      },
+      [&](const Configuration& qk, int k, int steps) {
+        cold = solve(robot, qk, ws, at(k, steps), nullptr);
+        iters += cold.summary.iterations;
+        return SubStep{&cold, Failure::None, {}};
+      },
+      [&](int, int, SubStep& s, bool) {
+        cur = std::move(*s.solution);
+        return SubStep{};
+      });
+  if (f.failure != Failure::None) {
+    next.summary.message = "continuation lost the equilibrium: " + next.summary.message;
+    next.summary.iterations = iters;
+    next.summary.continuation_steps = f.completed + 1;
+    return next;
   }
-  cur.summary.snapped = snapped;
+  cur.summary.snapped = f.snapped;
   cur.summary.iterations = iters;
-  cur.summary.continuation_steps = steps;
+  cur.summary.continuation_steps = f.steps;
   return cur;
 }
 

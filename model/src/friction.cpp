@@ -353,46 +353,53 @@ StepResult step(const Robot& robot, const HysteresisState& from, const Configura
     res.solution.summary.message = adm.message;
     res.state = from;
     res.summary.message = adm.message;
+    res.summary.failure = Failure::Inadmissible;
     return res;
   }
-  const int n_sub = subdivisions(from.q, q, opt.max_rotation_step, opt.max_translation_step);
   HysteresisState cur = from;
-  Eigen::VectorXd prev_twist = from.twist;
-  for (int k = 1; k <= n_sub; ++k) {
-    // The last sub-step ends exactly at q (the state then remembers the command itself, not a rounding of it).
-    const Configuration qk = interpolate(from.q, q, static_cast<double>(k) / n_sub);
-    FrictionOptions o = opt;
-    o.kinematics.record_backbone = (k == n_sub) && opt.kinematics.record_backbone;
-    SubstepOutcome sub = solveSubstep(robot, cur, qk, ws, o);
-    res.summary.active_set_iterations += sub.iterations;
-    res.summary.enumerated = res.summary.enumerated || sub.enumerated;
-    res.summary.substeps = k;
-    if (!sub.ok) {
-      res.solution = std::move(sub.solution);
-      res.solution.summary.status = SolveStatus::NotConverged;
-      res.summary.converged = false;
-      res.summary.message = "sub-step " + std::to_string(k) + "/" + std::to_string(n_sub) + ": " + sub.message;
-      res.state = cur;  // the last good state
-      return res;
-    }
-    if (!sub.message.empty()) res.summary.message = sub.message;
-    Eigen::VectorXd dir = cur.direction.size() == q.size() ? cur.direction : Eigen::VectorXd::Zero(q.size());
-    for (int i = 0; i < q.size(); ++i) {
-      const double d = qk.alpha[i] - cur.q.alpha[i];
-      if (d != 0.0) dir[i] = d > 0 ? 1.0 : -1.0;
-    }
-    // Snap: the branch jumped (large tip twist change in one small sub-step) or became unstable.
-    Eigen::VectorXd tw = sub.solution.twist;
-    if (prev_twist.size() == tw.size() && tw.size() > 0 && (tw - prev_twist).cwiseAbs().maxCoeff() > opt.snap_threshold)
-      res.summary.snapped = true;
-    prev_twist = tw;
-    HysteresisState next = stateFrom(sub.solution, sub.modes, qk, dir);
-    if (!res.summary.snapped) rememberPrevious(cur, next);
-    next.interface_direction = sub.interface_direction.size() ? sub.interface_direction : cur.interface_direction;
-    for (std::size_t c = 0; c < next.contacts.size(); ++c)
-      next.contacts[c].bound = robot.friction().boundary * sub.solution.contacts[c].moment;
-    cur = std::move(next);
+  SubstepOutcome sub;
+  const Configuration* qk = nullptr;  // the sub-step's command (followMove's, valid until the sub-step is committed)
+  FrictionOptions o = opt;
+  const FollowSummary f = followMove(
+      from.q, q, from.twist, false, opt.follow, OnSnap::Continue,  // (stability not judged under contact laws)
+      [&](const Configuration& at, int k, int steps) {
+        qk = &at;
+        o.kinematics.record_backbone = (k == steps) && opt.kinematics.record_backbone;
+        sub = solveSubstep(robot, cur, at, ws, o);
+        res.summary.active_set_iterations += sub.iterations;
+        res.summary.enumerated = res.summary.enumerated || sub.enumerated;
+        res.summary.substeps = k;
+        if (sub.ok) return SubStep{&sub.solution, Failure::None, {}};
+        return SubStep{nullptr, sub.solution.converged() ? Failure::NoContactSet : Failure::NotConverged,
+                       "sub-step " + std::to_string(k) + "/" + std::to_string(steps) + ": " + sub.message};
+      },
+      noRecovery,
+      [&](int, int, SubStep&, bool snapped) {
+        // The last sub-step ends exactly at q (the state then remembers the command itself, not a rounding of it).
+        if (!sub.message.empty()) res.summary.message = sub.message;
+        Eigen::VectorXd dir = cur.direction.size() == q.size() ? cur.direction : Eigen::VectorXd::Zero(q.size());
+        for (int i = 0; i < q.size(); ++i) {
+          const double d = qk->alpha[i] - cur.q.alpha[i];
+          if (d != 0.0) dir[i] = d > 0 ? 1.0 : -1.0;
+        }
+        res.summary.snapped = res.summary.snapped || snapped;
+        HysteresisState next = stateFrom(sub.solution, sub.modes, *qk, dir);
+        if (!res.summary.snapped) rememberPrevious(cur, next);
+        next.interface_direction = sub.interface_direction.size() ? sub.interface_direction : cur.interface_direction;
+        for (std::size_t c = 0; c < next.contacts.size(); ++c)
+          next.contacts[c].bound = robot.friction().boundary * sub.solution.contacts[c].moment;
+        cur = std::move(next);
+        res.solution = std::move(sub.solution);
+        return SubStep{};
+      });
+  if (f.failure != Failure::None) {
     res.solution = std::move(sub.solution);
+    res.solution.summary.status = SolveStatus::NotConverged;
+    res.summary.converged = false;
+    res.summary.failure = f.failure;
+    res.summary.message = f.message;
+    res.state = cur;  // the last good state
+    return res;
   }
   res.summary.converged = true;
   res.solution.summary.snapped = res.summary.snapped;

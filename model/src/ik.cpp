@@ -8,6 +8,7 @@
 #include <optional>
 #include <stdexcept>
 
+#include "ctr/model/follow.hpp"
 #include "ctr/model/jacobian.hpp"
 #include "ik_solver.hpp"
 
@@ -61,9 +62,11 @@ struct EquilibriumMap {
     if (!s.converged()) return false;
     if (o.require_stable && !s.summary.stable) return false;
     if (from && s.summary.continuation_steps > 0) return false;
-    if (from && from->twist.size() == s.twist.size() && s.twist.size() > 0) {
+    if (from && from->q.size() == s.q.size()) {
+      // The branch rule of followMove, its threshold widened by twice the largest change of a base rotation.
       const double turned = (s.q.alpha - from->q.alpha).cwiseAbs().maxCoeff();
-      if ((s.twist - from->twist).cwiseAbs().maxCoeff() > o.kinematics.snap_threshold + 2.0 * turned) return false;
+      if (branchChange(*from, s, o.kinematics.follow.snap_threshold + 2.0 * turned, false) != BranchChange::None)
+        return false;
     }
     return true;
   }

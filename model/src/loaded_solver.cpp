@@ -163,9 +163,10 @@ Solution solveLoaded(const Robot& robot, const Configuration& q, const std::vect
           loadedStability(L, W.J), false);
     }
     // Quasi-static loading from the load-free shape: the load scale goes from 0 to 1 (first in one step); a step is
-    // taken when Newton converges and the tip moved little (tangent turned by less than snap_threshold, position by
-    // less than a tenth of the robot's length), otherwise it is halved. So a cold solve returns the equilibrium reached
-    // by applying the load gradually, never another equilibrium that Newton happens to find under the full load.
+    // taken when Newton converges and the tip moved little (tangent turned by less than follow.snap_threshold, position
+    // by less than a tenth of the robot's length), otherwise it is halved. So a cold solve returns the equilibrium
+    // reached by applying the load gradually, never another equilibrium that Newton happens to find under the full
+    // load.
     Eigen::VectorXd zc = unknownsFrom(L, free);
     std::string w;
     Eigen::Vector3d tip_p = free.tip_position, tip_t = free.tipTangent();
@@ -182,7 +183,7 @@ Solution solveLoaded(const Robot& robot, const Configuration& q, const std::vect
         evalValue(W, zt, nullptr, false, false);  // tip of the converged point
         const Eigen::Vector3d np = W.tip_p, nt = W.tip_R.col(2);
         const double turn = std::acos(std::clamp(tip_t.dot(nt), -1.0, 1.0));
-        if ((turn > opt.snap_threshold || (np - tip_p).norm() > 0.1 * L.P.s_tip) && dt > 1e-3) {
+        if ((turn > opt.follow.snap_threshold || (np - tip_p).norm() > 0.1 * L.P.s_tip) && dt > 1e-3) {
           dt *= 0.5;
         } else {
           zc = zt;

@@ -69,20 +69,45 @@ bool hasRotationLimits(const Robot& robot) {
 struct Move {
   StepResult r;
   bool ok = false;
+  Failure failure = Failure::None;
   std::string reason;
 };
 
-std::string reasonOf(const Robot& robot, const StepResult& r) {
-  if (r.solution.summary.status == SolveStatus::Inadmissible) return "inadmissible command: " + r.summary.message;
-  if (!(r.summary.converged && r.state.valid)) {
-    if (r.solution.converged())
-      return "no consistent stick/slip contact set" + (r.summary.message.empty() ? "" : ": " + r.summary.message);
-    const std::string m = r.summary.message.empty() ? r.solution.summary.message : r.summary.message;
-    return "did not converge" + (m.empty() ? "" : ": " + m);
+/// Why a move's result is not a usable equilibrium (Failure::None when it is).
+Failure failureOf(const Robot& robot, const StepResult& r) {
+  if (r.solution.summary.status == SolveStatus::Inadmissible) return Failure::Inadmissible;
+  if (!(r.summary.converged && r.state.valid))
+    return r.solution.converged() ? Failure::NoContactSet : Failure::NotConverged;
+  if (r.summary.snapped) return Failure::Snapped;
+  if (!hasFriction(robot) && !r.solution.summary.stable) return Failure::Unstable;
+  return Failure::None;
+}
+
+/// Sets the move's failure, its reason in words and ok.
+void judge(const Robot& robot, Move& m) {
+  const StepResult& r = m.r;
+  m.failure = failureOf(robot, r);
+  m.ok = m.failure == Failure::None;
+  const std::string& msg = r.summary.message.empty() ? r.solution.summary.message : r.summary.message;
+  switch (m.failure) {
+    case Failure::Inadmissible:
+      m.reason = "inadmissible command: " + r.summary.message;
+      break;
+    case Failure::NoContactSet:
+      m.reason = "no consistent stick/slip contact set" + (r.summary.message.empty() ? "" : ": " + r.summary.message);
+      break;
+    case Failure::NotConverged:
+      m.reason = "did not converge" + (msg.empty() ? "" : ": " + msg);
+      break;
+    case Failure::Snapped:
+      m.reason = "snapped (the equilibrium branch ended; the quasi-static model cannot follow the jump)";
+      break;
+    case Failure::Unstable:
+      m.reason = "unstable equilibrium";
+      break;
+    default:
+      m.reason.clear();
   }
-  if (r.summary.snapped) return "snapped (the equilibrium branch ended; the quasi-static model cannot follow the jump)";
-  if (!hasFriction(robot) && !r.solution.summary.stable) return "unstable equilibrium";
-  return "";
 }
 
 /// A row whose command is not admissible: no equilibrium, the reason.
@@ -91,7 +116,7 @@ Move inadmissibleMove(const Robot& robot, const Configuration& q, const Admissib
   m.r.solution.q = q;
   m.r.solution.summary.status = SolveStatus::Inadmissible;
   m.r.summary.message = adm.message;
-  m.reason = reasonOf(robot, m.r);
+  judge(robot, m);
   return m;
 }
 
@@ -102,24 +127,24 @@ Move move(const Robot& robot, const HysteresisState& from, const Configuration& 
   Move m;
   const FrictionOptions& fine = o.friction;
   const bool friction = hasFriction(robot);
-  if (o.coarse_rotation_step > fine.max_rotation_step &&
+  if (o.coarse_rotation_step > fine.follow.max_rotation_step &&
       (!friction || (q.beta == from.q.beta && contactSites(robot, q).size() <= 1))) {
     FrictionOptions coarse = fine;
-    coarse.max_rotation_step = o.coarse_rotation_step;
-    if (!friction) coarse.max_translation_step = std::max(o.coarse_translation_step, fine.max_translation_step);
+    coarse.follow.max_rotation_step = o.coarse_rotation_step;
+    if (!friction)
+      coarse.follow.max_translation_step = std::max(o.coarse_translation_step, fine.follow.max_translation_step);
     // A snap is a twist jump much larger than the commanded sub-step: the detector scales with the sub-step (at most
     // 2 rad, below the ~pi jump of a real snap).
-    coarse.snap_threshold =
-        std::min(2.0, fine.snap_threshold * coarse.max_rotation_step / std::max(fine.max_rotation_step, 1e-9));
+    coarse.follow.snap_threshold = std::min(2.0, fine.follow.snap_threshold * coarse.follow.max_rotation_step /
+                                                     std::max(fine.follow.max_rotation_step, 1e-9));
     m.r = step(robot, from, q, ws, coarse);
-    if (m.r.summary.substeps > 0 && reasonOf(robot, m.r).empty()) {
+    if (m.r.summary.substeps > 0 && failureOf(robot, m.r) == Failure::None) {
       m.ok = true;
       return m;
     }
   }
   m.r = step(robot, from, q, ws, fine);
-  m.reason = reasonOf(robot, m.r);
-  m.ok = m.reason.empty();
+  judge(robot, m);
   return m;
 }
 
@@ -140,18 +165,17 @@ Move fromRest(const Robot& robot, const Configuration& home, const Configuration
   StepResult start = initialState(free, home, ws, o.friction);
   if (!(start.summary.converged && start.state.valid)) {
     m.r = std::move(start);
+    m.failure = Failure::NotConverged;
     m.reason = "did not converge at rest: " + m.r.summary.message;
     return m;
   }
   if (home.alpha == q.alpha) {
     m.r = std::move(start);
-    m.reason = reasonOf(robot, m.r);
-    m.ok = m.reason.empty();
+    judge(robot, m);
     return m;
   }
   m = move(free, start.state, q, ws, o);
-  m.reason = reasonOf(robot, m.r);
-  m.ok = m.reason.empty();
+  judge(robot, m);
   return m;
 }
 
@@ -161,8 +185,7 @@ Move atRest(const Robot& robot, const Configuration& q, Workspace& ws, const Rep
   if (!adm) return inadmissibleMove(robot, q, adm);
   Move m;
   m.r = restAt(robot, q, ws, o.friction);
-  m.reason = reasonOf(robot, m.r);
-  m.ok = m.reason.empty();
+  judge(robot, m);
   return m;
 }
 
@@ -325,6 +348,7 @@ std::vector<ReplayRow> replay(const Robot& robot, const std::vector<Configuratio
     const Admissibility adm = checkAdmissible(robot, q);
     if (!adm) {
       Move m = inadmissibleMove(robot, q, adm);
+      row.failure = m.failure;
       row.reason = m.reason;
       row.result = std::move(m.r);
       previous_failed = true;
@@ -361,6 +385,7 @@ std::vector<ReplayRow> replay(const Robot& robot, const std::vector<Configuratio
       row.reached = Reached::Rest;
     }
     row.ok = m.ok;
+    row.failure = m.failure;
     row.reason = m.reason;
     last_command = q;
     if (o.find_alternatives) {

@@ -61,11 +61,13 @@ ThreadScratch& scratch() {
 ShapeCheck checkShape(const Context& ctx, const Solution& sol, ThreadScratch& t) {
   ShapeCheck c;
   if (!sol.converged()) {
+    c.failure = sol.summary.status == SolveStatus::Inadmissible ? Failure::Inadmissible : Failure::NotConverged;
     c.reason = sol.summary.status == SolveStatus::Inadmissible ? "inadmissible: " + sol.summary.message
                                                                : "model not converged: " + sol.summary.message;
     return c;
   }
   if (!sol.summary.stable) {
+    c.failure = Failure::Unstable;
     c.reason = "elastically unstable equilibrium";
     return c;
   }
@@ -75,6 +77,7 @@ ShapeCheck checkShape(const Context& ctx, const Solution& sol, ThreadScratch& t)
     char buf[128];
     std::snprintf(buf, sizeof buf, "collision (tube %d, s %g-%g m%s)", r.tube + 1, r.s0, r.s1,
                   r.outside_map ? ", outside the map" : "");
+    c.failure = Failure::Collision;
     c.reason = buf;
     return c;
   }

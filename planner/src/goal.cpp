@@ -157,9 +157,9 @@ bool TipGoal::tryCandidate() const {
       ++rejected_goal_;
     } else if (!ok) {
       // Why the goal configuration was rejected (for the one-line reason of an empty pool).
-      if (c.reason.rfind("collision", 0) == 0)
+      if (c.failure == Failure::Collision)
         ++rejected_collision_;
-      else if (c.reason.rfind("elastically unstable", 0) == 0)
+      else if (c.failure == Failure::Unstable)
         ++rejected_unstable_;
     }
   }

@@ -83,7 +83,7 @@ void CtrPlanner::init(Robot robot, environments::Environment e) {
                          "has " + std::to_string(query.start.size()) + " values, robot '" + robot.name() + "' has " +
                              std::to_string(n) + " tubes");
   // Start and goal configurations are read from the query file (rounded values): violations up to
-  // kAdmissibilityTolerance are projected in query_ (docs/formats-io.md "Admissibility tolerance"), larger ones name
+  // kAdmissibilityTolerance are projected in query_ (docs/formats.md "Admissibility tolerance"), larger ones name
   // the file, line, key and constraint.
   const Admissibility adm = projectAdmissible(robot, query_.start);
   if (!adm) throw io::InputError(query.file, query.lineOf("start"), "start", "not admissible: " + adm.message);
@@ -138,8 +138,8 @@ void CtrPlanner::init(Robot robot, environments::Environment e) {
 
   ContextOptions co;
   co.mode = query.mode;
-  co.rotation_resolution = query.resolution_rotation;
-  co.translation_resolution = query.resolution_translation;
+  co.motion.max_rotation_step = query.resolution_rotation;
+  co.motion.max_translation_step = query.resolution_translation;
   co.friction.kinematics.record_backbone = true;
   ctx_ = std::make_shared<const Context>(robot, env_, co, environments::CollisionOptions::fromEnvironment(*env_));
 

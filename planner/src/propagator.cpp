@@ -23,10 +23,13 @@ std::shared_ptr<StateCache> fromStep(const StepResult& r, bool snapped_before) {
   c->physics_ok = r.summary.converged && r.solution.converged() && r.solution.summary.stable && !r.summary.snapped &&
                   !snapped_before;
   if (!r.summary.converged || !r.solution.converged()) {
+    c->failure = r.summary.failure != Failure::None ? r.summary.failure : Failure::NotConverged;
     c->why = "model not converged: " + r.summary.message;
-  } else if (r.summary.snapped) {
+  } else if (r.summary.snapped || snapped_before) {
+    c->failure = Failure::Snapped;
     c->why = "snap";
   } else if (!r.solution.summary.stable) {
+    c->failure = Failure::Unstable;
     c->why = "unstable";
   }
   return c;
@@ -87,6 +90,7 @@ std::shared_ptr<const StateCache> startCache(const Context& ctx, const Configura
     const std::string why = historyFailure(k, rows[k]);
     if (why.empty()) continue;
     auto c = std::make_shared<StateCache>();
+    c->failure = rows[k].failure;
     c->why = why;
     return c;
   }
@@ -96,6 +100,7 @@ std::shared_ptr<const StateCache> startCache(const Context& ctx, const Configura
 std::shared_ptr<const StateCache> propagateCache(const Context& ctx, const StateCache& from, const Configuration& to) {
   if (!from.hysteresis.valid) {
     auto c = std::make_shared<StateCache>();
+    c->failure = Failure::NotConverged;
     c->why = "no valid memory to propagate from";
     return c;
   }
@@ -105,32 +110,43 @@ std::shared_ptr<const StateCache> propagateCache(const Context& ctx, const State
     c->hysteresis = from.hysteresis;
     c->solution.q = to;
     c->solution.summary.status = SolveStatus::Inadmissible;
+    c->failure = Failure::Inadmissible;
     c->why = "inadmissible: " + adm.message;
     return c;
   }
-  // Walk forward in sub-steps of the motion-checking resolution; every intermediate equilibrium must be valid
+  // Follow the motion in sub-steps of the motion-checking resolution; every intermediate equilibrium must be valid
   // (converged, stable, no snap, collision-free), so that the replay at that resolution sees only checked states.
   ThreadScratch& t = scratch();
-  const Configuration& q0 = from.hysteresis.q;
-  const int sub = subdivisions(q0, to, ctx.options().rotation_resolution, ctx.options().translation_resolution);
-  FrictionOptions fo = stepOptions(ctx);
+  const FrictionOptions fo = stepOptions(ctx);
+  FollowOptions motion = ctx.options().motion;
+  motion.judge_stability = fo.follow.judge_stability;  // stick-slip equilibria: judged by their twist jumps
   HysteresisState h = from.hysteresis;
-  for (int k = 1; k <= sub; ++k) {
-    const Configuration qk = interpolate(q0, to, static_cast<double>(k) / sub);
-    const StepResult r = step(ctx.robot(), h, qk, t.ws, fo);
-    if (k == sub) return fromStep(r, false);
-    auto c = fromStep(r, false);
-    if (!c->physics_ok) return c;
-    const ShapeCheck sc = checkShape(ctx, r.solution, t);
-    if (!sc.ok) {
-      auto bad = std::make_shared<StateCache>(*c);
-      bad->physics_ok = false;
-      bad->why = "intermediate state: " + sc.reason;
-      return bad;
-    }
-    h = r.state;
-  }
-  return nullptr;  // not reached
+  StepResult r;
+  std::shared_ptr<StateCache> out;
+  followMove(
+      from.hysteresis.q, to, h.twist, false, motion, OnSnap::Continue,
+      [&](const Configuration& qk, int, int) {
+        out.reset();
+        r = step(ctx.robot(), h, qk, t.ws, fo);
+        if (r.summary.converged && r.solution.converged()) return SubStep{&r.solution, Failure::None, {}};
+        return SubStep{nullptr, Failure::NotConverged, r.summary.message};
+      },
+      noRecovery,
+      [&](int k, int steps, SubStep&, bool snapped) {
+        out = fromStep(r, snapped);
+        if (k == steps) return SubStep{};
+        if (!out->physics_ok) return SubStep{nullptr, out->failure, out->why};
+        const ShapeCheck sc = checkShape(ctx, r.solution, t);
+        if (!sc.ok) {
+          out->physics_ok = false;
+          out->failure = sc.failure;
+          out->why = "intermediate state: " + sc.reason;
+          return SubStep{nullptr, sc.failure, out->why};
+        }
+        h = r.state;
+        return SubStep{};
+      });
+  return out ? out : fromStep(r, false);
 }
 
 FrictionPropagator::FrictionPropagator(oc::SpaceInformation* si, std::shared_ptr<const Context> ctx,

@@ -39,6 +39,7 @@ ReplayReport replayPath(const Context& ctx, const std::vector<Configuration>& wa
                         const GoalTest& goal, double rotation_step, double translation_step) {
   ReplayReport R;
   if (waypoints.empty()) {
+    R.failure = Failure::NotConverged;
     R.first_failure = "empty path";
     return R;
   }
@@ -56,18 +57,25 @@ ReplayReport replayPath(const Context& ctx, const std::vector<Configuration>& wa
   auto observe = [&](std::size_t k, ReplayRow& row) {
     if (k < start) {
       const std::string why = historyFailure(k, row);
-      if (!why.empty()) R.first_failure = "start: " + why;
+      if (!why.empty()) {
+        R.failure = row.failure != Failure::None ? row.failure : Failure::NotConverged;
+        R.first_failure = "start: " + why;
+      }
       completed = why.empty();
       return completed;
     }
     StepResult& r = row.result;
     if (k == start && !r.solution.converged()) {
+      R.failure = row.failure;
       R.first_failure = "start: " + row.reason;
       completed = false;
       return false;
     }
     if (k > start && !(r.summary.converged && r.state.valid)) {
-      if (R.first_failure.empty()) R.first_failure = "step " + std::to_string(R.steps) + ": " + row.reason;
+      if (R.failure == Failure::None) {
+        R.failure = row.failure;
+        R.first_failure = "step " + std::to_string(R.steps) + ": " + row.reason;
+      }
       R.stable = false;
       completed = false;
       return false;
@@ -86,12 +94,14 @@ ReplayReport replayPath(const Context& ctx, const std::vector<Configuration>& wa
       ++R.unstable;
       R.stable = false;
     }
-    if (!c.ok && c.reason.rfind("collision", 0) == 0) {
+    if (c.failure == Failure::Collision) {
       ++R.collisions;
       R.collision_free = false;
     }
-    if (!p.valid && R.first_failure.empty())
+    if (!p.valid && R.failure == Failure::None) {
+      R.failure = snapped ? Failure::Snapped : c.failure;
       R.first_failure = "step " + std::to_string(R.steps) + ": " + (snapped ? std::string("snap") : c.reason);
+    }
     if (r.solution.converged() && ctx.checker().distanceField()) {
       p.clearance = ctx.checker().clearance(r.solution, t.query).clearance;
       R.min_clearance = std::min(R.min_clearance, p.clearance);

@@ -20,11 +20,6 @@ KinematicsOptions shapeOptions(const Context& ctx) {
   return k;
 }
 
-bool jumped(const Solution& a, const Solution& b, double threshold) {
-  return a.twist.size() == b.twist.size() && a.twist.size() > 0 &&
-         (a.twist - b.twist).cwiseAbs().maxCoeff() > threshold;
-}
-
 // The previous band's shape with the same torques at the same sites as shape i of `cur` (FrictionBand::sites and
 // torque_fractions; sites are matched by identity: their order along the backbone changes when ends cross or
 // separate). -1 if the previous band has other sites.
@@ -61,7 +56,7 @@ bool releaseIsSmooth(const FrictionBand* previous, const FrictionBand& cur, doub
       for (std::size_t j = 0; j < prev.sites.size() && same_signs; ++j)
         if (to_cur[j] >= 0)
           same_signs = prev.torque_fractions[pc][j] == cur.torque_fractions[cc][static_cast<std::size_t>(to_cur[j])];
-      if (same_signs) landed = !jumped(prev.shapes[pc], cur.shapes[cc], threshold);
+      if (same_signs) landed = branchChange(prev.shapes[pc], cur.shapes[cc], threshold, false) != BranchChange::Jumped;
     }
     if (!landed) return false;
   }
@@ -69,44 +64,49 @@ bool releaseIsSmooth(const FrictionBand* previous, const FrictionBand& cur, doub
 }
 
 // The friction band at q (ctr::frictionBand, vertices only), followed from the band at the previous configuration of
-// a motion: every shape converged, stable and collision-free, no shape jumping from its counterpart in `prev`.
-bool bandAt(const Context& ctx, const Configuration& q, ThreadScratch& t, const FrictionBand* prev, FrictionBand& out,
-            std::string& why) {
-  const double thr = ctx.options().friction.snap_threshold;
+// a motion: every shape converged, stable and collision-free, no shape leaving the branch of its counterpart in `prev`
+// (the branch rule of followMove). Returns why not (Failure::None when the band is valid).
+Failure bandAt(const Context& ctx, const Configuration& q, ThreadScratch& t, const FrictionBand* prev,
+               FrictionBand& out, std::string& why) {
+  const double thr = ctx.options().motion.snap_threshold;
   FrictionBandOptions o;
   o.interior_samples = 0;
   o.kinematics = shapeOptions(ctx);
   o.follow = prev && !prev->shapes.empty() ? prev : nullptr;
+  Failure failure = Failure::None;
   o.check = [&](const FrictionBand& b) -> std::string {
     const std::size_t i = b.shapes.size() - 1;
     const Solution& s = b.shapes[i];
     // Followed from the same shape of the previous step; when a site appears or disappears the band changes
     // discontinuously (a new contact enters with its full bound): no branch to follow.
     const long pv = o.follow ? (i == 0 ? 0 : alignedShape(*o.follow, b, i)) : -1;
-    if (pv >= 0) {
-      const Solution& from = o.follow->shapes[static_cast<std::size_t>(pv)];
-      if ((from.summary.stable && !s.summary.stable) || jumped(from, s, thr))
-        return i == 0 ? "frictionless branch snaps" : "a friction band branch snaps";
+    if (pv >= 0 && branchChange(o.follow->shapes[static_cast<std::size_t>(pv)], s, thr) != BranchChange::None) {
+      failure = Failure::Snapped;
+      return i == 0 ? "frictionless branch snaps" : "a friction band branch snaps";
     }
     const ShapeCheck c = checkShape(ctx, s, t);
+    failure = c.failure;
     if (!c.ok) return (i == 0 ? "frictionless shape: " : "friction band shape: ") + c.reason;
     return "";
   };
   out = frictionBand(ctx.robot(), q, t.ws, o);
   if (!out.converged) {
-    if (out.shapes.empty() && o.follow)
+    if (out.shapes.empty() && o.follow) {
       why = "frictionless branch snaps";
-    else if (out.shapes.empty())
+      return Failure::Snapped;
+    }
+    if (out.shapes.empty()) {
       why = "frictionless shape: not converged";
-    else
-      why = out.message;
-    return false;
+      return Failure::NotConverged;
+    }
+    why = out.message;
+    return failure != Failure::None ? failure : Failure::NotConverged;
   }
   if (!releaseIsSmooth(prev, out, thr)) {
     why = "a contact site vanishes and releases its friction torque (the band jumps)";
-    return false;
+    return Failure::Released;
   }
-  return true;
+  return Failure::None;
 }
 
 }  // namespace
@@ -117,6 +117,7 @@ ConfigurationCheck checkFrictionless(const Context& ctx, const Configuration& q,
   r.shape = solve(ctx.frictionlessRobot(), q, t.ws, shapeOptions(ctx), warm);
   const ShapeCheck c = checkShape(ctx, r.shape, t);
   r.ok = c.ok;
+  r.failure = c.failure;
   r.reason = c.reason;
   return r;
 }
@@ -124,7 +125,8 @@ ConfigurationCheck checkFrictionless(const Context& ctx, const Configuration& q,
 ConfigurationCheck checkRobust(const Context& ctx, const Configuration& q, ThreadScratch& t) {
   ConfigurationCheck r;
   FrictionBand b;
-  r.ok = bandAt(ctx, q, t, nullptr, b, r.reason);
+  r.failure = bandAt(ctx, q, t, nullptr, b, r.reason);
+  r.ok = r.failure == Failure::None;
   if (!b.shapes.empty()) r.shape = std::move(b.shapes[0]);
   return r;
 }
@@ -154,55 +156,69 @@ bool sameBand(const FrictionBand& a, const FrictionBand& b) {
 // and the collision checks would then be about a shape the robot is not in. So a motion is valid only as far as it
 // ends on the own equilibrium of the configuration it reaches; otherwise nothing of it is valid.
 double checkMotionForward(const Context& ctx, const Configuration& q0, const Configuration& q1, ThreadScratch& t,
-                          std::string* reason) {
-  const int steps = subdivisions(q0, q1, ctx.options().rotation_resolution, ctx.options().translation_resolution);
+                          std::string* reason, Failure* failure) {
+  const FollowOptions& fo = ctx.options().motion;
   std::string why;
-  auto at = [&](int k) { return interpolate(q0, q1, static_cast<double>(k) / steps); };
-  auto result = [&](int last, bool whole, bool own) {
-    if (!own) why = "the motion arrives on another equilibrium than the configuration's own (several are stable there)";
-    if ((!whole || !own) && reason) *reason = why;
+  auto result = [&](const FollowSummary& f, bool own) {
+    Failure kind = f.failure;
+    if (kind == Failure::None && !own) {
+      kind = Failure::OffBranch;
+      why = "the motion arrives on another equilibrium than the configuration's own (several are stable there)";
+    }
+    if (kind != Failure::None && reason) *reason = why;
+    if (failure) *failure = kind;
     if (!own) return 0.0;
-    return whole ? 1.0 : static_cast<double>(last) / steps;
+    return f.completedMove() ? 1.0 : static_cast<double>(f.completed) / f.steps;
   };
+  FollowSummary f;
+  f.steps = subdivisions(q0, q1, fo.max_rotation_step, fo.max_translation_step);
   if (ctx.options().mode == Mode::Robust) {
     FrictionBand cur, next;
-    if (!bandAt(ctx, q0, t, nullptr, cur, why)) return result(0, false, true);
-    int k = 1;
-    for (; k <= steps; ++k) {
-      if (!bandAt(ctx, at(k), t, &cur, next, why)) break;
-      std::swap(cur, next);
-    }
-    const int last = k - 1;
-    if (last == 0) return result(0, false, true);  // cur is the cold band at q0
+    f.failure = bandAt(ctx, q0, t, nullptr, cur, why);
+    if (f.failure != Failure::None) return result(f, true);
+    f = followMove(
+        q0, q1, cur.shapes[0].twist, cur.shapes[0].converged() && cur.shapes[0].summary.stable, fo, OnSnap::Stop,
+        [&](const Configuration& qk, int, int) {
+          const Failure b = bandAt(ctx, qk, t, &cur, next, why);
+          return b == Failure::None ? SubStep{&next.shapes[0], b, {}} : SubStep{nullptr, b, why};
+        },
+        noRecovery,
+        [&](int, int, SubStep&, bool) {
+          std::swap(cur, next);
+          return SubStep{};
+        });
+    if (f.failure != Failure::None) why = f.message;
+    if (f.completed == 0) return result(f, true);  // cur is the cold band at q0
     FrictionBand own;
     std::string w;
-    return result(last, last == steps, bandAt(ctx, at(last), t, nullptr, own, w) && sameBand(cur, own));
+    const Configuration last = interpolate(q0, q1, static_cast<double>(f.completed) / f.steps);
+    return result(f, bandAt(ctx, last, t, nullptr, own, w) == Failure::None && sameBand(cur, own));
   }
-  const double thr = ctx.options().friction.snap_threshold;
   ConfigurationCheck c = checkFrictionless(ctx, q0, t);
   if (!c.ok) {
     why = c.reason;
-    return result(0, false, true);
+    f.failure = c.failure;
+    return result(f, true);
   }
-  Solution cur = std::move(c.shape);
-  int k = 1;
-  for (; k <= steps; ++k) {
-    Solution next = solve(ctx.frictionlessRobot(), at(k), t.ws, shapeOptions(ctx), &cur);
-    if (!next.converged() || (cur.summary.stable && !next.summary.stable) || jumped(cur, next, thr)) {
-      why = "the equilibrium branch snaps";
-      break;
-    }
-    const ShapeCheck sc = checkShape(ctx, next, t);
-    if (!sc.ok) {
-      why = sc.reason;
-      break;
-    }
-    cur = std::move(next);
-  }
-  const int last = k - 1;
-  if (last == 0) return result(0, false, true);
-  const Solution own = solve(ctx.frictionlessRobot(), at(last), t.ws, shapeOptions(ctx));
-  return result(last, last == steps, own.converged() && sameEquilibrium(cur, own));
+  Solution cur = std::move(c.shape), next;
+  f = followMove(
+      q0, q1, cur.twist, cur.converged() && cur.summary.stable, fo, OnSnap::Stop,
+      [&](const Configuration& qk, int, int) {
+        next = solve(ctx.frictionlessRobot(), qk, t.ws, shapeOptions(ctx), &cur);
+        return SubStep{&next, Failure::None, {}};
+      },
+      noRecovery,
+      [&](int, int, SubStep&, bool) {
+        const ShapeCheck sc = checkShape(ctx, next, t);
+        if (!sc.ok) return SubStep{nullptr, sc.failure, sc.reason};
+        cur = std::move(next);
+        return SubStep{};
+      });
+  why = f.message;
+  if (f.completed == 0) return result(f, true);
+  const Configuration last = interpolate(q0, q1, static_cast<double>(f.completed) / f.steps);
+  const Solution own = solve(ctx.frictionlessRobot(), last, t.ws, shapeOptions(ctx));
+  return result(f, own.converged() && sameEquilibrium(cur, own));
 }
 
 ValidityChecker::ValidityChecker(const ob::SpaceInformationPtr& si, std::shared_ptr<const Context> ctx)

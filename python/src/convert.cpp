@@ -63,7 +63,7 @@ Configuration toConfiguration(const Robot& robot, const pyb::handle& alpha, cons
   if (swept_tube >= 0 && swept_tube < n) q.alpha[swept_tube] = swept_angle;
   const Admissibility adm = projectAdmissible(robot, q);
   if (!adm) {
-    const bool rotation = adm.message.rfind("alpha_", 0) == 0;
+    const bool rotation = adm.actuator == Admissibility::Actuator::Rotation;
     throw pyb::value_error(std::string(rotation ? "alpha" : "beta") +
                            ": configuration is not admissible: " + adm.message);
   }

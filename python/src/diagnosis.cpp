@@ -24,8 +24,8 @@ io::Recording recordingFrom(const pyb::object& obj, int tubes) {
 
 void registerDiagnosis(pyb::module_& m) {
   pyb::class_<io::Recording>(m, "Recording",
-                             "A recording (formats.md): commanded actuation and measured twist / tip position / tip "
-                             "tangent per row, NaN where not measured.")
+                             "A recording (docs/formats.md): commanded actuation and measured twist / tip position / "
+                             "tip tangent per row, NaN where not measured.")
       .def_readonly("tubes", &io::Recording::tubes)
       .def_property_readonly("rows", &io::Recording::rows)
       .def("__len__", &io::Recording::rows)
@@ -43,7 +43,7 @@ void registerDiagnosis(pyb::module_& m) {
       .def_property_readonly(
           "time", [](const io::Recording& r) { return r.time; }, "(rows,), or empty.")
       .def_readonly("warnings", &io::Recording::warnings)
-      .def("to_csv", &io::recordingToCsv, "CSV text with the formats.md columns.")
+      .def("to_csv", &io::recordingToCsv, "CSV text with the docs/formats.md columns.")
       .def(
           "save",
           [](const io::Recording& r, const std::filesystem::path& path) { io::saveRecording(r, path.string()); },
@@ -141,7 +141,7 @@ void registerDiagnosis(pyb::module_& m) {
       arg("noise") = pyb::none(), arg("branch") = toString(BranchRule::Path), arg("calibrate") = false,
       arg("max_rows") = diagnosis::DiagnoseOptions{}.max_rows,
       "`ctr diagnose`: where the recording (a path or a ctr.Recording) and the nominal robot differ, and which "
-      "left-out physics explains it. Returns the dict of the diagnosis JSON (formats.md; the same object as "
+      "left-out physics explains it. Returns the dict of the diagnosis JSON (docs/formats.md; the same object as "
       "--json writes); with_report=True returns (dict, Markdown report). progress: a callable taking a str. "
       "noise: the tracker's noise as `--noise` takes it ('tip_position=0.5mm,tip_tangent=1deg'); branch: 'path' "
       "(default) or 'rest' (docs/diagnosis.md); calibrate: `--calibrate`; max_rows: `--max-rows`. Runs without the "

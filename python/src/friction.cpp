@@ -110,13 +110,10 @@ void registerFriction(pyb::module_& m) {
   fo.def_property(
         "mode", [](const FrictionOptions& o) { return o.mode; },
         [](FrictionOptions& o, const pyb::object& v) { o.mode = parseFrictionMode(v); })
-      .def_readwrite("max_rotation_step", &FrictionOptions::max_rotation_step)
-      .def_readwrite("max_translation_step", &FrictionOptions::max_translation_step)
+      .def_readwrite("follow", &FrictionOptions::follow)
       .def_readwrite("max_active_set_iterations", &FrictionOptions::max_active_set_iterations)
-      .def_readwrite("snap_threshold", &FrictionOptions::snap_threshold)
       .def_readwrite("kinematics", &FrictionOptions::kinematics);
-  addOptionsProtocol<FrictionOptions>(fo, {"mode", "max_rotation_step", "max_translation_step",
-                                           "max_active_set_iterations", "snap_threshold", "kinematics"});
+  addOptionsProtocol<FrictionOptions>(fo, {"mode", "follow", "max_active_set_iterations", "kinematics"});
 
   pyb::class_<HysteresisState>(m, "HysteresisState",
                                "Everything the friction model remembers of the path so far (a plain value: "
@@ -229,11 +226,12 @@ void registerFriction(pyb::module_& m) {
         }
         std::vector<const Solution*> sols;
         pyb::array_t<bool> snapped(static_cast<pyb::ssize_t>(res.size()));
-        pyb::list messages, states, reached;
+        pyb::list messages, failures, states, reached;
         for (std::size_t k = 0; k < res.size(); ++k) {
           sols.push_back(&res[k].result.solution);
           snapped.mutable_at(static_cast<pyb::ssize_t>(k)) = res[k].result.summary.snapped;
           messages.append(res[k].ok ? res[k].result.summary.message : res[k].reason);
+          failures.append(toString(res[k].failure));
           reached.append(toString(res[k].reached));
           if (keep_states) states.append(pyb::cast(res[k].result.state));
         }
@@ -243,6 +241,7 @@ void registerFriction(pyb::module_& m) {
         d["beta"] = ab[1];
         d["snapped"] = snapped;
         d["message"] = messages;
+        d["failure"] = failures;
         d["reached"] = reached;
         if (keep_states) d["states"] = states;
         return d;
@@ -251,8 +250,9 @@ void registerFriction(pyb::module_& m) {
       arg("branch") = toString(BranchRule::Path),
       "Replays K commands (alpha, beta: (K, n)) through the stateful friction model as `ctr simulate` (branch: "
       "'path' or 'rest', docs/friction.md \"Replaying a sequence\"). Dict of arrays: alpha, beta, twist, "
-      "tip_position, tip_tangent (NaN where not converged), stability, converged, stable, snapped, status, message "
-      "and reached ('path', 'rest' or 'restart' per row) (+ states: the HysteresisState after each row, with "
+      "tip_position, tip_tangent (NaN where not converged), stability, converged, stable, snapped, status, message, "
+      "failure (why a row failed: 'none', 'not_converged', 'snapped', ...) and reached ('path', 'rest' or 'restart' "
+      "per row) (+ states: the HysteresisState after each row, with "
       "keep_states). Runs without the GIL.");
 
   m.def(

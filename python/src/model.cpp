@@ -233,7 +233,7 @@ void registerModel(pyb::module_& m) {
   // ---- Robot ----
   pyb::class_<Robot>(m, "Robot",
                      "An immutable, validated robot description (tubes numbered from the outermost; SI units). "
-                     "Robot(dict) takes the keys of the robot YAML (formats.md); load_robot(path) reads a file.")
+                     "Robot(dict) takes the keys of the robot YAML (docs/formats.md); load_robot(path) reads a file.")
       .def(pyb::init(&robotFromDict), arg("description"))
       .def_property_readonly("name", &Robot::name)
       .def_property_readonly("size", &Robot::size, "Number of tubes n.")
@@ -353,6 +353,17 @@ void registerModel(pyb::module_& m) {
       arg("robot"), arg("count"), arg("seed") = 1, arg("min_protrusion") = 1e-3,
       "(alpha (count, n), beta (count, n)): uniform admissible configurations (ctr::sampleConfiguration).");
 
+  // ---- FollowOptions ----
+  pyb::class_<FollowOptions> flo(m, "FollowOptions",
+                                 "How an equilibrium is followed along a move (ctr::FollowOptions): sub-step sizes "
+                                 "and the snap rule; the `follow` of KinematicsOptions and FrictionOptions.");
+  flo.def_readwrite("max_rotation_step", &FollowOptions::max_rotation_step)
+      .def_readwrite("max_translation_step", &FollowOptions::max_translation_step)
+      .def_readwrite("snap_threshold", &FollowOptions::snap_threshold)
+      .def_readwrite("judge_stability", &FollowOptions::judge_stability);
+  addOptionsProtocol<FollowOptions>(flo,
+                                    {"max_rotation_step", "max_translation_step", "snap_threshold", "judge_stability"});
+
   // ---- KinematicsOptions ----
   pyb::class_<KinematicsOptions> ko(m, "KinematicsOptions",
                                     "Options of the kinematics solver (ctr::KinematicsOptions).");
@@ -366,17 +377,14 @@ void registerModel(pyb::module_& m) {
       .def_readwrite("record_tube_states", &KinematicsOptions::record_tube_states)
       .def_readwrite("homotopy", &KinematicsOptions::homotopy)
       .def_readwrite("homotopy_steps", &KinematicsOptions::homotopy_steps)
-      .def_readwrite("max_rotation_step", &KinematicsOptions::max_rotation_step)
-      .def_readwrite("max_translation_step", &KinematicsOptions::max_translation_step)
-      .def_readwrite("snap_threshold", &KinematicsOptions::snap_threshold)
+      .def_readwrite("follow", &KinematicsOptions::follow)
       .def_readwrite("refine_below_stability", &KinematicsOptions::refine_below_stability)
       .def_readwrite("loaded_model", &KinematicsOptions::loaded_model)
       .def_readwrite("extrapolate_warm_start", &KinematicsOptions::extrapolate_warm_start);
   addOptionsProtocol<KinematicsOptions>(
-      ko,
-      {"max_step", "max_bending_per_step", "bending_limit_per_segment", "max_iterations", "line_search_steps",
-       "tolerance", "record_backbone", "record_tube_states", "homotopy", "homotopy_steps", "max_rotation_step",
-       "max_translation_step", "snap_threshold", "refine_below_stability", "loaded_model", "extrapolate_warm_start"});
+      ko, {"max_step", "max_bending_per_step", "bending_limit_per_segment", "max_iterations", "line_search_steps",
+           "tolerance", "record_backbone", "record_tube_states", "homotopy", "homotopy_steps", "follow",
+           "refine_below_stability", "loaded_model", "extrapolate_warm_start"});
 
   // ---- Solution ----
   pyb::class_<Solution>(m, "Solution",

@@ -12,8 +12,38 @@ from pathlib import Path
 import pytest
 
 SOURCE_DIR = Path(os.environ.get("CTR_SOURCE_DIR", Path(__file__).resolve().parents[2]))
-SHARED_DIR = Path(os.environ.get("CTR_SHARED_DIR", SOURCE_DIR.parent / "shared"))
 EXAMPLES = SOURCE_DIR / "examples"
+
+
+def _data_dir():
+    """The folder of the public data sets (med-mpd/, dupont-lab-ctr-trajectory-hjhdog1/, recordings/), looked up as
+    CMake does: CTR_DATA (CTest passes the folder CMake chose), else ../shared/data beside the checkout, else data/
+    in the checkout (filled by scripts/fetch-data.sh)."""
+    if os.environ.get("CTR_DATA"):
+        return Path(os.environ["CTR_DATA"]).absolute()
+    beside = SOURCE_DIR.parent / "shared" / "data"
+    return beside if beside.is_dir() else SOURCE_DIR / "data"
+
+
+DATA_DIR = _data_dir()
+# The data sets scripts/fetch-data.sh fetches; the others (recordings) are only in ../shared/data.
+FETCHABLE = ("med-mpd", "dupont-lab-ctr-trajectory-hjhdog1")
+
+
+def missing_data_message(data_set):
+    """The one message for a missing data set: where it was looked for and how to get it."""
+    how = ("run scripts/fetch-data.sh to fetch it" if data_set in FETCHABLE
+           else "it is only in ../shared/data beside the checkout")
+    return f"data set '{data_set}' not found in {DATA_DIR}: {how} (or set CTR_DATA to the folder of the data sets)"
+
+
+def data_path(data_set, *parts, required=True):
+    """The path of a file of a data set: DATA_DIR / data_set / parts. When the data set is missing and `required`,
+    skips the calling test with missing_data_message."""
+    path = DATA_DIR.joinpath(data_set, *parts)
+    if required and not (DATA_DIR / data_set).is_dir():
+        pytest.skip(missing_data_message(data_set))
+    return path
 
 
 def _find_cli():

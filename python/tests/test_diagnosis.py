@@ -7,14 +7,14 @@ import pytest
 import numpy as np
 
 import ctr
-from conftest import SHARED_DIR, EXAMPLES, assert_same, load_json
+from conftest import DATA_DIR, EXAMPLES, assert_same, load_json
 
 TIMING = ("seconds",)
 
 
 def test_diagnose_equals_cli(cli, tmp_path):
-    rec = SHARED_DIR / "data" / "recordings" / "pub_friction_sweep_B.csv"
-    robot_yaml = SHARED_DIR / "data" / "recordings" / "pub_friction_sweep_B.robot.yaml"
+    rec = DATA_DIR / "recordings" / "pub_friction_sweep_B.csv"
+    robot_yaml = DATA_DIR / "recordings" / "pub_friction_sweep_B.robot.yaml"
     if not rec.exists():
         rec = EXAMPLES / "recordings" / "friction_masked_B.csv"
         robot_yaml = EXAMPLES / "recordings" / "friction_masked_B.robot.yaml"

@@ -61,6 +61,7 @@ def test_simulate_equals_cli(cli, tmp_path):
     for d, c in enumerate("xyz"):
         assert np.allclose(sim["tip_position"][:, d], expected[f"tip_{c}"], rtol=1e-12, atol=1e-13)
     assert len(sim["states"]) == len(angles) and all(s.valid for s in sim["states"])
+    assert sim["failure"] == ["none"] * len(angles)  # why a row failed, as a value (ctr::Failure)
 
 
 def test_hysteresis_state_is_a_python_value():

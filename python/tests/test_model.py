@@ -95,6 +95,12 @@ def test_solve_sweep_and_options():
     assert s.backbone["s"].size == 0
     with pytest.raises(TypeError, match="unknown field 'max_stepp'"):
         ctr.KinematicsOptions(max_stepp=1)
+    # One set of step sizes for every follower: FollowOptions, the `follow` of the kinematics and friction options.
+    assert ctr.KinematicsOptions().follow.max_rotation_step == pytest.approx(0.035)
+    assert ctr.FrictionOptions().follow.max_rotation_step == pytest.approx(0.0175)
+    assert not ctr.FrictionOptions().follow.judge_stability
+    fine = ctr.KinematicsOptions(follow=ctr.FollowOptions(max_rotation_step=0.01, snap_threshold=0.4))
+    assert fine.follow.max_rotation_step == 0.01 and "snap_threshold=0.4" in repr(fine)
     s2 = ctr.solve(r, [0, 1.0], [-0.018, -0.018], warm=s)
     assert np.allclose(s2.tip_position, s.tip_position, atol=1e-9)
     assert copy.deepcopy(s2).twist[0] == s2.twist[0]

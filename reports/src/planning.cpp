@@ -148,11 +148,11 @@ std::string planningHtml(const planner::Context& ctx, const std::vector<Configur
     if (ok) {
       const planner::ShapeCheck sc = planner::checkShape(ctx, s, scratch);
       if (!sc.ok) reason = sc.reason;
+      if (sc.failure == Failure::Collision) ++collisions;
     } else {
       reason = "not converged" + (s.summary.message.empty() ? std::string() : ": " + s.summary.message);
       ++failures;
     }
-    if (reason.find("collision") != std::string::npos) ++collisions;
     if (!reason.empty()) reasons[std::to_string(k)] = reason;
     for (std::size_t c = 0; c + 2 < pts.size(); c += 3)
       for (int d = 0; d < 3; ++d) {

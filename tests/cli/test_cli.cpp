@@ -8,6 +8,8 @@
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
+#include <map>
+#include <regex>
 #include <sstream>
 #include <string>
 #include <vector>
@@ -469,7 +471,7 @@ TEST(Cli, IkFrictionPathCommandsReplayThroughSimulate) {
   }
 }
 
-// Admissibility tolerance (docs/formats-io.md): a configuration whose inner tube ends where the outer tube ends, with
+// Admissibility tolerance (docs/formats.md): a configuration whose inner tube ends where the outer tube ends, with
 // the values rounded as in a log (1e-10 m off), is projected; a 1 mm violation is still an input error (exit 2).
 TEST(Cli, FkProjectsRoundedCoincidentEndsAndRefusesLargerViolations) {
   const std::string base = "fk --robot " + robot("tube_pair_B.yaml") + " --alpha 0,1 --json --beta ";
@@ -601,3 +603,117 @@ TEST(Cli, DemoPlansTheEmbeddedDefaultAndWritesThePath) {
   EXPECT_NE(header.find("_mode"), std::string::npos);
 }
 #endif
+
+namespace {
+
+// The options of one --help text: name -> the type CLI11 prints after it, without its check (":NONNEGATIVE") and
+// default ("=-"); "" for a flag.
+std::map<std::string, std::string> helpOptions(const std::string& help) {
+  std::map<std::string, std::string> out;
+  std::istringstream in(help);
+  std::string line;
+  const std::regex option(R"(^\s+(?:-\w,)?(--[\w-]+)(?: (\S+))?)");
+  while (std::getline(in, line)) {
+    std::smatch m;
+    if (std::regex_search(line, m, option))
+      out[m[1]] = m[2].matched ? m[2].str().substr(0, m[2].str().find_first_of(":=")) : "";
+  }
+  return out;
+}
+
+// The subcommands a --help text lists.
+std::vector<std::string> helpSubcommands(const std::string& help) {
+  std::vector<std::string> out;
+  std::istringstream in(help);
+  std::string line;
+  bool in_list = false;
+  while (std::getline(in, line)) {
+    if (line.rfind("Subcommands:", 0) == 0) {
+      in_list = true;
+      continue;
+    }
+    if (in_list && line.size() > 2 && line[0] == ' ' && line[1] == ' ' && line[2] != ' ') {
+      std::istringstream w(line);
+      std::string name;
+      w >> name;
+      out.push_back(name);
+    } else if (in_list && !line.empty() && line[0] != ' ') {
+      in_list = false;
+    }
+  }
+  return out;
+}
+
+}  // namespace
+
+TEST(Cli, EveryOutputOptionMeansTheSameInEverySubcommand) {
+  // Every subcommand, walked through --help: --json [FILE|-] (a file, or standard output with - or no value),
+  // --csv FILE|- (standard output with -), --html a FILE ([FILE] with a default), --out a FILE or a DIR, --seed and
+  // --threads an INT, --quiet a flag.
+  std::vector<std::string> todo{""};
+  int walked = 0, json = 0;
+  while (!todo.empty()) {
+    const std::string cmd = todo.back();
+    todo.pop_back();
+    const Proc r = run(cmd + " --help");
+    ASSERT_EQ(r.code, 0) << "ctr" << cmd << " --help: " << r.err;
+    ++walked;
+    for (const std::string& s : helpSubcommands(r.out)) todo.push_back(cmd + " " + s);
+    for (const auto& [name, type] : helpOptions(r.out)) {
+      SCOPED_TRACE("ctr" + cmd + " " + name + " " + type);
+      if (name == "--json") {
+        ++json;
+        EXPECT_EQ(type, "[FILE|-]");
+      } else if (name == "--csv") {
+        EXPECT_EQ(type, "FILE|-");
+      } else if (name == "--html") {
+        EXPECT_TRUE(type == "FILE" || type == "[FILE]");
+      } else if (name == "--out") {
+        EXPECT_TRUE(type == "FILE" || type == "DIR");
+      } else if (name == "--seed" || name == "--threads") {
+        EXPECT_EQ(type, "INT");
+      } else if (name == "--quiet") {
+        EXPECT_EQ(type, "");
+      }
+    }
+  }
+  EXPECT_GE(walked, 17);  // ctr, 12 subcommands, env info/build/check, recording import/inject, bench/design merge
+  EXPECT_EQ(json, 6);     // fk, ik, env info, env check, diagnose, plan
+}
+
+TEST(Cli, JsonGoesToAFileOrToStandardOutput) {
+  const std::string fk = "fk --robot " + robot("tube_pair_B.yaml") + " --alpha 0,90deg --beta -0.018,-0.018";
+  const Proc bare = run(fk + " --json");
+  const Proc dash = run(fk + " --json -");
+  ASSERT_EQ(bare.code, 0) << bare.err;
+  ASSERT_EQ(dash.code, 0) << dash.err;
+  EXPECT_EQ(bare.out, dash.out);
+  EXPECT_TRUE(nlohmann::json::parse(dash.out).is_object());
+  const fs::path file = tmp("fk.json");
+  fs::remove(file);
+  const Proc to_file = run(fk + " --json " + file.string());
+  ASSERT_EQ(to_file.code, 0) << to_file.err;
+  std::ifstream in(file);
+  std::stringstream text;
+  text << in.rdbuf();
+  EXPECT_EQ(text.str(), dash.out);                      // the same object in the file
+  EXPECT_EQ(to_file.out.find('{'), std::string::npos);  // and the words on standard output
+  EXPECT_NE(to_file.out.find("tip"), std::string::npos) << to_file.out;
+  // The robot file is an input: refused as a --json target, nothing written.
+  const Proc clobber = run(fk + " --json " + robot("tube_pair_B.yaml"));
+  EXPECT_EQ(clobber.code, 2);
+}
+
+TEST(Cli, AnHtmlValueThatIsNotAnHtmlFileIsRefusedNotOverwritten) {
+  // `ctr design --html [FILE]` takes an optional value: a query written right after it would be taken for the report.
+  // It is refused (exit 2) and left as it was.
+  const fs::path q1 = tmp("q1.yaml"), q2 = tmp("q2.yaml");
+  for (const fs::path& q : {q1, q2})
+    fs::copy_file(std::string(CTR_SOURCE_DIR) + "/examples/queries/proc_intracardiac.yaml", q,
+                  fs::copy_options::overwrite_existing);
+  const auto before = fs::file_size(q1);
+  const Proc r = run("design --html " + q1.string() + " " + q2.string() + " --out " + tmp("design_out").string());
+  EXPECT_EQ(r.code, 2) << r.err;
+  EXPECT_EQ(fs::file_size(q1), before);
+  EXPECT_FALSE(fs::exists(tmp("design_out")));
+}

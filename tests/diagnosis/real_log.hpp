@@ -1,18 +1,19 @@
-// The real Dupont-lab recording (../shared beside the checkout), shared by the diagnosis tests.
+// The real Dupont-lab recording (the data folder: tests/data_sets.hpp), shared by the diagnosis tests.
 #pragma once
 
 #include <fstream>
 #include <optional>
 #include <string>
 
+#include "../data_sets.hpp"
 #include "ctr/diagnosis/import.hpp"
 #include "ctr/diagnosis/noise.hpp"
 
 namespace ctr::diagnosis::test {
 
-/// Path of the real log (jointTipTrajectory_measured_short.txt).
-inline const std::string kRealLog =
-    std::string(CTR_SHARED_DIR) + "/data/dupont-lab-ctr-trajectory-hjhdog1/jointTipTrajectory_measured_short.txt";
+/// The real log (jointTipTrajectory_measured_short.txt) in the data folder, and its path.
+inline const std::string kRealLogFile = "dupont-lab-ctr-trajectory-hjhdog1/jointTipTrajectory_measured_short.txt";
+inline const std::string kRealLog = ctr_test::dataPath(kRealLogFile);
 
 /// The real log imported with the Dupont-lab columns; empty when it is not there (the test then skips).
 inline std::optional<io::Recording> realLog() {

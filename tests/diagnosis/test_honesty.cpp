@@ -307,11 +307,11 @@ TEST(Diagnose, TrackerDriftIsUnexplainedNotNamed) {
 // The real Dupont-lab log itself with a known effect written into it: the first 300 rows (30 s), and the tube-3
 // command logged 10 degrees behind the angle the robot had (an offset of the tube-3 drive the log hides). The offset
 // is recovered on top of whatever the real data needs (candidates restricted to the shift group and latency to keep
-// the test short; scripts/honest_diagnosis_cases.py runs the whole log with the full library), against the EM
+// the test short; scripts/known_answer_cases.py runs the whole log with the full library), against the EM
 // tracker's noise (the log cannot tell its own).
 TEST(RealLog, AnOffsetWrittenIntoTheRealLogIsRecovered) {
   std::optional<io::Recording> real = test::realLog();
-  if (!real) GTEST_SKIP() << "no " << test::kRealLog;
+  if (!real) GTEST_SKIP() << ctr_test::missingData(test::kRealLogFile);
   io::Recording rec = *real;
   const int rows = 300;
   rec.commands.resize(rows);
@@ -334,7 +334,7 @@ TEST(RealLog, AnOffsetWrittenIntoTheRealLogIsRecovered) {
   EXPECT_TRUE(rep.failed_rows.empty());
 }
 
-// Two drive errors written into the whole real log at once (scripts/honest_diagnosis_cases.py real_two_drives): an
+// Two drive errors written into the whole real log at once (scripts/known_answer_cases.py real_two_drives): an
 // 8 deg play of the tube-2 drive (the command logged half the play ahead of the tube in the direction of motion) and
 // a 6 deg offset of tube 1. Both are named beside the log's own latency and friction, the play with the 8 deg inside
 // its 95 % interval, the offset with 6 deg (and the 6 deg plus the log's own 2.9 deg) inside its interval; the
@@ -343,7 +343,7 @@ TEST(RealLog, AnOffsetWrittenIntoTheRealLogIsRecovered) {
 // "Evidence"). Not in the sanitizer set (~30 s in Release).
 TEST(RealLogTwoDrives, APlayAndAnOffsetWrittenIntoTheRealLogAreBothNamed) {
   std::optional<io::Recording> real = test::realLog();
-  if (!real) GTEST_SKIP() << "no " << test::kRealLog;
+  if (!real) GTEST_SKIP() << ctr_test::missingData(test::kRealLogFile);
   io::Recording rec = *real;
   const double play = 8 * M_PI / 180, offset = 6 * M_PI / 180;
   double direction = 0, ref = rec.commands.front().alpha[1];

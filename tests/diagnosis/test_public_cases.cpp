@@ -1,6 +1,6 @@
-// The public recordings with known truth (../shared/data/recordings, written by an independent simulator): by default
-// (no branch rule, no noise given) the verdict of the truth, each parameter within 15 % (friction within 10 % where
-// the recording has tracker glitches, which must be listed), held-out RMSE down. Set 2 are continuous motions
+// The public recordings with known truth (recordings/ in the data folder, written by an independent simulator): by
+// default (no branch rule, no noise given) the verdict of the truth, each parameter within 15 % (friction within 10 %
+// where the recording has tracker glitches, which must be listed), held-out RMSE down. Set 2 are continuous motions
 // sampled coarsely (10-70 deg between rows): they fail when rows after large moves are reached from rest.
 #include <gtest/gtest.h>
 
@@ -8,6 +8,7 @@
 #include <fstream>
 #include <nlohmann/json.hpp>
 
+#include "../data_sets.hpp"
 #include "ctr/diagnosis/diagnose.hpp"
 #include "ctr/io/recording.hpp"
 #include "ctr/io/robot_yaml.hpp"
@@ -23,9 +24,9 @@ struct Case {
 class PublicCase : public ::testing::TestWithParam<const char*> {};
 
 TEST_P(PublicCase, VerdictParametersAndHeldOut) {
-  const std::string base = std::string(CTR_SHARED_DIR) + "/data/recordings/" + GetParam();
+  const std::string base = ctr_test::dataPath(std::string("recordings/") + GetParam());
   std::ifstream tf(base + ".truth.json");
-  if (!tf) GTEST_SKIP() << "no " << base;
+  if (!tf) GTEST_SKIP() << ctr_test::missingData(std::string("recordings/") + GetParam() + ".truth.json");
   const nlohmann::json truth = nlohmann::json::parse(tf);
   const Robot robot = io::loadRobot(base + ".robot.yaml");
   const io::Recording rec = io::loadRecording(base + ".csv", robot.size(), true);

@@ -119,7 +119,7 @@ TEST(Import, MappingUnwrapAndDupontFormat) {
   EXPECT_NEAR(a[1], 2 * M_PI - 3.0, 1e-12);
   EXPECT_NEAR(a[3], 3.1, 1e-12);
   const std::optional<io::Recording> loaded = test::realLog();
-  if (!loaded) GTEST_SKIP() << "no " << test::kRealLog;
+  if (!loaded) GTEST_SKIP() << ctr_test::missingData(test::kRealLogFile);
   const io::Recording& rec = *loaded;
   EXPECT_EQ(rec.rows(), 1307);
   EXPECT_EQ(rec.tubes, 3);

@@ -1,8 +1,10 @@
-// A real Med-MPD lung environment (skipped when ../shared is absent), at a coarse resolution to keep the suite fast.
+// A real Med-MPD lung environment (skipped when the data folder has no Med-MPD), at a coarse resolution to keep the
+// suite fast.
 #include <gtest/gtest.h>
 
 #include <filesystem>
 
+#include "../data_sets.hpp"
 #include "ctr/environments/collision.hpp"
 #include "ctr/environments/environment_yaml.hpp"
 #include "ctr/io/robot_yaml.hpp"
@@ -14,12 +16,11 @@ namespace {
 const std::string kExamples = std::string(CTR_SOURCE_DIR) + "/examples";
 
 bool haveMedMpd() {
-  return std::filesystem::exists(std::string(CTR_SHARED_DIR) + "/data/med-mpd/Lungs/Patient1/vessels.nii.gz") &&
-         std::filesystem::exists(std::string(CTR_SOURCE_DIR) + "/../shared/data/med-mpd");
+  return ctr_test::haveData("med-mpd/Lungs/Patient1/vessels.nii.gz");
 }
 
 TEST(MedMpd, LungPatient1) {
-  if (!haveMedMpd()) GTEST_SKIP() << "Med-MPD data not found beside the checkout (../shared/data/med-mpd)";
+  if (!haveMedMpd()) GTEST_SKIP() << ctr_test::missingData("med-mpd/Lungs/Patient1/vessels.nii.gz");
   BuildOptions bo;
   bo.resolution = 0.003;  // the 1 mm build is measured in bench_environments
   const Environment env = loadEnvironment(kExamples + "/environments/medmpd_lung_patient1.yaml", bo);
@@ -70,7 +71,7 @@ TEST(MedMpd, LungPatient1) {
 }
 
 TEST(MedMpd, AllExampleDescriptionsParse) {
-  if (!haveMedMpd()) GTEST_SKIP() << "Med-MPD data not found beside the checkout (../shared/data/med-mpd)";
+  if (!haveMedMpd()) GTEST_SKIP() << ctr_test::missingData("med-mpd/Lungs/Patient1/vessels.nii.gz");
   for (const char* name :
        {"medmpd_lung_patient1", "medmpd_lung_patient2", "medmpd_lung_patient3", "medmpd_lung_patient4",
         "medmpd_lung_patient5", "medmpd_brain_patient1", "medmpd_brain_patient2", "medmpd_liver_patient1",

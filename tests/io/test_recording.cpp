@@ -10,6 +10,7 @@
 #include <string>
 #include <vector>
 
+#include "../data_sets.hpp"
 #include "ctr/io/file.hpp"
 #include "ctr/io/recording.hpp"
 #include "ctr/io/robot_yaml.hpp"
@@ -250,7 +251,8 @@ void expectSameRecording(const Recording& a, const Recording& b) {
 }
 
 TEST(Recording, LoadsSharedRecordings) {
-  const fs::path dir = fs::path(CTR_SHARED_DIR) / "data" / "recordings";
+  if (!ctr_test::haveData("recordings")) GTEST_SKIP() << ctr_test::missingData("recordings");
+  const fs::path dir = ctr_test::dataPath("recordings");
   int count = 0;
   for (const auto& e : fs::directory_iterator(dir)) {
     if (e.path().extension() != ".csv") continue;

@@ -12,6 +12,7 @@
 #include <string>
 #include <vector>
 
+#include "../data_sets.hpp"
 #include "ctr/io/recording.hpp"
 #include "ctr/io/robot_yaml.hpp"
 
@@ -483,7 +484,8 @@ TEST(RobotYaml, ExampleRobotValues) {
 }
 
 TEST(RobotYaml, LoadsSharedRecordingRobots) {
-  const auto files = yamlFiles(fs::path(CTR_SHARED_DIR) / "data" / "recordings", ".robot.yaml");
+  if (!ctr_test::haveData("recordings")) GTEST_SKIP() << ctr_test::missingData("recordings");
+  const auto files = yamlFiles(ctr_test::dataPath("recordings"), ".robot.yaml");
   ASSERT_FALSE(files.empty());
   const fs::path examples = fs::path(CTR_SOURCE_DIR) / "examples" / "robots";
   const Robot pair_a = ctr::io::loadRobot((examples / "tube_pair_A.yaml").string());

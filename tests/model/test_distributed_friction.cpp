@@ -212,7 +212,7 @@ TEST(DistributedFriction, TogetherWithBoundaryFrictionKeepsBoundsAndTorqueBalanc
   const Robot r = threeTubes(0.1).withFriction({0.1, 1.0});
   Workspace ws;
   FrictionOptions fo;
-  fo.max_rotation_step = 0.05;
+  fo.follow.max_rotation_step = 0.05;
   Configuration q(Eigen::Vector3d(0.0, 1.0, -0.5), Eigen::Vector3d(-0.02, -0.04, -0.07));
   StepResult cur = initialState(r, q, ws, fo);
   ASSERT_TRUE(cur.summary.converged) << cur.summary.message;
@@ -246,7 +246,7 @@ TEST(DistributedFriction, TogetherWithBoundaryFrictionWidensTheEnvelope) {
   Workspace ws;
   FrictionOptions fo;
   fo.kinematics.record_backbone = false;
-  fo.max_rotation_step = 0.05;
+  fo.follow.max_rotation_step = 0.05;
   auto width = [&](double mu_b, double mu_d) {
     const Robot r = pairB().withFriction({mu_b, mu_d});
     auto at = [](double a) { return Configuration(Eigen::Vector2d(0, a), Eigen::Vector2d(-0.018, -0.018)); };

@@ -10,6 +10,7 @@
 #include <memory>
 #include <random>
 
+#include "../data_sets.hpp"
 #include "ctr/environments/robot_geometry.hpp"
 #include "ctr/io/input_error.hpp"
 #include "ctr/io/robot_yaml.hpp"
@@ -210,7 +211,7 @@ TEST(Query, LoadsReplaceTheRobotsAndTurnIntoTheBaseFrame) {
 TEST(Query, RoundedCoincidentEndsInStartAndGoalAreProjected) {
   // At beta = (-0.10, -0.16, -0.21) the three distal ends of the intracardiac robot coincide; a logged start with
   // the middle / inner translations rounded puts their ends 1e-10 / 5e-10 m behind: projected (admissibility
-  // tolerance, docs/formats-io.md), the query loads. The goal configuration is projected the same way.
+  // tolerance, docs/formats.md), the query loads. The goal configuration is projected the same way.
   std::string text = queryText("configuration: {alpha: [0, 0.2, 0.4], beta: [-0.1, -0.1600000001, -0.2100000005]}");
   const std::string from = "beta: [-0.10, -0.16, -0.21]";
   text.replace(text.find(from), from.size(), "beta: [-0.10, -0.1600000001, -0.2100000005]");
@@ -422,10 +423,78 @@ TEST(MotionValidation, ForwardWalkRejectsASnapAndAcceptsASmoothMotion) {
   const Configuration a(Eigen::Vector2d(0, 2.5), Eigen::Vector2d(0, 0));
   const Configuration b(Eigen::Vector2d(0, 2 * M_PI - 0.5), Eigen::Vector2d(0, 0));
   std::string why;
-  const double f = checkMotionForward(ctx, a, b, t, &why);
+  Failure failure = Failure::None;
+  const double f = checkMotionForward(ctx, a, b, t, &why, &failure);
   EXPECT_LT(f, 1.0);
   EXPECT_GT(f, 0.2);  // the branch continues past pi before it ends
-  EXPECT_NE(why.find("snap"), std::string::npos) << why;
+  EXPECT_EQ(failure, Failure::Snapped) << why;
+}
+
+namespace {
+
+// The replay of the frictionless robot along the commands the motion check visits (the same sub-steps): the rows,
+// each reached from the previous one by the stick-slip step.
+std::vector<ReplayRow> replayAtResolution(const Context& ctx, const Configuration& q0, const Configuration& q1) {
+  ReplayOptions o = replayOptions(ctx);
+  Workspace ws;
+  return replay(
+      ctx.frictionlessRobot(),
+      replayCommands({q0, q1}, ctx.options().motion.max_rotation_step, ctx.options().motion.max_translation_step), ws,
+      o);
+}
+
+}  // namespace
+
+TEST(MotionValidation, TheMotionCheckAndTheReplayAgreeWhereABranchSnaps) {
+  // Both follow the equilibrium with followMove and its branch rule: the motion check stops at the sub-step where the
+  // replay's row snaps, and every row before it is the equilibrium the motion check followed.
+  const double L = 0.1, kappa = std::sqrt(2.0 * (M_PI / 2) * (M_PI / 2) / (1.3 * L * L));
+  const Robot r("snap", {curved("outer", L, kappa), curved("inner", L, kappa)});
+  const Context ctx = emptyMapContext(r, Mode::Frictionless);
+  const Configuration a(Eigen::Vector2d(0, 2.5), Eigen::Vector2d(0, 0));
+  const Configuration b(Eigen::Vector2d(0, 2 * M_PI - 0.5), Eigen::Vector2d(0, 0));
+  Failure failure = Failure::None;
+  const double f = checkMotionForward(ctx, a, b, scratch(), nullptr, &failure);
+  ASSERT_EQ(failure, Failure::Snapped);
+  const std::vector<ReplayRow> rows = replayAtResolution(ctx, a, b);
+  const int steps = static_cast<int>(rows.size()) - 1;
+  const int completed = static_cast<int>(std::lround(f * steps));
+  for (int k = 0; k <= completed; ++k) EXPECT_TRUE(rows[static_cast<std::size_t>(k)].ok) << "row " << k;
+  ASSERT_LT(completed + 1, static_cast<int>(rows.size()));
+  EXPECT_EQ(rows[static_cast<std::size_t>(completed + 1)].failure, Failure::Snapped)
+      << rows[static_cast<std::size_t>(completed + 1)].reason;
+}
+
+TEST(Planning, TheMotionCheckAndTheReplayAgreeOnEveryMotionOfTheExamplePlans) {
+  // A frictionless-mode plan of the intracardiac query: every motion of the path passes the motion check, and the
+  // replay of the frictionless robot along the same sub-steps follows it with no failed row, arriving at every
+  // waypoint on the equilibrium the motion check accepted (the configuration's own).
+  for (Mode mode : {Mode::Frictionless, Mode::Robust}) {
+    SCOPED_TRACE(toString(mode));
+    Query q = onCpuClock(loadQuery(src("examples/queries/proc_intracardiac.yaml")), mode, "rrtconnect", 20);
+    CtrPlanner p(q);
+    const PlanResult r = solveWithRetry(p);
+    ASSERT_TRUE(r.planner_solved) << r.message;
+    const Context& ctx = *p.context();
+    ASSERT_GE(r.path.size(), 2u);
+    Workspace ws;
+    for (std::size_t k = 0; k + 1 < r.path.size(); ++k) {
+      std::string why;
+      Failure failure = Failure::None;
+      EXPECT_EQ(checkMotionForward(ctx, r.path[k], r.path[k + 1], scratch(), &why, &failure), 1.0)
+          << "motion " << k << ": " << why;
+      EXPECT_EQ(failure, Failure::None);
+      const std::vector<ReplayRow> rows = replayAtResolution(ctx, r.path[k], r.path[k + 1]);
+      for (std::size_t j = 0; j < rows.size(); ++j)
+        ASSERT_EQ(rows[j].failure, Failure::None) << "motion " << k << ", row " << j << ": " << rows[j].reason;
+      // The same equilibrium by the motion check's rule (different equilibria differ by 0.1-5 rad of twist and
+      // 2-70 mm at the tip; the same one solved along two paths by the solver's tolerance).
+      const Solution own = solve(ctx.frictionlessRobot(), r.path[k + 1], ws);
+      ASSERT_TRUE(own.converged());
+      EXPECT_LE((rows.back().result.solution.twist - own.twist).cwiseAbs().maxCoeff(), 1e-4) << "motion " << k;
+      EXPECT_LE((rows.back().result.solution.tip_position - own.tip_position).norm(), 1e-5) << "motion " << k;
+    }
+  }
 }
 
 TEST(MotionValidation, AMotionMustArriveOnTheEndConfigurationsOwnEquilibrium) {
@@ -664,8 +733,7 @@ TEST(Planning, RobustBandRejectsTheReleaseOfAVanishingContact) {
 }
 
 TEST(Planning, RobustModeSolvesALungQueryWithTheGoalHeldByTheWholeBand) {
-  if (!fs::exists(std::string(CTR_SHARED_DIR) + "/data/med-mpd/Lungs/Patient2"))
-    GTEST_SKIP() << "../shared/data/med-mpd not found";
+  if (!ctr_test::haveData("med-mpd/Lungs/Patient2")) GTEST_SKIP() << ctr_test::missingData("med-mpd/Lungs/Patient2");
   const Query q =
       onCpuClock(loadQuery(src("examples/queries/medmpd_lung_patient2.yaml")), Mode::Robust, "rrtconnect", 20);
   CtrPlanner p(q);
@@ -707,6 +775,7 @@ TEST(Planning, RobustModeSaysWhenTheBandCannotReachTheGoal) {
 TEST(Planning, InfeasibleLungExampleSaysWhyInOneLine) {
   // Lung patient 1 with its design: every inverse-kinematics solution on the nodule collides (docs/planning.md).
   // The result must say so in one line, not "approximate solution".
+  if (!ctr_test::haveData("med-mpd/Lungs/Patient1")) GTEST_SKIP() << ctr_test::missingData("med-mpd/Lungs/Patient1");
   Query q = loadQuery(src("examples/queries/medmpd_lung_patient1.yaml"));
   q.time_limit = 3;
   q.cpu_time_limit = true;

@@ -104,7 +104,7 @@ struct ModelScore {
   double bic = 0.0;
 };
 
-/// @brief A rival look-alike effect that fits the recording as well as an accepted one (formats.md
+/// @brief A rival look-alike effect that fits the recording as well as an accepted one (docs/formats.md
 /// `ambiguous_with`): neither adds significantly on top of the other.
 struct Rival {
   Effect effect;                               ///< Fitted value alone on top of the model of its round.
@@ -145,13 +145,14 @@ struct Finding {
 
 /// @brief A row the model could not evaluate, excluded from every residual, fit, noise estimate and score.
 struct FailedRow {
-  int row = 0;         ///< 1-based data row of the recording as given (before any decimation).
-  std::string reason;  ///< e.g. "did not converge", "inadmissible command: ...", "snapped ...".
+  int row = 0;                      ///< 1-based data row of the recording as given (before any decimation).
+  Failure failure = Failure::None;  ///< Why (NotConverged, Inadmissible, NoContactSet, Snapped, Unstable).
+  std::string reason;               ///< The same in words: "did not converge", "inadmissible command: ...".
   std::string model;   ///< "nominal" or the final model that failed on it.
 };
 
-/// @brief A row where the model has other stable equilibria the robot may have reached by an unknown path (formats.md
-/// `branch_ambiguous_rows`).
+/// @brief A row where the model has other stable equilibria the robot may have reached by an unknown path
+/// (docs/formats.md `branch_ambiguous_rows`).
 struct BranchAmbiguousRow {
   int row = 0;                          ///< 1-based row of the recording as given.
   std::vector<double> alternatives_mm;  ///< Tip distance of each alternative from the replayed equilibrium (mm).
@@ -164,8 +165,8 @@ struct BranchAmbiguousRow {
 /// (that kind is named once; its look-alikes stay in the finding's ambiguous_with); identical entries once.
 std::vector<std::string> verdictNames(const std::vector<std::vector<EffectKind>>& entries);
 
-/// @brief A row whose measurement looks like a tracker glitch (formats.md `outlier_rows`): its residual under the
-/// final model is far beyond the noise and its neighbours' residuals; it is left out of every fit, test and score.
+/// @brief A row whose measurement looks like a tracker glitch (docs/formats.md `outlier_rows`): its residual under
+/// the final model is far beyond the noise and its neighbours' residuals; it is left out of every fit, test and score.
 struct OutlierRow {
   int row = 0;                          ///< 1-based row of the recording as given.
   std::vector<std::string> quantities;  ///< The measured quantities that are off (JSON names).
@@ -184,7 +185,7 @@ struct GenericDescription {
   std::vector<std::string> replaces;           ///< Library effects it makes partial explanations.
 };
 
-/// @brief What the final model leaves unexplained (formats.md `unexplained`).
+/// @brief What the final model leaves unexplained (docs/formats.md `unexplained`).
 struct Unexplained {
   bool present = false;                        ///< Held-out error above the noise, or a structured residual.
   double fraction_explained = 0.0;             ///< Of the baseline's excess held-out error over the noise.
@@ -260,7 +261,7 @@ std::vector<Effect> candidateSlots(const Robot& nominal, const io::Recording& re
 /// @brief Runs the whole diagnosis. Throws std::invalid_argument when the recording does not fit the robot.
 DiagnosisReport diagnose(const Robot& nominal, const io::Recording& rec, const DiagnoseOptions& options = {});
 
-/// @brief formats.md diagnosis JSON (verdict, baseline, final, mismatch, findings, + noise, timing, registration).
+/// @brief The diagnosis JSON (docs/formats.md "Diagnosis": verdict, baseline, final, mismatch, findings, noise, ...).
 std::string reportToJson(const DiagnosisReport& report);
 /// @brief Plain-language Markdown report.
 std::string reportToMarkdown(const DiagnosisReport& report, const io::Recording& rec);

@@ -1,6 +1,6 @@
 /// @file effect.hpp
 /// @brief Candidate physics left out of the nominal model ("effects"): names, parameters and how each one
-/// modifies the robot, the actuation or the measurement (formats.md, diagnosis effect table).
+/// modifies the robot, the actuation or the measurement (docs/formats.md "Diagnosis", effect table).
 #pragma once
 
 #include <Eigen/Core>
@@ -12,7 +12,7 @@
 
 namespace ctr::diagnosis {
 
-/// @brief Kind of a left-out effect. The JSON names are those of formats.md.
+/// @brief Kind of a left-out effect. The JSON names are those of docs/formats.md ("Diagnosis").
 enum class EffectKind {
   BoundaryFriction,     ///< `boundary_friction`: stick-slip Coulomb torque mu' |m| at concentrated moments.
   DistributedFriction,  ///< `distributed_friction`: Coulomb friction of the distributed contact forces.
@@ -55,7 +55,7 @@ constexpr double kStandardGravity = 9.81;
 /// linear density (superelastic NiTi, 6,450 kg/m^3).
 constexpr double kNitinolDensity = 6450.0;
 
-/// @brief All kinds of the library (formats.md), in its order; the generic kinds are not among them.
+/// @brief All kinds of the library (docs/formats.md), in its order; the generic kinds are not among them.
 const std::vector<EffectKind>& allEffectKinds();
 /// @brief The generic kinds (drive_ratio, drive_periodic, stage_error, tracker_drift).
 const std::vector<EffectKind>& genericEffectKinds();
@@ -151,7 +151,7 @@ struct NamedParameter {
   std::vector<std::array<double, 2>> interval95;
 };
 
-/// @brief The parameters of an effect as reported (formats.md effect table): `tube` (per-tube kinds), then the
+/// @brief The parameters of an effect as reported (docs/formats.md effect table): `tube` (per-tube kinds), then the
 /// kind's parameter(s): gravity -> `scale`, `direction`; tip_load -> `force`. Intervals from `u` when given (gravity:
 /// scale and direction by the delta method from the covariance of scale * direction).
 std::vector<NamedParameter> namedParameters(const Effect& e, const EffectUncertainty* u = nullptr);

@@ -43,7 +43,7 @@ struct PredictOptions {
   /// Keep each row's equilibrium (Prediction::solutions), e.g. to linearise the model around it (load screen).
   bool keep_solutions = false;
   PredictOptions() {
-    replay.friction.max_rotation_step = 0.035;  // 2 deg
+    replay.friction.follow.max_rotation_step = 0.035;  // 2 deg
     replay.friction.kinematics.record_backbone = false;
     replay.friction.kinematics.max_step = kReplayMaxStep;
     replay.friction.kinematics.max_bending_per_step = kReplayMaxBending;
@@ -65,7 +65,8 @@ struct Prediction {
   Eigen::VectorXd moment;                ///< Largest concentrated-moment magnitude per row (N m); NaN on failed rows.
   std::vector<Configuration> actuation;  ///< The true actuation after latency/backlash/offset.
   std::vector<char> ok;                  ///< Row evaluated (admissible, converged, no snap).
-  std::vector<std::string> reason;       ///< Why a row failed ("" when ok).
+  std::vector<Failure> failure;          ///< Why a row failed (Failure::None when ok).
+  std::vector<std::string> reason;       ///< The same in words ("" when ok).
   int failures = 0;                      ///< Rows with ok = 0.
   int restarts = 0;                      ///< Rows reached from rest after a failure (memory lost).
   std::vector<Reached> reached;          ///< How each row was reached (path, rest, restart).

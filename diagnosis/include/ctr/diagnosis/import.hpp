@@ -1,6 +1,7 @@
 /// @file import.hpp
-/// @brief Converting lab recordings (whitespace or comma separated tables) into the formats.md recording:
-/// column mapping, unit scaling, sign flips and angle unwrapping. A preset describes the Dupont-lab format.
+/// @brief Converting lab recordings (whitespace or comma separated tables) into the recording CSV (docs/formats.md
+/// "Importing lab tables"): column mapping, unit scaling, sign flips and angle unwrapping. A preset describes the
+/// Dupont-lab format.
 #pragma once
 
 #include <map>
@@ -11,7 +12,7 @@
 
 namespace ctr::diagnosis {
 
-/// @brief Where one formats.md column comes from in the source table.
+/// @brief Where one recording column (docs/formats.md) comes from in the source table.
 struct ColumnSource {
   int column = 0;      ///< 1-based column of the source table.
   double scale = 1.0;  ///< Value = scale * source + offset (e.g. 1e-3 for mm, -1 to flip an axis).
@@ -21,7 +22,7 @@ struct ColumnSource {
 /// @brief Options of importTable().
 struct ImportOptions {
   int tubes = 0;                                ///< n; 0 infers it from the alpha_* mappings.
-  std::map<std::string, ColumnSource> columns;  ///< formats.md column name -> source (alpha_1, tip_x, time ...).
+  std::map<std::string, ColumnSource> columns;  ///< Recording column name -> source (alpha_1, tip_x, time ...).
   std::vector<std::string> unwrap;              ///< Columns whose angles are wrapped (unwrapped on import).
   std::string delimiter;                        ///< "" = whitespace or comma, auto-detected.
   int skip_rows = 0;                            ///< Header lines to skip.

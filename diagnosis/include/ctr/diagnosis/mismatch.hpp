@@ -37,7 +37,7 @@ struct ConfigVariable {
 /// @brief The configuration variables that vary in a recording.
 std::vector<ConfigVariable> configVariables(const io::Recording& rec);
 
-/// @brief One located mismatch (formats.md `mismatch` entries, plus detail).
+/// @brief One located mismatch (docs/formats.md `mismatch` entries, plus detail).
 struct MismatchFinding {
   std::string
       signature;  ///< exceeds_noise | direction_dependent | scales_with_moment | scales_with_speed | drift | constant

@@ -20,7 +20,7 @@
 
 namespace ctr::diagnosis {
 
-/// @brief Noise standard deviations given by the user (formats.md `noise` source `given`); unset = estimated.
+/// @brief Noise standard deviations given by the user (docs/formats.md `noise` source `given`); unset = estimated.
 struct GivenNoise {
   std::optional<double> twist, tip_position, tip_tangent;
   std::optional<double> of(Quantity q) const;

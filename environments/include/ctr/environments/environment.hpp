@@ -37,7 +37,7 @@ enum class Occupancy { Free, Occupied, Unknown };
 const char* toString(Occupancy o);
 
 /// @brief A named rigid pose world_T_base (the robot base frame: origin where the tubes leave the actuation
-/// unit, +z the insertion direction; formats.md).
+/// unit, +z the insertion direction; docs/formats.md "Conventions").
 struct NamedPose {
   std::string name;
   Eigen::Isometry3d pose = Eigen::Isometry3d::Identity();

@@ -10,7 +10,8 @@ namespace ctr::io {
 
 /// @brief Writes a whole file atomically (temporary file in the same folder + rename). Throws InputError.
 void writeFileAtomic(const std::string& path, const std::string& content);
-/// @brief Reads a whole file (at most 1 GiB). Throws InputError if it cannot be read.
+/// @brief Reads a whole file (at most 1 GiB); a path that starts with "${CTR_DATA}" is a file of the data folder
+/// (io/data.hpp). Throws InputError if it cannot be read (for a missing data file: missingDataMessage).
 std::string readFile(const std::string& path);
 
 }  // namespace ctr::io

@@ -1,5 +1,5 @@
 /// @file recording.hpp
-/// @brief Recording CSV (formats.md): commanded actuation + measured twist / tip position / tip tangent.
+/// @brief Recording CSV (docs/formats.md): commanded actuation + measured twist / tip position / tip tangent.
 #pragma once
 
 #include <Eigen/Core>
@@ -31,12 +31,12 @@ struct Recording {
 };
 
 /// @brief Reads a recording. `tubes` < 0 infers n from the alpha_* columns. Throws InputError with line/column.
-/// `require_measurement` demands at least one measured quantity (formats.md); actuation files pass false.
+/// `require_measurement` demands at least one measured quantity (docs/formats.md); actuation files pass false.
 Recording loadRecording(const std::string& path, int tubes = -1, bool require_measurement = true);
 /// @brief Same from text.
 Recording parseRecording(const std::string& text, const std::string& source, int tubes = -1,
                          bool require_measurement = true);
-/// @brief CSV text with the formats.md columns present in the recording (plus `extra` columns appended).
+/// @brief CSV text with the recording columns (docs/formats.md) the recording has.
 std::string recordingToCsv(const Recording& rec);
 /// @brief Writes atomically (temporary file + rename): no partial file on failure.
 void saveRecording(const Recording& rec, const std::string& path);

@@ -1,5 +1,5 @@
 /// @file robot_yaml.hpp
-/// @brief Robot description YAML (formats.md): load with validation, save.
+/// @brief Robot description YAML (docs/formats.md): load with validation, save.
 #pragma once
 
 #include <string>

@@ -8,7 +8,7 @@
 
 namespace ctr::io {
 
-/// @brief The solution as the JSON text of `ctr fk --json` (keys in docs/formats-io.md): converged, stable, status,
+/// @brief The solution as the JSON text of `ctr fk --json` (keys in docs/formats.md): converged, stable, status,
 /// stability, iterations, tip_position, tip_tangent, twist, base_twist_rate, moments [{kind, tube (1-based), s,
 /// magnitude}] and message (when not empty). Non-finite numbers are null. `indent` < 0 gives one line.
 std::string solutionJson(const Solution& solution, int indent = -1);

@@ -1,6 +1,6 @@
 /// @file tip_path.hpp
 /// @brief A path of tip targets (CSV) for the inverse kinematics (`ctr ik --targets`, docs/ik.md): the tip columns of
-/// the recording format (formats.md), so a recording's measured tip path can be used as targets.
+/// the recording format (docs/formats.md "Tip path"), so a recording's measured tip path can be used as targets.
 #pragma once
 
 #include <Eigen/Core>

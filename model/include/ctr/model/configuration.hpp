@@ -22,24 +22,29 @@ struct Configuration {
   int size() const { return static_cast<int>(alpha.size()); }
 };
 
-/// @brief Result of an admissibility check: ok, or a message saying which constraint is violated.
+/// @brief Result of an admissibility check: ok, or which constraint is violated (its actuator as a value, and a
+/// message in words).
 struct Admissibility {
+  /// The kind of actuator a violated constraint is about (None: sizes or values that are not numbers of a tube).
+  enum class Actuator { None, Rotation, Translation };
   bool ok = true;
+  Actuator actuator = Actuator::None;  ///< Rotation (alpha) or translation (beta) of `tube`.
+  int tube = 0;                        ///< 1-based tube whose actuator the constraint names first (0: none).
   std::string message;
   explicit operator bool() const { return ok; }
 };
 
 /// @brief Checks sizes, finiteness, beta_n <= ... <= beta_1 <= 0, ordered distal ends
-/// beta_1 + L_1 <= ... <= beta_n + L_n (formats.md), the innermost tube protruding (beta_n + L_n > 0),
+/// beta_1 + L_1 <= ... <= beta_n + L_n (docs/formats.md), the innermost tube protruding (beta_n + L_n > 0),
 /// and the per-tube limits of the robot description.
 Admissibility checkAdmissible(const Robot& robot, const Configuration& q, double tolerance = 1e-12);
 
 /// @brief Tolerance (m for translations, rad for rotations) within which a configuration read from a file may
 /// violate the nesting/ordering constraints and the per-tube limits and still be taken as admissible: it is then
-/// projected onto the admissible set (formats.md "admissibility tolerance"). 1 um / 1e-6 rad: logged values rounded
-/// to 1 um (6 decimals in metres, 3 in millimetres) put a constraint between two of them up to 1 um off, while
-/// moving a tube end by 1 um moves the tip by less than 1 um, far below any tracker's noise. Larger violations are
-/// errors (docs/formats-io.md).
+/// projected onto the admissible set (docs/formats.md "Admissibility tolerance"). 1 um / 1e-6 rad: logged values
+/// rounded to 1 um (6 decimals in metres, 3 in millimetres) put a constraint between two of them up to 1 um off,
+/// while moving a tube end by 1 um moves the tip by less than 1 um, far below any tracker's noise. Larger
+/// violations are errors.
 inline constexpr double kAdmissibilityTolerance = 1e-6;
 
 /// @brief Projects q onto the admissible set when it violates the constraints by no more than `tolerance`:

@@ -8,6 +8,7 @@
 #include <vector>
 
 #include "ctr/model/distributed_friction.hpp"
+#include "ctr/model/follow.hpp"
 #include "ctr/model/kinematics.hpp"
 
 namespace ctr {
@@ -59,10 +60,10 @@ struct HysteresisState {
 /// @brief Options of the friction stepping.
 struct FrictionOptions {
   FrictionMode mode = FrictionMode::StickSlip;
-  double max_rotation_step = 0.0175;   ///< Sub-step size in rotation (rad, 1 deg).
-  double max_translation_step = 1e-3;  ///< Sub-step size in translation (m).
+  /// Sub-steps (1 deg, 1 mm) and snap rule of a step; snaps are judged by the tip twist alone (the stability
+  /// measure is not a stability test under stick/slip contact conditions).
+  FollowOptions follow{0.0175, 1e-3, 0.5, false};
   int max_active_set_iterations = 16;  ///< Return-mapping iterations before enumerating contact modes.
-  double snap_threshold = 0.5;         ///< Tip twist jump in one sub-step flagged as snap (rad).
   KinematicsOptions kinematics;        ///< Options of the underlying equilibrium solves.
 };
 
@@ -72,7 +73,8 @@ struct StepSummary {
   int substeps = 0;
   int active_set_iterations = 0;
   bool snapped = false;
-  bool enumerated = false;  ///< The active set cycled and contact modes were enumerated.
+  bool enumerated = false;          ///< The active set cycled and contact modes were enumerated.
+  Failure failure = Failure::None;  ///< Why the step failed (Inadmissible, NotConverged, NoContactSet).
   std::string message;
 };
 

@@ -64,6 +64,20 @@ inline const char* toString(ContactCondition::Law law) {
   return "?";
 }
 
+/// @brief How an equilibrium is followed along a straight move in actuator space (followMove, follow.hpp): the
+/// sub-step sizes and the snap rule. The one set of step sizes of every follower.
+struct FollowOptions {
+  double max_rotation_step = 0.035;    ///< Largest rotation change per sub-step (rad).
+  double max_translation_step = 2e-3;  ///< Largest translation change per sub-step (m).
+  /// A change of any tube's tip twist larger than this over one sub-step is a snap (rad): the equilibrium jumped to
+  /// another branch (a real snap jumps by about pi; a sub-step of a degree or two turns the twist by about as much).
+  double snap_threshold = 0.5;
+  /// Whether a stable equilibrium followed onto an unstable one is a snap (the branch ended at a fold). The stability
+  /// measure is that of the torsion problem; equilibria that hold stick/slip contact conditions are judged by their
+  /// twist jumps only (the stick-slip step sets this false).
+  bool judge_stability = true;
+};
+
 /// @brief Options of the kinematics solver.
 struct KinematicsOptions {
   double max_step = 1e-2;  ///< Largest RK4 step along s (m); segments are split evenly (see docs/model.md).
@@ -85,9 +99,7 @@ struct KinematicsOptions {
   bool record_tube_states = true;
   bool homotopy = true;                ///< On failure of a cold start, continue from zero precurvature.
   int homotopy_steps = 8;              ///< Steps of that continuation.
-  double max_rotation_step = 0.035;    ///< Largest rotation change per continuation step (rad, 2 deg).
-  double max_translation_step = 2e-3;  ///< Largest translation change per continuation step (m).
-  double snap_threshold = 0.5;         ///< A tip twist change above this in one continuation step is a snap (rad).
+  FollowOptions follow;                ///< Sub-steps and snap rule of continueTo (2 deg, 2 mm, 0.5 rad).
   /// Near a fold the twist is ill-conditioned (error ~ discretisation / stability): when |stability| is below this,
   /// the converged solution is re-solved with a quarter of the step (0 disables).
   double refine_below_stability = 0.1;

@@ -6,8 +6,8 @@
 
 namespace ctr {
 
-/// @brief Dead external loads in the base frame (formats.md `loads:`): they keep their direction in the base frame
-/// whatever the robot's shape. All zero (the default) means no external load: the torsion-only model.
+/// @brief Dead external loads in the base frame (docs/formats.md `loads:`): they keep their direction in the base
+/// frame whatever the robot's shape. All zero (the default) means no external load: the torsion-only model.
 struct Loads {
   Eigen::Vector3d gravity = Eigen::Vector3d::Zero();     ///< Gravitational acceleration (m/s^2), acts on s >= 0.
   Eigen::Vector3d tip_force = Eigen::Vector3d::Zero();   ///< Force applied at the tip (N).

@@ -13,7 +13,7 @@ namespace ctr {
 
 /// @brief One precurved tube: a straight proximal part followed by a constant-curvature distal part.
 ///
-/// Units are SI (m, 1/m, N m^2). Tubes are numbered 1..n from the outermost (formats.md).
+/// Units are SI (m, 1/m, N m^2). Tubes are numbered 1..n from the outermost (docs/formats.md).
 struct Tube {
   std::string name;                  ///< Human-readable name (used in error messages).
   double straight_length = 0.0;      ///< Proximal straight length (m).
@@ -32,7 +32,7 @@ struct Tube {
   double length() const { return straight_length + curved_length; }
 };
 
-/// @brief Friction coefficients of the robot (formats.md `friction:` block). Zero means frictionless.
+/// @brief Friction coefficients of the robot (docs/formats.md `friction:` block). Zero means frictionless.
 struct FrictionCoefficients {
   double boundary = 0.0;     ///< Lumped coefficient mu' of the concentrated-moment friction (paper eq. 34-35).
   double distributed = 0.0;  ///< Coulomb coefficient mu of the distributed contact friction (paper eq. 15-21).

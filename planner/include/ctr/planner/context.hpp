@@ -37,10 +37,10 @@ FrictionOptions planningFrictionOptions();
 /// @brief Resolutions and model options of a planning problem.
 struct ContextOptions {
   Mode mode = Mode::Exact;
-  /// Motion checking step in rotation (rad). The same resolution as the replay, so that a motion checked valid
-  /// is also valid when replayed (every replayed state is a checked state).
-  double rotation_resolution = 0.0087;
-  double translation_resolution = 5e-4;  ///< Motion checking step in translation (m).
+  /// How motions are followed: the motion-checking resolution (0.5 deg, 0.5 mm; the same sub-steps as the replay, so
+  /// that a motion checked valid is also valid when replayed: every replayed state is a checked state) and the snap
+  /// rule (followMove, model/follow.hpp).
+  FollowOptions motion{0.0087, 5e-4, 0.5, true};
   double min_protrusion = 1e-3;          ///< Innermost tube at least this far out of the actuation unit (m).
   /// Stepping options (sub-steps, paper / stick-slip); its `kinematics` are used by every solve of the planner.
   FrictionOptions friction = planningFrictionOptions();
@@ -85,7 +85,8 @@ ThreadScratch& scratch();
 
 /// @brief Outcome of checking one equilibrium shape against the anatomy.
 struct ShapeCheck {
-  bool ok = false;     ///< Converged, stable, collision-free.
+  bool ok = false;                  ///< Converged, stable, collision-free.
+  Failure failure = Failure::None;  ///< Why not (Inadmissible, NotConverged, Unstable, Collision).
   std::string reason;  ///< Why not ("not converged", "unstable", "collision (tube 2, s 0.031-0.035 m)").
 };
 

@@ -55,7 +55,7 @@ class CtrPlanner {
   std::size_t prepareGoal(double time_limit);
 
   /// @brief The query as planned: its start (and goal configuration) projected onto the admissible set when they
-  /// were off by at most kAdmissibilityTolerance (rounded values; docs/formats-io.md "Admissibility tolerance").
+  /// were off by at most kAdmissibilityTolerance (rounded values; docs/formats.md "Admissibility tolerance").
   const Query& query() const { return query_; }
   const std::shared_ptr<const Context>& context() const { return ctx_; }
   /// @brief The OMPL set-up of geometric modes (null in exact mode).

@@ -31,7 +31,8 @@ struct ReplayReport {
   double min_clearance = 0.0;    ///< Along the path (m).
   int steps = 0;
   int collisions = 0, snaps = 0, unstable = 0;
-  std::string first_failure;        ///< What went wrong first, with the step.
+  Failure failure = Failure::None;  ///< What went wrong first (None: nothing).
+  std::string first_failure;        ///< The same in words, with the step.
   std::vector<ReplayPoint> points;  ///< At every replay step.
   bool ok() const { return completed && collision_free && stable && goal_reached; }
 };
@@ -51,8 +52,8 @@ std::vector<Configuration> replayCommands(const std::vector<Configuration>& wayp
 ReplayReport replayPath(const Context& ctx, const std::vector<Configuration>& waypoints, const StartHistory& history,
                         const GoalTest& goal, double rotation_step, double translation_step);
 
-/// @brief CSV of a replay: formats.md recording columns plus clearance, validity and per-contact hysteresis
-/// (mode, torque, relative twist).
+/// @brief CSV of a replay (docs/formats.md "Planned path"): the recording columns plus clearance, validity and
+/// per-contact hysteresis (mode, torque, relative twist).
 std::string replayCsv(const Robot& robot, const ReplayReport& r);
 
 }  // namespace ctr::planner

@@ -18,7 +18,8 @@ struct StateCache {
   HysteresisState hysteresis;
   Solution solution;        ///< With the backbone (for collision checking).
   bool physics_ok = false;  ///< Converged, stable, no snap on the way here.
-  std::string why;          ///< Why not.
+  Failure failure = Failure::None;  ///< Why not.
+  std::string why;                  ///< Why not, in words.
 };
 
 /// @brief Compound space: n rotations then one R^n of translations.

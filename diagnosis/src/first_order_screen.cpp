@@ -1,7 +1,7 @@
 // First-order screen of candidates that are costly to fit by replays (loads, generic models): per-row sensitivities of
 // the model to their coordinates and the linear least-squares estimate (registration profiled out) with the BIC change
 // it predicts.
-#include "ctr/diagnosis/load_screen.hpp"
+#include "ctr/diagnosis/first_order_screen.hpp"
 
 #include <Eigen/Dense>
 #include <algorithm>

@@ -1,4 +1,4 @@
-/// @file load_screen.hpp
+/// @file first_order_screen.hpp
 /// @brief First-order screen of candidates that are costly to fit by replays -- the loads (gravity, tip_load) and the
 /// generic models of physics outside the library (drive_error, stage_error, tracker_drift): the model's response to
 /// each coordinate at every row (central differences of warm solves at the row's equilibrium, its contact laws held:

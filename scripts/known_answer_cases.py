@@ -18,22 +18,46 @@
                        samples off by 6-15 mm, which must be listed in outlier_rows);
   public recordings    the nine recordings of ../shared/data/recordings (an independent simulator), with their truth.
 
-Usage: scripts/honest_diagnosis_cases.py BUILD_DIR OUT_DIR [--only NAME,...] [--quick] [--diagnose-args 'ARGS']
+Usage: scripts/known_answer_cases.py BUILD_DIR OUT_DIR [--only NAME,...] [--quick] [--diagnose-args 'ARGS']
 (--diagnose-args: more options for every `ctr diagnose`, e.g. '--calibrate'). The real-log cases are diagnosed against
 the EM tracker's noise (EM_NOISE), as a lab gives it; real_log_noise_unknown shows the log without it.
-Writes OUT_DIR/NAME.{csv,json} and prints a Markdown table (docs/diagnosis.md). Needs ../shared beside the checkout.
+Writes OUT_DIR/NAME.{csv,json} and prints a Markdown table (docs/diagnosis.md). Needs the data sets
+dupont-lab-ctr-trajectory-hjhdog1 (scripts/fetch-data.sh fetches it) and recordings (only in ../shared/data) in the
+data folder: $CTR_DATA, else ../shared/data beside the checkout, else data/ in the checkout.
 """
 import csv, json, math, os, random, subprocess, sys, time
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
-SHARED = os.path.join(ROOT, '..', 'shared')
-DUPONT_TXT = os.path.join(SHARED, 'data', 'dupont-lab-ctr-trajectory-hjhdog1', 'jointTipTrajectory_measured_short.txt')
+
+
+def data_dir():
+    """The folder of the public data sets, looked up as CMake does: CTR_DATA, else ../shared/data beside the
+    checkout, else data/ in the checkout (filled by scripts/fetch-data.sh)."""
+    if os.environ.get('CTR_DATA'):
+        return os.path.abspath(os.environ['CTR_DATA'])
+    beside = os.path.join(os.path.dirname(ROOT), 'shared', 'data')
+    return beside if os.path.isdir(beside) else os.path.join(ROOT, 'data')
+
+
+DATA = data_dir()
+
+
+def require_data(data_set):
+    """Exits with the one message for a missing data set."""
+    if not os.path.isdir(os.path.join(DATA, data_set)):
+        how = ('run scripts/fetch-data.sh to fetch it' if data_set != 'recordings'
+               else 'it is only in ../shared/data beside the checkout')
+        sys.exit("data set '%s' not found in %s: %s (or set CTR_DATA to the folder of the data sets)"
+                 % (data_set, DATA, how))
+
+
+DUPONT_TXT = os.path.join(DATA, 'dupont-lab-ctr-trajectory-hjhdog1', 'jointTipTrajectory_measured_short.txt')
 DUPONT_ROBOT = os.path.join(ROOT, 'examples', 'robots', 'dupont_lab_3tube.yaml')
 LUNG_ROBOT = os.path.join(ROOT, 'examples', 'robots', 'medmpd_lung.yaml')
 PAIR_B_ROBOT = os.path.join(ROOT, 'examples', 'robots', 'tube_pair_B.yaml')
 PAIR_A_ROBOT = os.path.join(ROOT, 'examples', 'robots', 'tube_pair_A.yaml')
 THREE_TUBE_ROBOT = os.path.join(ROOT, 'examples', 'robots', 'three_tube_generic.yaml')
-PUBLIC = os.path.join(SHARED, 'data', 'recordings')
+PUBLIC = os.path.join(DATA, 'recordings')
 DEG = math.pi / 180
 # The real log's EM tracker noise, given as a lab gives it: the log's own neighbouring differences are serially
 # correlated, so its noise cannot be estimated from it (without --noise nothing is established: real_log_noise_unknown).
@@ -267,6 +291,8 @@ def fmt_params(j):
 
 def main():
     build, out = sys.argv[1], sys.argv[2]
+    require_data('dupont-lab-ctr-trajectory-hjhdog1')
+    require_data('recordings')
     only = None
     if '--only' in sys.argv:
         only = set(sys.argv[sys.argv.index('--only') + 1].split(','))

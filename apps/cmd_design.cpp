@@ -36,11 +36,6 @@ namespace {
 /// `--html` without a value: the report in the output folder.
 const std::string kOutReport = "OUT/report.html";
 
-/// The report file of `--html` for the output folder `dir`.
-fs::path reportFile(const std::string& html, const std::string& dir) {
-  return html == kOutReport ? fs::path(dir) / "report.html" : fs::path(html);
-}
-
 /// Checks an `--html FILE` value: an .html file name (`--html` takes an optional value, so a query file written after
 /// it would otherwise be taken for the report and overwritten).
 void checkReportFile(const std::string& html) {
@@ -73,6 +68,11 @@ std::string mm(double v) {
 }
 
 #ifdef CTR_WITH_REPORTS
+/// The report file of `--html` for the output folder `dir`.
+fs::path reportFile(const std::string& html, const std::string& dir) {
+  return html == kOutReport ? fs::path(dir) / "report.html" : fs::path(html);
+}
+
 /// The clearance column of a replayed path (paths/STEM.csv, as `ctr plan --path` writes it: the recording columns
 /// plus clearance), one value per row of `rec`, which was read from the same file: NaN where the cell is empty (not
 /// computed) or the file has no such column.

@@ -123,6 +123,7 @@ json replayJson(const planner::PlanResult& r) {
           {"tip_error", std::isfinite(r.replay.tip_error) ? json(r.replay.tip_error) : json(nullptr)},
           {"min_clearance", std::isfinite(r.replay.min_clearance) ? json(r.replay.min_clearance) : json(nullptr)},
           {"path_length", r.path_length},
+          {"failure", toString(r.replay.failure)},
           {"first_failure", r.replay.first_failure}};
 }
 

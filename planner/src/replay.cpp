@@ -66,14 +66,14 @@ ReplayReport replayPath(const Context& ctx, const std::vector<Configuration>& wa
     }
     StepResult& r = row.result;
     if (k == start && !r.solution.converged()) {
-      R.failure = row.failure;
+      R.failure = row.failure != Failure::None ? row.failure : Failure::NotConverged;
       R.first_failure = "start: " + row.reason;
       completed = false;
       return false;
     }
     if (k > start && !(r.summary.converged && r.state.valid)) {
       if (R.failure == Failure::None) {
-        R.failure = row.failure;
+        R.failure = row.failure != Failure::None ? row.failure : Failure::NotConverged;
         R.first_failure = "step " + std::to_string(R.steps) + ": " + row.reason;
       }
       R.stable = false;
@@ -122,7 +122,10 @@ ReplayReport replayPath(const Context& ctx, const std::vector<Configuration>& wa
   R.tip_error = tip_err;
   R.direction_error = dir_err;
   R.goal_reached = reached;
-  if (!reached && R.first_failure.empty()) R.first_failure = "goal missed by " + num(tip_err) + " m";
+  if (!reached && R.first_failure.empty()) {
+    R.failure = Failure::GoalMissed;
+    R.first_failure = "goal missed by " + num(tip_err) + " m";
+  }
   return R;
 }
 

@@ -28,6 +28,7 @@ std::string resultJson(const Query& q, const PlanResult& r, int indent) {
                  {"steps", r.replay.steps},
                  {"collisions", r.replay.collisions},
                  {"snaps", r.replay.snaps},
+                 {"failure", toString(r.replay.failure)},
                  {"first_failure", r.replay.first_failure}};
   if (!r.message.empty()) j["message"] = r.message;
   return j.dump(indent);

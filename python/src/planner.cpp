@@ -212,6 +212,7 @@ void registerPlanner(pyb::module_& m) {
       .def_property_readonly("collisions", [](const Replay& p) { return p.rep().collisions; })
       .def_property_readonly("snaps", [](const Replay& p) { return p.rep().snaps; })
       .def_property_readonly("unstable", [](const Replay& p) { return p.rep().unstable; })
+      .def_property_readonly("failure", [](const Replay& p) { return std::string(toString(p.rep().failure)); })
       .def_property_readonly("first_failure", [](const Replay& p) { return p.rep().first_failure; })
       .def_property_readonly("ok", [](const Replay& p) { return p.rep().ok(); })
       .def("__len__", [](const Replay& p) { return p.rep().points.size(); })

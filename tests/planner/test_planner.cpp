@@ -647,6 +647,9 @@ TEST(Planning, FrictionlessModePlansWithAGeometricPlannerAndIsReplayedWithFricti
   EXPECT_TRUE(r.replay.completed) << r.replay.first_failure;
   EXPECT_GT(r.replay.steps, 10);
   EXPECT_EQ(r.solved, r.replay.ok());
+  // What went wrong first, as a value next to the words (none exactly when nothing did).
+  EXPECT_EQ(r.replay.failure == Failure::None, r.replay.first_failure.empty()) << r.replay.first_failure;
+  EXPECT_EQ(r.replay.failure == Failure::None, r.replay.ok()) << r.replay.first_failure;
 }
 
 TEST(Planning, RobustValidityCoversTheWholeFrictionBand) {

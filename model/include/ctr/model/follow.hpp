@@ -28,10 +28,11 @@ enum class Failure {
   Collision,     ///< The shape collides with the environment.
   OutOfBounds,   ///< The shape leaves the workspace bounds.
   Released,      ///< A contact site vanishes and releases its friction torque (the friction band jumps).
+  GoalMissed,    ///< A replayed plan ends off its goal.
 };
 
 /// @brief "none", "inadmissible", "not_converged", "no_contact_set", "snapped", "unstable", "off_branch",
-/// "collision", "out_of_bounds", "released".
+/// "collision", "out_of_bounds", "released", "goal_missed".
 const char* toString(Failure f);
 
 /// @brief How the equilibrium changed over one sub-step (branchChange).

@@ -22,7 +22,7 @@ void registerPlan(CLI::App& app, Action& action) {
   auto o = std::make_shared<Opts>();
   CLI::App* sub = app.add_subcommand("plan", "Plan a query (YAML) with friction-aware validity, then replay the path");
   sub->add_option("query", o->query, "Query YAML (docs/planning.md)")->required();
-  addJsonOption(sub, o->json, "the result (also printed as one line on standard output)");
+  addJsonOption(sub, o->json, "the result (also printed on standard output)");
   sub->add_option("--path", o->path, "Write the replayed path CSV (recording columns + hysteresis state)");
   sub->add_option("--html", o->html, "Write the interactive 3D viewer of the replayed path (self-contained HTML)")
       ->type_name("FILE");

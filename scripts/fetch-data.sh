@@ -80,16 +80,17 @@ repo_of() {
     dupont-lab-ctr-trajectory-hjhdog1) echo "hjhdog1/ConcentricTubes" ;;
   esac
 }
-commit_of() {
-  case "$1" in
-    med-mpd) echo "${CTR_DATA_MEDMPD_COMMIT:-$PINNED_MEDMPD_COMMIT}" ;;
-    dupont-lab-ctr-trajectory-hjhdog1) echo "${CTR_DATA_DUPONT_COMMIT:-$PINNED_DUPONT_COMMIT}" ;;
-  esac
-}
 pinned_of() {
   case "$1" in
     med-mpd) echo "$PINNED_MEDMPD_COMMIT" ;;
     dupont-lab-ctr-trajectory-hjhdog1) echo "$PINNED_DUPONT_COMMIT" ;;
+  esac
+}
+# The commit fetched: the pinned one unless CTR_DATA_MEDMPD_COMMIT / CTR_DATA_DUPONT_COMMIT override it.
+commit_of() {
+  case "$1" in
+    med-mpd) echo "${CTR_DATA_MEDMPD_COMMIT:-$(pinned_of "$1")}" ;;
+    dupont-lab-ctr-trajectory-hjhdog1) echo "${CTR_DATA_DUPONT_COMMIT:-$(pinned_of "$1")}" ;;
   esac
 }
 licence_of() {

@@ -299,6 +299,12 @@ bool NoiseReport::supported() const {
   return true;
 }
 
+bool NoiseReport::white() const {
+  for (const auto& [q, e] : by_quantity)
+    if (!e.white) return false;
+  return true;
+}
+
 NoiseReport estimateNoise(const io::Recording& rec, const Residuals& r, const Prediction& p,
                           const std::vector<char>& use, const GivenNoise& given, const Visits* visits) {
   NoiseReport out;

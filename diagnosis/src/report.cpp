@@ -303,10 +303,8 @@ std::string reportToMarkdown(const DiagnosisReport& r, const io::Recording& full
     << ". Held-out scheme: " << r.folds
     << " contiguous blocks in time (stateful models replayed over the whole sequence).\n\n";
   o << "**Verdict:** ";
-  bool white = true;
-  for (const auto& [q, e] : r.noise.by_quantity) white = white && e.white;
   if (r.verdict.empty())
-    o << (!white && r.unexplained.present
+    o << (!r.noise.white() && r.unexplained.present
               ? "nothing established (the noise cannot be told from these data; give --noise)"
           : r.unexplained.present ? "not explained by any candidate (a mismatch remains that no effect in the library "
                                     "explains)"

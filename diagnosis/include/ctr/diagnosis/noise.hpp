@@ -82,6 +82,8 @@ struct NoiseReport {
   NoiseLevels levels() const;
   /// True when every quantity's noise is supported by the data or given.
   bool supported() const;
+  /// True when no quantity's neighbour differences failed the test of serial correlation (NoiseEstimate::white).
+  bool white() const;
 };
 
 /// @brief Estimates the noise from residuals of a model whose error is smooth along the path and across nearby

@@ -98,3 +98,22 @@ struct FrictionCli {
 };
 
 }  // namespace ctr::cli
+
+#ifdef CTR_WITH_PLANNER
+#include <stdexcept>
+
+#include "ctr/campaign/campaign.hpp"
+
+namespace ctr::cli {
+
+/// `--shard I/N` (ctr bench, ctr design): throws UsageError naming --shard when it is not I/N with 0 <= I < N.
+inline campaign::Shard parseShardOption(const std::string& text) {
+  try {
+    return campaign::parseShard(text);
+  } catch (const std::invalid_argument& e) {
+    throw UsageError(std::string("--shard: ") + e.what());
+  }
+}
+
+}  // namespace ctr::cli
+#endif

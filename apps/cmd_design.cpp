@@ -13,7 +13,6 @@
 #include <utility>
 #include <vector>
 
-#include "campaign.hpp"
 #include "commands.hpp"
 #include "ctr/design/output.hpp"
 #include "ctr/design/search.hpp"
@@ -213,15 +212,16 @@ int runDesign(const DesignOpts& o, const CLI::App* sub) {
   d.plan_time = o.plan_time;
   d.planner = o.planner;
   d.confirm_seeds = o.confirm;
-  std::size_t index = 0, count = 1;
+  campaign::Shard shard;
   if (!o.shard.empty()) {
-    std::tie(index, count) = parseShard(o.shard);
-    for (int s = static_cast<int>(index); s < o.starts; s += static_cast<int>(count)) d.start_indices.push_back(s);
+    shard = parseShardOption(o.shard);
+    for (int s = static_cast<int>(shard.index); s < o.starts; s += static_cast<int>(shard.count))
+      d.start_indices.push_back(s);
     if (d.start_indices.empty())
       throw UsageError("--shard " + o.shard + ": no start for this shard (--starts " + std::to_string(o.starts) +
                        " < shard count)");
   }
-  const std::string shard_label = std::to_string(index) + "/" + std::to_string(count);
+  const std::string shard_label = shard.label();
   // Every input is checked before any work or output.
   std::vector<planner::Query> queries;
   std::set<std::string> names;
@@ -258,7 +258,7 @@ int runDesign(const DesignOpts& o, const CLI::App* sub) {
             << " start(s) x " << o.evaluations << " candidates, " << o.population << " per generation"
             << (o.time > 0 ? ", time limit " + Progress::duration(o.time) : std::string()) << "\n";
   const std::size_t nstarts = d.start_indices.empty() ? static_cast<std::size_t>(o.starts) : d.start_indices.size();
-  Progress progress("design" + (count > 1 ? " shard " + shard_label : std::string()),
+  Progress progress("design" + (shard.count > 1 ? " shard " + shard_label : std::string()),
                     nstarts * static_cast<std::size_t>(o.evaluations), "candidates", o.quiet);
   d.progress = [&progress](std::size_t done, std::size_t, const std::string& detail) {
     progress.setDetail(detail);
@@ -266,10 +266,11 @@ int runDesign(const DesignOpts& o, const CLI::App* sub) {
   };
   const design::DesignResult r = designer->run(d);
   progress.finish();
-  const std::string dir =
-      count > 1
-          ? (fs::path(o.out) / "shards" / ("shard-" + std::to_string(index) + "-of-" + std::to_string(count))).string()
-          : o.out;
+  const std::string dir = shard.count > 1
+                              ? (fs::path(o.out) / "shards" /
+                                 ("shard-" + std::to_string(shard.index) + "-of-" + std::to_string(shard.count)))
+                                    .string()
+                              : o.out;
   design::writeDesign(*designer, r, d, shard_label, dir);
 #ifdef CTR_WITH_REPORTS
   if (!o.html.empty()) writeDesignReport(dir, reportFile(o.html, dir));

@@ -94,6 +94,7 @@ void registerEnvironments(pyb::module_& m);
 #endif
 #ifdef CTR_PY_WITH_PLANNER
 void registerPlanner(pyb::module_& m);
+void registerCampaign(pyb::module_& m);
 #endif
 #ifdef CTR_PY_WITH_DIAGNOSIS
 void registerDiagnosis(pyb::module_& m);

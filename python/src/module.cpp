@@ -18,6 +18,7 @@ PYBIND11_MODULE(ctr, m) {
 #endif
 #ifdef CTR_PY_WITH_PLANNER
   ctr::py::registerPlanner(m);
+  ctr::py::registerCampaign(m);
 #endif
 #ifdef CTR_PY_WITH_DIAGNOSIS
   ctr::py::registerDiagnosis(m);

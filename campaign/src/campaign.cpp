@@ -1,24 +1,26 @@
-#include "campaign.hpp"
+#include "ctr/campaign/campaign.hpp"
 
 #include <yaml-cpp/yaml.h>
 
 #include <algorithm>
+#include <cctype>
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
+#include <map>
 #include <nlohmann/json.hpp>
 #include <set>
 #include <sstream>
+#include <stdexcept>
 
-#include "cli_common.hpp"
 #include "ctr/io/input_error.hpp"
 #include "ctr/io/yaml_reader.hpp"
 #include "ctr/planner/query.hpp"
 
 namespace fs = std::filesystem;
 
-namespace ctr::cli {
+namespace ctr::campaign {
 
 namespace {
 
@@ -103,11 +105,17 @@ std::vector<CampaignUnit> Campaign::units() const {
   return out;
 }
 
-std::vector<CampaignUnit> Campaign::shard(std::size_t index, std::size_t count) const {
+std::string Shard::label() const {
+  return std::to_string(index) + "/" + std::to_string(count);
+}
+
+std::vector<CampaignUnit> Campaign::shard(const Shard& part) const {
+  if (part.count == 0 || part.index >= part.count)
+    throw std::invalid_argument("Campaign::shard: shard " + part.label() + " is not I/N with 0 <= I < N");
   const std::vector<CampaignUnit> all = units();
   std::vector<CampaignUnit> out;
   for (std::size_t k = 0; k < all.size(); ++k)
-    if (k % count == index) out.push_back(all[k]);
+    if (k % part.count == part.index) out.push_back(all[k]);
   return out;
 }
 
@@ -276,12 +284,12 @@ Campaign loadCampaign(const std::string& path) {
   return c;
 }
 
-std::pair<std::size_t, std::size_t> parseShard(const std::string& text) {
+Shard parseShard(const std::string& text) {
   const auto slash = text.find('/');
   auto bad = [&]() {
-    return UsageError("--shard: '" + text +
-                      "' is not I/N with 0 <= I < N (e.g. --shard $SLURM_ARRAY_TASK_ID/$SLURM_ARRAY_TASK_COUNT with "
-                      "--array=0-(N-1))");
+    return std::invalid_argument("'" + text +
+                                 "' is not I/N with 0 <= I < N (e.g. $SLURM_ARRAY_TASK_ID/$SLURM_ARRAY_TASK_COUNT "
+                                 "with --array=0-(N-1))");
   };
   if (slash == std::string::npos) throw bad();
   const std::string a = text.substr(0, slash), b = text.substr(slash + 1);
@@ -291,7 +299,7 @@ std::pair<std::size_t, std::size_t> parseShard(const std::string& text) {
   if (!digits(a) || !digits(b)) throw bad();
   const std::size_t i = std::stoul(a), n = std::stoul(b);
   if (n == 0 || i >= n) throw bad();
-  return {i, n};
+  return Shard{i, n};
 }
 
-}  // namespace ctr::cli
+}  // namespace ctr::campaign

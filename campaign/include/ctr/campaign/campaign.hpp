@@ -1,14 +1,17 @@
-// Benchmark campaigns (`ctr bench CAMPAIGN.yaml`, docs/planning.md "Benchmark campaigns"): queries x planners x
-// modes x seeds, each such unit run `runs_per_seed` times by ompl::tools::Benchmark. The units are a pure function
-// of the campaign file, and `--shard i/N` runs a deterministic, balanced part of them, so a Slurm job array or GNU
-// parallel runs a campaign unchanged; `ctr bench merge` checks completeness and builds the Planner Arena database.
+/// @file
+/// Benchmark campaigns (docs/planning.md "Benchmark campaigns"; file format in docs/formats.md "Campaign"):
+/// queries x planners x modes x seeds, each such unit run `runs_per_seed` times by ompl::tools::Benchmark. The units
+/// are a pure function of the campaign file, and a shard (i of N) is a deterministic, balanced part of them, so a
+/// Slurm job array or GNU parallel runs a campaign unchanged (ctr/campaign/run.hpp); the merge checks completeness
+/// and builds the Planner Arena database (ctr/campaign/merge.hpp).
 #pragma once
 
+#include <cstddef>
 #include <cstdint>
 #include <string>
 #include <vector>
 
-namespace ctr::cli {
+namespace ctr::campaign {
 
 /// One query file of a campaign.
 struct CampaignQuery {
@@ -27,6 +30,15 @@ struct CampaignUnit {
   std::string stem() const;
 };
 
+/// Part `index` (0-based) of `count` of a campaign's units.
+struct Shard {
+  std::size_t index = 0;
+  std::size_t count = 1;
+  /// "I/N", as in `--shard I/N`.
+  std::string label() const;
+};
+
+/// A campaign as loaded from its YAML file (loadCampaign) or read back from its JSON record (campaignFromJson).
 struct Campaign {
   std::string file;
   std::string name;  ///< `name:` or the file stem.
@@ -40,11 +52,11 @@ struct Campaign {
 
   /// Every unit, sorted by (query name, mode, planner, seed).
   std::vector<CampaignUnit> units() const;
-  /// The units of shard `index` (0-based) of `count`: unit k of units() goes to shard k mod count (round robin over
-  /// the sorted list: every unit in exactly one shard, shard sizes differ by at most one, and each query's seeds
-  /// are spread over the shards, so hard and easy queries mix).
-  std::vector<CampaignUnit> shard(std::size_t index, std::size_t count) const;
-  /// The campaign as JSON (written beside the runs; `ctr bench merge` reads it back).
+  /// The units of a shard: unit k of units() goes to shard k mod count (round robin over the sorted list: every unit
+  /// in exactly one shard, shard sizes differ by at most one, and each query's seeds are spread over the shards, so
+  /// hard and easy queries mix). Throws std::invalid_argument unless index < count.
+  std::vector<CampaignUnit> shard(const Shard& shard) const;
+  /// The campaign as JSON (written beside the runs as campaign.json; the merge reads it back).
   std::string toJson() const;
 };
 
@@ -58,7 +70,7 @@ Campaign loadCampaign(const std::string& path);
 /// Reads Campaign::toJson() back (throws io::InputError naming `source`).
 Campaign campaignFromJson(const std::string& json, const std::string& source);
 
-/// Parses "i/N" (0 <= i < N); throws UsageError naming --shard.
-std::pair<std::size_t, std::size_t> parseShard(const std::string& text);
+/// Parses "I/N" (0 <= I < N); throws std::invalid_argument saying what is wrong with `text`.
+Shard parseShard(const std::string& text);
 
-}  // namespace ctr::cli
+}  // namespace ctr::campaign

@@ -1,7 +1,6 @@
-// `ctr bench merge DIR... --out OUT`: joins the run records of a campaign's shards. Checks completeness (every
-// (query, mode, planner, seed) exactly once, with all its runs; names each missing or duplicated one), writes one
-// OMPL log per (query, mode) experiment with OMPL's own writer, turns them into OUT/benchmark.db with OMPL's
-// ompl_benchmark_statistics (the database Planner Arena reads), and writes OUT/summary.json and the HTML report.
+// Merging a campaign's records into the Planner Arena database (ctr/campaign/merge.hpp).
+#include "ctr/campaign/merge.hpp"
+
 #include <fcntl.h>
 #include <ompl/base/spaces/RealVectorStateSpace.h>
 #include <ompl/geometric/SimpleSetup.h>
@@ -14,24 +13,24 @@
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
-#include <iostream>
 #include <map>
 #include <nlohmann/json.hpp>
 #include <optional>
 #include <set>
 #include <sstream>
+#include <stdexcept>
 #include <tuple>
 
-#include "campaign.hpp"
-#include "cli_common.hpp"
+#include "ctr/campaign/campaign.hpp"
 #include "ctr/io/file.hpp"
-#include "html_report.hpp"
+#include "ctr/io/input_error.hpp"
+#include "records.hpp"
 
 namespace fs = std::filesystem;
 namespace ob = ompl::base;
 using nlohmann::json;
 
-namespace ctr::cli {
+namespace ctr::campaign {
 namespace {
 
 using Bench = ompl::tools::Benchmark;
@@ -49,12 +48,7 @@ class ExperimentWriter : public Bench {
   }
 };
 
-std::string readText(const fs::path& p) {
-  std::ifstream in(p, std::ios::binary);
-  std::stringstream ss;
-  ss << in.rdbuf();
-  return ss.str();
-}
+using detail::readText;
 
 struct Record {
   fs::path file;
@@ -62,7 +56,8 @@ struct Record {
 };
 
 // The OMPL tool that turns benchmark logs into the Planner Arena database (Debian package ompl-demos).
-std::string statisticsTool() {
+std::string statisticsTool(const std::string& given) {
+  if (!given.empty()) return given;
   if (const char* e = std::getenv("CTR_OMPL_BENCHMARK_STATISTICS")) return e;
   const char* path = std::getenv("PATH");
   std::stringstream ss(path ? path : "/usr/bin:/bin");
@@ -121,19 +116,15 @@ json stats(std::vector<double> v) {
 
 }  // namespace
 
-int benchMerge(const std::vector<std::string>& dirs, const std::string& out, const std::string& html,
-               bool allow_incomplete, bool quiet) {
-  requireHtmlReports(html);
-  // --html OUT/report.html is fine while OUT does not exist yet (it is made below).
-  const bool html_in_out = !html.empty() && fs::weakly_canonical(fs::absolute(html).parent_path()) ==
-                                                fs::weakly_canonical(fs::absolute(out));
-  if (!html_in_out) checkOutputPath("--html", html);
-  if (html_in_out && fs::is_directory(html)) throw UsageError("--html: '" + html + "' is a folder");
+MergeSummary mergeCampaign(const std::vector<std::string>& dirs, const std::string& out, const MergeOptions& options) {
+  if (dirs.empty()) throw std::invalid_argument("mergeCampaign: no folders to merge");
+  if (out.empty()) throw std::invalid_argument("mergeCampaign: the output folder is empty");
   {
     std::error_code ec;
     if (fs::exists(out, ec) && !fs::is_directory(out, ec))
-      throw UsageError("--out: '" + out + "' exists and is not a folder");
+      throw io::InputError(out, 0, "", "exists and is not a folder");
   }
+  const bool allow_incomplete = options.allow_incomplete;
   // 1. The campaign: every folder must hold runs of the same one.
   std::optional<Campaign> campaign;
   std::string campaign_dir;
@@ -221,10 +212,9 @@ int benchMerge(const std::vector<std::string>& dirs, const std::string& out, con
     if (problems.empty()) msg += "\n(run the missing shards, or merge with --allow-incomplete)";
     throw io::InputError(dirs.front(), 0, "", msg);
   }
-  for (const auto& m : missing) std::cerr << "warning: missing " << m.get<std::string>() << " (--allow-incomplete)\n";
 
   // 3. One OMPL experiment per (query, mode): the runs of every planner and seed, in the campaign's unit order.
-  const std::string tool = statisticsTool();
+  const std::string tool = statisticsTool(options.statistics_tool);
   std::map<std::string, Bench::CompleteExperiment> experiments;
   std::map<std::string, std::map<std::string, std::size_t>> planner_slot;
   for (std::size_t k = 0; k < units.size(); ++k) {
@@ -302,8 +292,6 @@ int benchMerge(const std::vector<std::string>& dirs, const std::string& out, con
   }
   argv.push_back("-d");
   argv.push_back((stage / "benchmark.db").string());
-  if (!quiet)
-    std::cerr << "merge: " << experiments.size() << " experiment(s), " << runs_total << " runs -> " << tool << "\n";
   const fs::path tool_log = stage / "ompl_benchmark_statistics.out";
   const int rc = runProgram(argv, tool_log);
   if (rc != 0 || !fs::exists(stage / "benchmark.db")) {
@@ -399,17 +387,19 @@ int benchMerge(const std::vector<std::string>& dirs, const std::string& out, con
   fs::rename(stage / "logs", logs);
   fs::rename(stage / "benchmark.db", fs::path(out) / "benchmark.db");
   fs::rename(stage / "summary.json", fs::path(out) / "summary.json");
-#ifdef CTR_WITH_REPORTS
-  if (!html.empty()) reports::writeHtml(html, reports::benchHtml(summary.dump(), "Benchmark campaign: " + c.name));
-#endif
-  std::cout << "campaign '" << c.name << "': " << runs_total << " of " << expected_runs << " runs ("
-            << units.size() - missing_units << " of " << units.size() << " units) from " << dirs.size()
-            << " folder(s)\n"
-            << "  " << (fs::path(out) / "benchmark.db").string() << " (Planner Arena; " << experiments.size()
-            << " experiment(s))\n"
-            << "  " << (fs::path(out) / "summary.json").string() << "\n";
-  if (!html.empty()) std::cout << "  " << html << "\n";
-  return kOk;
+  MergeSummary result;
+  result.campaign = c.name;
+  result.expected_units = units.size();
+  result.units = units.size() - missing_units;
+  result.expected_runs = expected_runs;
+  result.runs = runs_total;
+  for (const auto& m : missing) result.missing.push_back(m.get<std::string>());
+  for (const auto& [name, e] : experiments) result.experiments.push_back(name);
+  result.database = (fs::path(out) / "benchmark.db").string();
+  result.summary_file = (fs::path(out) / "summary.json").string();
+  result.logs = logs.string();
+  result.summary_json = summary.dump(1) + "\n";
+  return result;
 }
 
-}  // namespace ctr::cli
+}  // namespace ctr::campaign

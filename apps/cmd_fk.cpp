@@ -37,8 +37,23 @@ void registerFk(CLI::App& app, Action& action) {
     action = [o]() {
       checkOutputTarget("--json", o->json, {{"--robot", o->robot}});
       checkOutputPath("--shape", o->shape, {{"--robot", o->robot}, {"--json", o->json}});
-      const Robot robot = o->loads.apply(io::loadRobot(o->robot));
-      const Configuration q = o->config.resolve(robot);
+      const Robot described = o->loads.apply(io::loadRobot(o->robot));
+      const Configuration command = o->config.resolve(described);
+      // With drives (the robot's actuation block) the tubes are at the joints of the command: offsets and
+      // transmission errors applied, plays centred (a play needs a history of commands: ctr simulate has one).
+      DriveState drives;
+      const Configuration q = hasActuation(described) ? jointsOf(described, command, drives) : command;
+      const Robot robot = described.withoutActuation();
+      if (hasActuation(described)) {
+        bool play = false;
+        for (const Tube& t : described.tubes())
+          play = play || t.rotation_drive.play > 0 || t.translation_drive.play > 0;
+        std::cerr << "note: the robot's drives put the tubes at the joints of the command (offsets and transmission "
+                     "errors applied"
+                  << (play ? "; plays taken as centred: a play needs a history, which `ctr simulate` gives" : "")
+                  << "); the JSON's \"command\" is the command, its configuration the joints"
+                  << (o->jacobian ? ", and the Jacobian is with respect to the joints" : "") << "\n";
+      }
       Workspace ws;
       KinematicsOptions opt;
       opt.record_backbone = !o->shape.empty();
@@ -64,6 +79,9 @@ void registerFk(CLI::App& app, Action& action) {
       };
       if (!o->json.empty()) {
         nlohmann::json j = solutionJson(sol);
+        if (hasActuation(described))
+          j["command"] = {{"alpha", std::vector<double>(command.alpha.data(), command.alpha.data() + command.size())},
+                          {"beta", std::vector<double>(command.beta.data(), command.beta.data() + command.size())}};
         if (jac.ok) {
           j["jacobian"] = rows(jac.actuation);
           j["compliance"] = rows(jac.compliance);

@@ -9,16 +9,11 @@ namespace ctr::diagnosis {
 
 Eigen::VectorXd playOperator(const Eigen::VectorXd& x, double width) {
   Eigen::VectorXd y = x;
-  if (x.size() == 0 || !(width > 0)) return y;
-  const double h = 0.5 * width;
-  double state = x[0];
-  for (Eigen::Index k = 0; k < x.size(); ++k) {
-    if (x[k] - state > h)
-      state = x[k] - h;
-    else if (x[k] - state < -h)
-      state = x[k] + h;
-    y[k] = state;
-  }
+  if (!(width > 0)) return y;
+  Drive d;
+  d.play = width;
+  double position = std::numeric_limits<double>::quiet_NaN();
+  for (Eigen::Index k = 0; k < x.size(); ++k) y[k] = d.joint(x[k], position);
   return y;
 }
 
@@ -51,40 +46,56 @@ std::vector<Configuration> transformActuation(const std::vector<Configuration>& 
       q[static_cast<std::size_t>(k)] = interpolate(a, b, w);
     }
   }
-  // 2. Backlash (play) per tube on the rotation or the translation.
-  bool translated = false;
-  for (const Effect& e : effects) {
-    const bool rot = e.kind == EffectKind::ActuatorBacklash, lin = e.kind == EffectKind::TranslationBacklash;
-    if ((!rot && !lin) || e.tube < 1 || e.tube > n) continue;
-    translated = translated || (lin && e.value > 0);
-    Eigen::VectorXd x(rows);
-    for (int k = 0; k < rows; ++k) {
-      const Configuration& c = q[static_cast<std::size_t>(k)];
-      x[k] = rot ? c.alpha[e.tube - 1] : c.beta[e.tube - 1];
-    }
-    const Eigen::VectorXd y = playOperator(x, e.value);
-    for (int k = 0; k < rows; ++k)
-      (rot ? q[static_cast<std::size_t>(k)].alpha : q[static_cast<std::size_t>(k)].beta)[e.tube - 1] = y[k];
-  }
-  // 3. Transmission errors of a drive or a stage (generic models: functions of the joint's own value), then constant
-  // offsets.
+  // 2. The drives between the commands and the tubes (the model's Drive: play, then transmission errors, then the
+  // offset), one per tube and joint, applied row by row in order (the plays remember it).
+  std::vector<Drive> rotation(static_cast<std::size_t>(n)), translation(static_cast<std::size_t>(n));
+  bool translated = false, driven = false;
   for (const Effect& e : effects) {
     if (e.tube < 1 || e.tube > n) continue;
-    if (e.kind == EffectKind::DriveRatio || e.kind == EffectKind::DrivePeriodic)
-      for (auto& c : q) c.alpha[e.tube - 1] += e.genericAt(c.alpha[e.tube - 1]);
-    if (e.kind == EffectKind::StageError) {
-      translated = true;
-      for (auto& c : q) c.beta[e.tube - 1] += e.genericAt(c.beta[e.tube - 1]);
+    Drive& r = rotation[static_cast<std::size_t>(e.tube - 1)];
+    Drive& t = translation[static_cast<std::size_t>(e.tube - 1)];
+    switch (e.kind) {
+      case EffectKind::ActuatorBacklash:
+        r.play = e.value;
+        break;
+      case EffectKind::TranslationBacklash:
+        t.play = e.value;
+        translated = translated || e.value > 0;
+        break;
+      case EffectKind::DriveRatio:
+        r.ratio_error = e.coef[0];
+        r.ratio_reference = e.ref[0];
+        break;
+      case EffectKind::DrivePeriodic:
+        for (std::size_t j = 0; j < 4; ++j) r.periodic[j] = e.coef[static_cast<Eigen::Index>(j)];
+        break;
+      case EffectKind::StageError:
+        for (std::size_t j = 0; j < 3; ++j) t.stage[j] = e.coef[static_cast<Eigen::Index>(j)];
+        t.stage_reference = e.ref[0];
+        t.stage_scale = e.ref[1];
+        translated = true;
+        break;
+      case EffectKind::ActuatorOffset:
+        r.offset += e.value;
+        break;
+      case EffectKind::TranslationOffset:
+        t.offset += e.value;
+        translated = translated || e.value != 0.0;
+        break;
+      default:
+        continue;
     }
+    driven = true;
   }
-  for (const Effect& e : effects) {
-    if (e.tube < 1 || e.tube > n) continue;
-    if (e.kind == EffectKind::ActuatorOffset)
-      for (auto& c : q) c.alpha[e.tube - 1] += e.value;
-    if (e.kind == EffectKind::TranslationOffset && e.value != 0.0) {
-      translated = true;
-      for (auto& c : q) c.beta[e.tube - 1] += e.value;
-    }
+  if (driven) {
+    const double none = std::numeric_limits<double>::quiet_NaN();
+    std::vector<double> rot_play(static_cast<std::size_t>(n), none), lin_play(static_cast<std::size_t>(n), none);
+    for (auto& c : q)
+      for (int i = 0; i < n; ++i) {
+        const auto s = static_cast<std::size_t>(i);
+        c.alpha[i] = rotation[s].joint(c.alpha[i], rot_play[s]);
+        c.beta[i] = translation[s].joint(c.beta[i], lin_play[s]);
+      }
   }
   // 4. The stages cannot push a tube through the nesting order: project (any distance) onto the admissible set.
   if (translated && robot)

@@ -25,11 +25,25 @@ namespace {
 using detail::formatNumber;
 
 const std::vector<std::string> kTopKeys = {"name", "tubes", "friction", "loads"};
-const std::vector<std::string> kTubeKeys = {
-    "name",           "straight_length", "curved_length",   "curvature",
-    "bending_stiffness", "poisson_ratio", "torsional_stiffness", "youngs_modulus",
-    "outer_diameter", "inner_diameter", "rotation_limits", "translation_limits",
-    "linear_density",    "density"};
+const std::vector<std::string> kTubeKeys = {"name",
+                                            "straight_length",
+                                            "curved_length",
+                                            "curvature",
+                                            "bending_stiffness",
+                                            "poisson_ratio",
+                                            "torsional_stiffness",
+                                            "youngs_modulus",
+                                            "outer_diameter",
+                                            "inner_diameter",
+                                            "rotation_limits",
+                                            "translation_limits",
+                                            "linear_density",
+                                            "density",
+                                            "actuation"};
+const std::vector<std::string> kActuationKeys = {"rotation", "translation"};
+const std::vector<std::string> kRotationDriveKeys = {"offset", "play", "ratio_error", "ratio_reference", "periodic"};
+const std::vector<std::string> kTranslationDriveKeys = {
+    "offset", "play", "ratio_error", "ratio_reference", "stage_error", "stage_reference", "stage_scale"};
 const std::vector<std::string> kFrictionKeys = {"boundary", "distributed"};
 const std::vector<std::string> kLoadsKeys = {"gravity", "tip_force", "tip_moment"};
 constexpr double kPi = 3.14159265358979323846;
@@ -101,6 +115,7 @@ private:
   double number(const YAML::Node& v, int line, const std::string& key, const std::string& where) const;
   std::array<double, 2> range(const Entry& e, const std::string& where) const;
   Tube tube(const YAML::Node& node, int k);
+  void actuation(const Entry& e, const std::string& where, Tube& t, std::map<std::string, int>& lines) const;
   FrictionCoefficients friction(const Entry& e);
   Loads loads(const Entry& e);
   Eigen::Vector3d vector3(const Entry& e, const std::string& where) const;
@@ -200,6 +215,8 @@ Tube RobotParser::tube(const YAML::Node& node, int k) {
       if ((*t.translation_limits)[1] > 0.0)
         fail(e.line, e.key, where + "max " + formatNumber((*t.translation_limits)[1]) +
                                 " m > 0; translations beta are <= 0 (tubes leave the actuation unit at s = 0)");
+    } else if (e.key == "actuation") {
+      actuation(e, where, t, lines);
     } else if (e.key != "name") {
       v[e.key] = number(e.value, e.line, e.key, where);
     }
@@ -303,6 +320,48 @@ Tube RobotParser::tube(const YAML::Node& node, int k) {
                  "(G*J, N m^2)");
   }
   return t;
+}
+
+// `actuation:` of a tube: the drives between its commands and the tube (ctr::Drive). Values are checked again by the
+// Robot (validateTube), whose messages name the keys recorded in `lines` ("actuation.rotation.play").
+void RobotParser::actuation(const Entry& e, const std::string& where, Tube& t,
+                            std::map<std::string, int>& lines) const {
+  if (!e.value.IsMap())
+    fail(e.line, e.key, where + "expected a map with keys rotation, translation, got " + describe(e.value));
+  for (const Entry& axis : entries(e.value, kActuationKeys, where + "actuation: ")) {
+    const bool rotation = axis.key == "rotation";
+    const std::string at = where + "actuation: " + axis.key + ": ";
+    if (!axis.value.IsMap())
+      fail(axis.line, axis.key, at + "expected a map of drive keys (offset, play, ...), got " + describe(axis.value));
+    Drive& d = rotation ? t.rotation_drive : t.translation_drive;
+    for (const Entry& k : entries(axis.value, rotation ? kRotationDriveKeys : kTranslationDriveKeys, at)) {
+      const std::string key = "actuation." + axis.key + "." + k.key;
+      lines[key] = k.line;
+      if (k.key == "periodic" || k.key == "stage_error") {
+        const std::size_t size = k.key == "periodic" ? 4 : 3;
+        if (!k.value.IsSequence() || k.value.size() != size)
+          fail(k.line, key,
+               at + k.key + ": expected a list of " + std::to_string(size) + " numbers (" +
+                   (size == 4 ? "cos x, sin x, cos 2x, sin 2x coefficients, rad" : "u, u^2, u^3 coefficients, m") +
+                   "), got " +
+                   (k.value.IsSequence() ? "a list of " + std::to_string(k.value.size()) + " items"
+                                         : describe(k.value)));
+        for (std::size_t j = 0; j < size; ++j) {
+          const YAML::Node item = k.value[j];
+          const double x = number(item, lineOf(item) > 0 ? lineOf(item) : k.line, key, at);
+          (size == 4 ? d.periodic[j] : d.stage[j]) = x;
+        }
+        continue;
+      }
+      const double x = number(k.value, k.line, key, at);
+      if (k.key == "offset") d.offset = x;
+      if (k.key == "play") d.play = x;
+      if (k.key == "ratio_error") d.ratio_error = x;
+      if (k.key == "ratio_reference") d.ratio_reference = x;
+      if (k.key == "stage_reference") d.stage_reference = x;
+      if (k.key == "stage_scale") d.stage_scale = x;
+    }
+  }
 }
 
 FrictionCoefficients RobotParser::friction(const Entry& e) {
@@ -517,6 +576,27 @@ std::string robotToYaml(const Robot& robot) {
     if (t.translation_limits)
       os << "    translation_limits: [" << formatNumber((*t.translation_limits)[0]) << ", "
          << formatNumber((*t.translation_limits)[1]) << "]\n";
+    if (!t.rotation_drive.ideal() || !t.translation_drive.ideal()) {
+      os << "    actuation:  # drives between the commands and the tube: play, transmission errors, offset\n";
+      for (const bool rotation : {true, false}) {
+        const Drive& d = rotation ? t.rotation_drive : t.translation_drive;
+        if (d.ideal()) continue;
+        os << "      " << (rotation ? "rotation:" : "translation:") << (rotation ? "  # rad" : "  # m") << "\n";
+        if (d.offset != 0.0) os << "        offset: " << formatNumber(d.offset) << "\n";
+        if (d.play != 0.0) os << "        play: " << formatNumber(d.play) << "\n";
+        if (d.ratio_error != 0.0)
+          os << "        ratio_error: " << formatNumber(d.ratio_error) << "\n"
+             << "        ratio_reference: " << formatNumber(d.ratio_reference) << "\n";
+        if (d.periodic != std::array<double, 4>{})
+          os << "        periodic: [" << formatNumber(d.periodic[0]) << ", " << formatNumber(d.periodic[1]) << ", "
+             << formatNumber(d.periodic[2]) << ", " << formatNumber(d.periodic[3]) << "]\n";
+        if (d.stage != std::array<double, 3>{})
+          os << "        stage_error: [" << formatNumber(d.stage[0]) << ", " << formatNumber(d.stage[1]) << ", "
+             << formatNumber(d.stage[2]) << "]\n"
+             << "        stage_reference: " << formatNumber(d.stage_reference) << "\n"
+             << "        stage_scale: " << formatNumber(d.stage_scale) << "\n";
+      }
+    }
   }
   const FrictionCoefficients& f = robot.friction();
   if (f.boundary != 0.0 || f.distributed != 0.0) {

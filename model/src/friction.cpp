@@ -96,6 +96,7 @@ HysteresisState stateFrom(const Solution& sol, const std::vector<ContactMode>& m
                           const Eigen::VectorXd& direction) {
   HysteresisState st;
   st.q = q;
+  st.command = q;
   st.base_twist_rate = sol.base_twist_rate;
   st.base_moment = sol.base_moment;
   st.direction = direction;
@@ -328,6 +329,16 @@ const char* toString(ContactMode mode) {
 
 StepResult initialState(const Robot& robot, const Configuration& q, Workspace& ws, const FrictionOptions& opt,
                         const Solution* branch) {
+  if (hasActuation(robot)) {
+    if (q.size() != robot.size() || q.beta.size() != robot.size() || !checkAdmissible(robot, q))
+      return initialState(robot.withoutActuation(), q, ws, opt, branch);  // reports the command as it is
+    DriveState drives;
+    const Configuration joints = jointsOf(robot, q, drives);
+    StepResult r = initialState(robot.withoutActuation(), joints, ws, opt, branch);
+    r.state.command = q;
+    r.state.drives = std::move(drives);
+    return r;
+  }
   StepResult r;
   const std::vector<ContactSite> sites = contactSites(robot, q);
   std::vector<ContactCondition> free(sites.size(), ContactCondition{ContactCondition::Law::Free, 0.0});
@@ -345,6 +356,14 @@ StepResult step(const Robot& robot, const HysteresisState& from, const Configura
                 const FrictionOptions& opt) {
   if (!from.valid) throw std::invalid_argument("step: the hysteresis state is not initialised (use initialState)");
   if (from.q.size() != robot.size()) throw std::invalid_argument("step: state and robot have different tube counts");
+  if (hasActuation(robot) && checkAdmissible(robot, q)) {
+    DriveState drives = from.drives;
+    const Configuration joints = jointsOf(robot, q, drives);
+    StepResult r = step(robot.withoutActuation(), from, joints, ws, opt);
+    r.state.command = q;  // the drives moved even when the tubes could not follow (a failed step)
+    r.state.drives = std::move(drives);
+    return r;
+  }
   StepResult res;
   const Admissibility adm = checkAdmissible(robot, q);
   if (!adm) {

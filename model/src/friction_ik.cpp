@@ -54,6 +54,7 @@ void blindCost(FrictionCost& c, const IkResult& blind, const StepResult& blind_s
 std::vector<FrictionIkResult> frictionInverseKinematicsPath(const Robot& robot, const HysteresisState& start,
                                                             const std::vector<IkTarget>& targets, Workspace& ws,
                                                             const FrictionIkOptions& o) {
+  if (hasActuation(robot)) throw std::invalid_argument(detail::actuationNotCompensated(robot));
   if (!start.valid)
     throw std::invalid_argument("frictionInverseKinematics: the hysteresis state is not initialised (initialState)");
   if (start.q.size() != robot.size())

@@ -95,6 +95,7 @@ class Run {
  public:
   Run(const Robot& robot, const IkTarget& target, Workspace& ws, const IkOptions& o)
       : robot_(robot), target_(target), o_(o), set_(robot, o), goal_(target, o), map_{robot, ws, o} {
+    if (hasActuation(robot)) throw std::invalid_argument(detail::actuationNotCompensated(robot));
     if (!set_.feasible())
       throw std::invalid_argument("inverseKinematics: robot '" + robot.name() +
                                   "' has no admissible translations (limits, nesting, min_protrusion)");

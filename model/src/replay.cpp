@@ -217,6 +217,7 @@ struct Branches {
 HysteresisState frictionlessState(const Solution& s, const Configuration& q) {
   HysteresisState st;
   st.q = q;
+  st.command = q;
   st.base_twist_rate = s.base_twist_rate;
   st.base_moment = s.base_moment;
   st.twist = s.twist;
@@ -335,6 +336,26 @@ bool isLongMove(const Configuration& from, const Configuration& to, const Replay
 
 std::vector<ReplayRow> replay(const Robot& robot, const std::vector<Configuration>& commands, Workspace& ws,
                               const ReplayOptions& o, const ReplayPath& known, const ReplayObserver& observer) {
+  if (hasActuation(robot)) {
+    // The drives first, in the order the commands were given (the plays remember it), the passed-through commands
+    // of `known` before their row; then the tubes alone replay the joints. Inadmissible commands stay as they are
+    // (their rows report it) and do not move the drives.
+    DriveState drives;
+    std::vector<Configuration> joints;
+    joints.reserve(commands.size());
+    ReplayPath joint_path;
+    joint_path.via.resize(known.via.size());
+    for (std::size_t k = 0; k < commands.size(); ++k) {
+      if (k < known.via.size())
+        for (const Configuration& v : known.via[k])
+          if (v.size() == robot.size() && v.beta.size() == robot.size() && checkAdmissible(robot, v))
+            joint_path.via[k].push_back(jointsOf(robot, v, drives));
+      const Configuration& c = commands[k];
+      const bool admissible = c.size() == robot.size() && c.beta.size() == robot.size() && checkAdmissible(robot, c);
+      joints.push_back(admissible ? jointsOf(robot, c, drives) : c);
+    }
+    return replay(robot.withoutActuation(), joints, ws, o, joint_path, observer);
+  }
   std::vector<ReplayRow> out(commands.size());
   const bool friction = hasFriction(robot);
   const Robot free = friction ? robot.withFriction(FrictionCoefficients{}) : robot;

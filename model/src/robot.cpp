@@ -3,9 +3,12 @@
 #include <cmath>
 #include <sstream>
 #include <stdexcept>
+#include <utility>
 
 namespace ctr {
 namespace {
+
+constexpr double kPi = 3.14159265358979323846;
 
 std::string where(const Tube& t, int index) {
   std::ostringstream os;
@@ -48,6 +51,37 @@ std::string validateTube(const Tube& t, int index) {
     if (!finite(lo) || !finite(hi) || lo > hi)
       return bad("translation_limits", "must be finite [min, max] with min <= max");
     if (hi > 0.0) return bad("translation_limits", "beta must be <= 0 (tubes leave the actuation unit at s = 0)");
+  }
+  // The drives (actuation.hpp): keys as in the robot description's `actuation:` block.
+  for (const bool rotation : {true, false}) {
+    const Drive& d = rotation ? t.rotation_drive : t.translation_drive;
+    const std::string axis = rotation ? "actuation.rotation." : "actuation.translation.";
+    auto badDrive = [&](const std::string& key, const std::string& what) {
+      return where(t, index) + ": key '" + axis + key + "': " + what;
+    };
+    for (const auto& [key, v] : {std::pair<const char*, double>{"offset", d.offset},
+                                 {"play", d.play},
+                                 {"ratio_error", d.ratio_error},
+                                 {"ratio_reference", d.ratio_reference},
+                                 {"stage_reference", d.stage_reference},
+                                 {"stage_scale", d.stage_scale}})
+      if (!finite(v)) return badDrive(key, "must be finite");
+    for (double p : d.periodic)
+      if (!finite(p)) return badDrive("periodic", "must be finite");
+    for (double c : d.stage)
+      if (!finite(c)) return badDrive("stage_error", "must be finite");
+    if (d.play < 0.0) return badDrive("play", "must be >= 0 (the full width of the dead band)");
+    if (rotation && d.play >= 2 * kPi) return badDrive("play", "must be less than a turn (2 pi rad)");
+    if (!rotation && d.play >= t.length()) return badDrive("play", "must be shorter than the tube");
+    if (rotation && std::abs(d.offset) > kPi)
+      return badDrive("offset", "must be within half a turn (|offset| <= pi rad)");
+    if (!rotation && std::abs(d.offset) >= t.length()) return badDrive("offset", "must be shorter than the tube");
+    if (std::abs(d.ratio_error) >= 1.0) return badDrive("ratio_error", "must be within (-1, 1) (a fraction)");
+    if (!(d.stage_scale > 0.0)) return badDrive("stage_scale", "must be > 0");
+    if (!rotation && (d.periodic[0] != 0 || d.periodic[1] != 0 || d.periodic[2] != 0 || d.periodic[3] != 0))
+      return badDrive("periodic", "is an error of rotation drives");
+    if (rotation && (d.stage[0] != 0 || d.stage[1] != 0 || d.stage[2] != 0))
+      return badDrive("stage_error", "is an error of translation stages");
   }
   return {};
 }
@@ -95,6 +129,15 @@ bool Robot::hasWeight() const {
 Robot Robot::withFriction(FrictionCoefficients f) const { return Robot(name_, tubes_, f, loads_); }
 
 Robot Robot::withLoads(const Loads& loads) const { return Robot(name_, tubes_, friction_, loads); }
+
+Robot Robot::withoutActuation() const {
+  std::vector<Tube> tubes = tubes_;
+  for (Tube& t : tubes) {
+    t.rotation_drive = Drive{};
+    t.translation_drive = Drive{};
+  }
+  return Robot(name_, std::move(tubes), friction_, loads_);
+}
 
 Robot Robot::withTube(int i, const Tube& t) const {
   std::vector<Tube> tubes = tubes_;

@@ -49,6 +49,10 @@ Context::Context(Robot robot, std::shared_ptr<const environments::Environment> e
       options_(options),
       sampler_(robot_, options.min_protrusion) {
   if (!env_) throw std::invalid_argument("planning context: no environment");
+  if (hasActuation(robot_))
+    throw std::invalid_argument("robot '" + robot_.name() +
+                                "' has an actuation block (drive plays, offsets or transmission errors): planning "
+                                "through the drives is not implemented yet; plan with the description without it");
   if (!sampler_.feasible()) throw std::invalid_argument("robot '" + robot_.name() + "' has no admissible translation");
   checker_ = std::make_shared<environments::CollisionChecker>(env_, robot_, collision);
 }

@@ -47,16 +47,18 @@ pyb::list contactMemoryList(const HysteresisState& h) {
 }
 
 // Pickling: the state as plain Python values (every field; round-trips exactly).
-// Format 2 adds the solver's warm-start memory (previous_*); format 1 (without it) still loads.
+// Format 2 adds the solver's warm-start memory (previous_*), format 3 the command and the drives' plays; formats 1
+// and 2 still load (their command is their configuration, without plays).
 pyb::tuple stateGetState(const HysteresisState& h) {
-  return pyb::make_tuple(2, h.q.alpha, h.q.beta, h.base_twist_rate, contactMemoryList(h), h.direction, h.twist,
+  return pyb::make_tuple(3, h.q.alpha, h.q.beta, h.base_twist_rate, contactMemoryList(h), h.direction, h.twist,
                          h.interface_direction, h.valid, h.base_moment, h.previous_q.alpha, h.previous_q.beta,
-                         h.previous_base_twist_rate, h.previous_base_moment, h.previous_torques);
+                         h.previous_base_twist_rate, h.previous_base_moment, h.previous_torques, h.command.alpha,
+                         h.command.beta, h.drives.rotation, h.drives.translation);
 }
 
 HysteresisState stateSetState(const pyb::tuple& t) {
   const int format = t.size() > 0 ? t[0].cast<int>() : 0;
-  if (!((format == 1 && t.size() == 10) || (format == 2 && t.size() == 15)))
+  if (!((format == 1 && t.size() == 10) || (format == 2 && t.size() == 15) || (format == 3 && t.size() == 19)))
     throw pyb::value_error("HysteresisState: unknown pickled format");
   HysteresisState h;
   h.q = Configuration(t[1].cast<Eigen::VectorXd>(), t[2].cast<Eigen::VectorXd>());
@@ -80,11 +82,17 @@ HysteresisState stateSetState(const pyb::tuple& t) {
   h.interface_direction = t[7].cast<Eigen::VectorXd>();
   h.valid = t[8].cast<bool>();
   h.base_moment = t[9].cast<Eigen::Vector3d>();
-  if (format == 2) {
+  if (format >= 2) {
     h.previous_q = Configuration(t[10].cast<Eigen::VectorXd>(), t[11].cast<Eigen::VectorXd>());
     h.previous_base_twist_rate = t[12].cast<Eigen::VectorXd>();
     h.previous_base_moment = t[13].cast<Eigen::Vector3d>();
     h.previous_torques = t[14].cast<Eigen::VectorXd>();
+  }
+  h.command = h.q;
+  if (format >= 3) {
+    h.command = Configuration(t[15].cast<Eigen::VectorXd>(), t[16].cast<Eigen::VectorXd>());
+    h.drives.rotation = t[17].cast<Eigen::VectorXd>();
+    h.drives.translation = t[18].cast<Eigen::VectorXd>();
   }
   return h;
 }
@@ -120,9 +128,18 @@ void registerFriction(pyb::module_& m) {
                                "copy.copy() it to branch a path; picklable).")
       .def(pyb::init<>(), "An uninitialised state (valid False); use ctr.initial_state.")
       .def_property_readonly(
-          "alpha", [](const HysteresisState& h) { return h.q.alpha; }, "Last commanded rotations.")
+          "alpha", [](const HysteresisState& h) { return h.q.alpha; },
+          "The tubes' rotations at the last step (the command's joints through the robot's drives; the command "
+          "itself without an actuation block).")
       .def_property_readonly(
-          "beta", [](const HysteresisState& h) { return h.q.beta; }, "Last commanded translations.")
+          "beta", [](const HysteresisState& h) { return h.q.beta; }, "The tubes' translations at the last step.")
+      .def_property_readonly(
+          "command", [](const HysteresisState& h) { return configurationTuple(h.command); },
+          "The last command (alpha, beta).")
+      .def_property_readonly(
+          "plays", [](const HysteresisState& h) { return pyb::make_tuple(h.drives.rotation, h.drives.translation); },
+          "The drives' play positions (rotation, translation) per tube; NaN where a drive has no play or no history; "
+          "empty arrays for a robot without actuation.")
       .def_property_readonly(
           "base_twist_rate", [](const HysteresisState& h) { return h.base_twist_rate; },
           "u_iz(0) at the last step: the equilibrium branch.")
@@ -187,8 +204,8 @@ void registerFriction(pyb::module_& m) {
       [](const Robot& r, const HysteresisState& from, const pyb::object& alpha, const pyb::object& beta,
          std::optional<FrictionOptions> options) {
         if (!from.valid) throw pyb::value_error("state: not initialised (use ctr.initial_state first)");
-        const pyb::object a = alpha.is_none() ? pyb::cast(from.q.alpha) : alpha;
-        const pyb::object b = beta.is_none() ? pyb::cast(from.q.beta) : beta;
+        const pyb::object a = alpha.is_none() ? pyb::cast(from.command.alpha) : alpha;
+        const pyb::object b = beta.is_none() ? pyb::cast(from.command.beta) : beta;
         const Configuration q = toConfiguration(r, a, b);
         pyb::gil_scoped_release release;
         return step(r, from, q, workspace(), options.value_or(FrictionOptions{}));

@@ -127,3 +127,28 @@ def test_friction_band_names_its_sites_and_follows_a_path():
         assert prev.converged and len(prev.shapes) == len(cold.shapes)
         assert np.allclose(prev.tip_positions, cold.tip_positions, atol=1e-9)
         assert np.allclose(prev.torque_fractions, cold.torque_fractions)
+
+
+def test_drives_of_the_robot_description_are_state(tmp_path):
+    """A robot with an actuation block: the tubes sit at the joints of the commands, the plays are part of the
+    state (copied, pickled) and a reversal within a play does not move the tubes."""
+    text = PAIR_B.read_text().replace(
+        "    inner_diameter: 1.97e-3\n",
+        "    inner_diameter: 1.97e-3\n    actuation:\n      rotation: {offset: 0.05, play: 0.3}\n")
+    f = tmp_path / "driven.yaml"
+    f.write_text(text)
+    robot = ctr.load_robot(str(f)).with_friction(boundary=0.12)
+    r = ctr.initial_state(robot, [0, 0], BETA)
+    r = ctr.step(robot, r.state, [0, 1.0])  # beta kept from the state's command
+    st = r.state
+    assert st.alpha[1] == pytest.approx(1.0 - 0.15 + 0.05, abs=1e-14)
+    assert np.array_equal(st.command[0], [0, 1.0]) and np.array_equal(st.command[1], BETA)
+    assert st.plays[0][1] == pytest.approx(0.85, abs=1e-14) and math.isnan(st.plays[0][0])
+    back = pickle.loads(pickle.dumps(st))
+    assert np.array_equal(back.command[0], st.command[0])
+    assert np.array_equal(back.plays[0], st.plays[0], equal_nan=True)
+    a, b = ctr.step(robot, st, [0, 0.8]), ctr.step(robot, back, [0, 0.8])
+    assert np.array_equal(a.solution.tip_position, b.solution.tip_position)
+    assert np.linalg.norm(a.solution.tip_position - r.solution.tip_position) < 1e-9  # within the play: no motion
+    with pytest.raises(ValueError, match="actuation"):
+        ctr.ik(robot, [0.0, 0.02, 0.14], alpha=[0, 0], beta=BETA)

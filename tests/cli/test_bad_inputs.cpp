@@ -143,6 +143,22 @@ const std::vector<Case> kCases = {
      t = edit(t, "outer_diameter: 2.77e-3", "outer_diameter: 2.77");
      d.write("r.yaml", t); d.expect["line"] = std::to_string(lineOf(t, "straight_length: 18")); },
    "fk --robot {d}/r.yaml", 2, {"r.yaml:{line}", "straight_length", "metres"}},
+  {"FkRobotNegativePlay", "fk", "a drive's play < 0 in the actuation block", "", [](Dir& d) {
+     const std::string t = edit(pairB(), "    inner_diameter: 1.97e-3\n", "    inner_diameter: 1.97e-3\n    actuation:\n      rotation: {offset: 0.05, play: -0.01}\n");
+     d.write("r.yaml", t); d.expect["line"] = std::to_string(lineOf(t, "play: -0.01")); },
+   "fk --robot {d}/r.yaml", 2, {"r.yaml:{line}", "actuation.rotation.play", ">= 0"}},
+  {"FkRobotPlayWiderThanATurn", "fk", "a rotation play wider than a turn", "", [](Dir& d) {
+     const std::string t = edit(pairB(), "    inner_diameter: 1.97e-3\n", "    inner_diameter: 1.97e-3\n    actuation:\n      rotation:\n        play: 7\n");
+     d.write("r.yaml", t); d.expect["line"] = std::to_string(lineOf(t, "play: 7")); },
+   "fk --robot {d}/r.yaml", 2, {"r.yaml:{line}", "actuation.rotation.play", "less than a turn"}},
+  {"FkRobotActuationUnknownKey", "fk", "a misspelt drive key (backlash for play)", "", [](Dir& d) {
+     const std::string t = edit(pairB(), "    inner_diameter: 1.97e-3\n", "    inner_diameter: 1.97e-3\n    actuation:\n      translation:\n        backlash: 0.001\n");
+     d.write("r.yaml", t); d.expect["line"] = std::to_string(lineOf(t, "backlash")); },
+   "fk --robot {d}/r.yaml", 2, {"r.yaml:{line}", "backlash", "unknown key"}},
+  {"FkRobotOffsetPastHalfATurn", "fk", "a rotation offset past half a turn", "", [](Dir& d) {
+     const std::string t = edit(pairB(), "    inner_diameter: 1.97e-3\n", "    inner_diameter: 1.97e-3\n    actuation:\n      rotation: {offset: 4}\n");
+     d.write("r.yaml", t); d.expect["line"] = std::to_string(lineOf(t, "offset: 4")); },
+   "fk --robot {d}/r.yaml", 2, {"r.yaml:{line}", "actuation.rotation.offset", "half a turn"}},
   {"FkAlphaWrongCount", "fk", "wrong number of joints in --alpha", "", none,
    "fk --robot {ex}/robots/tube_pair_B.yaml --alpha 0,1,2", 2, {"--alpha", "3 values", "2 tubes"}},
   {"FkBetaNaN", "fk", "NaN in --beta", "", none,

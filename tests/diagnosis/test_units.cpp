@@ -84,6 +84,51 @@ TEST(Actuation, PlayOperatorAndLatency) {
   EXPECT_NEAR(q[2].alpha[1], 1.15, 1e-12);  // t = 1.0 - 0.25 -> alpha 0.15
 }
 
+// The diagnosis's drive effects and the robot description's actuation block are one operator (ctr::Drive): a robot
+// whose drives carry the fitted values puts its tubes where transformActuation puts the commands, row by row.
+TEST(Actuation, DriveEffectsAreTheRobotsDrives) {
+  const Robot r = pairB();
+  std::vector<Configuration> c;
+  for (int k = 0; k < 30; ++k) {
+    const double a = 1.5 * std::sin(0.4 * k), b = -0.018 - 0.004 * std::cos(0.3 * k);
+    c.emplace_back(Eigen::Vector2d(0.3 * std::cos(0.2 * k), a), Eigen::Vector2d(b, b));
+  }
+  Effect ratio{EffectKind::DriveRatio, 1, 0.0};
+  ratio.coef[0] = 0.03;
+  ratio.ref[0] = 0.2;
+  Effect periodic{EffectKind::DrivePeriodic, 2, 0.0};
+  periodic.coef.head<4>() << 0.01, -0.02, 0.004, 0.0;
+  Effect stage{EffectKind::StageError, 2, 0.0};
+  stage.coef.head<3>() << 2e-4, -1e-4, 5e-5;
+  stage.ref = Eigen::Vector2d(-0.02, 0.004);
+  const std::vector<Effect> effects = {{EffectKind::ActuatorBacklash, 2, 0.2},
+                                       {EffectKind::ActuatorOffset, 2, -0.07},
+                                       {EffectKind::TranslationBacklash, 1, 0.001},
+                                       ratio,
+                                       periodic,
+                                       stage,
+                                       {EffectKind::TranslationOffset, 1, -0.0005}};
+  const std::vector<Configuration> q = transformActuation(c, Eigen::VectorXd(), effects, &r);
+  Tube outer = r.tube(0), inner = r.tube(1);
+  outer.rotation_drive.ratio_error = 0.03;
+  outer.rotation_drive.ratio_reference = 0.2;
+  outer.translation_drive.play = 0.001;
+  outer.translation_drive.offset = -0.0005;
+  inner.rotation_drive.play = 0.2;
+  inner.rotation_drive.offset = -0.07;
+  inner.rotation_drive.periodic = {0.01, -0.02, 0.004, 0.0};
+  inner.translation_drive.stage = {2e-4, -1e-4, 5e-5};
+  inner.translation_drive.stage_reference = -0.02;
+  inner.translation_drive.stage_scale = 0.004;
+  const Robot driven = r.withTube(0, outer).withTube(1, inner);
+  DriveState drives;
+  for (std::size_t k = 0; k < c.size(); ++k) {
+    const Configuration j = jointsOf(driven, c[k], drives);
+    EXPECT_EQ(j.alpha, q[k].alpha) << k;
+    EXPECT_EQ(j.beta, q[k].beta) << k;
+  }
+}
+
 TEST(Registration, RecoversRigidTransformAndOffset) {
   const Robot r = pairB();
   std::vector<Configuration> cmd;

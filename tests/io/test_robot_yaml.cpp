@@ -15,6 +15,7 @@
 #include "../data_sets.hpp"
 #include "ctr/io/recording.hpp"
 #include "ctr/io/robot_yaml.hpp"
+#include "ctr/model/configuration.hpp"
 
 namespace fs = std::filesystem;
 using ctr::Robot;
@@ -121,9 +122,33 @@ std::vector<BadRobot> badRobots() {
       {"zero_total_length", base({{12, "    straight_length: 0"}, {13, "    curved_length: 0"}}), "curved_length",
        "inner", 13, "must be > 0"},
       {"zero_bending_stiffness", base({{15, "    bending_stiffness: 0"}}), "bending_stiffness", "inner", 15, "> 0"},
-      {"negative_torsional_stiffness", base({{16, "    torsional_stiffness: -1"}}), "torsional_stiffness", "inner",
-       16, "> 0"},
+      {"negative_torsional_stiffness", base({{16, "    torsional_stiffness: -1"}}), "torsional_stiffness", "inner", 16,
+       "> 0"},
       {"poisson_minus_one", base({{16, "    poisson_ratio: -1"}}), "poisson_ratio", "inner", 16, "> -1"},
+      {"actuation_not_map", base({{18, "    inner_diameter: 1.97e-3\n    actuation: 5"}}), "actuation", "inner", 19,
+       "expected a map"},
+      {"actuation_unknown_axis", base({{18, "    inner_diameter: 1.97e-3\n    actuation:\n      twist: {play: 0.1}"}}),
+       "twist", "inner", 20, "unknown key"},
+      {"drive_play_negative",
+       base({{18, "    inner_diameter: 1.97e-3\n    actuation:\n      rotation:\n        play: -0.1"}}),
+       "actuation.rotation.play", "inner", 21, ">= 0"},
+      {"drive_play_a_turn",
+       base({{18, "    inner_diameter: 1.97e-3\n    actuation:\n      rotation:\n        play: 6.3"}}),
+       "actuation.rotation.play", "inner", 21, "less than a turn"},
+      {"drive_offset_past_half_turn",
+       base({{18, "    inner_diameter: 1.97e-3\n    actuation:\n      rotation:\n        offset: -3.2"}}),
+       "actuation.rotation.offset", "inner", 21, "half a turn"},
+      {"drive_translation_play_longer_than_tube",
+       base({{10, "    inner_diameter: 2.55e-3\n    actuation:\n      translation:\n        play: 0.5"}}),
+       "actuation.translation.play", "outer", 13, "shorter than the tube"},
+      {"drive_periodic_on_translation",
+       base({{10, "    inner_diameter: 2.55e-3\n    actuation:\n      translation:\n        periodic: [0, 0, 0, 0]"}}),
+       "periodic", "outer", 13, "unknown key"},
+      {"drive_periodic_wrong_size",
+       base({{18, "    inner_diameter: 1.97e-3\n    actuation:\n      rotation:\n        periodic: [0.01, 0.02]"}}),
+       "actuation.rotation.periodic", "inner", 21, "list of 4 numbers"},
+      {"drive_nan", base({{18, "    inner_diameter: 1.97e-3\n    actuation:\n      rotation: {offset: .nan}"}}),
+       "actuation.rotation.offset", "inner", 20, "finite"},
       {"no_torsion", base({{16, ""}}), "poisson_ratio", "inner", 11, "torsional_stiffness"},
       {"no_bending", base({{15, ""}}), "bending_stiffness", "inner", 11, "youngs_modulus"},
       {"youngs_modulus_without_diameters", base({{15, "    youngs_modulus: 60e9"}, {17, ""}, {18, ""}}),
@@ -141,14 +166,14 @@ std::vector<BadRobot> badRobots() {
        "smaller than outer_diameter"},
       {"negative_friction", base({}, "friction:\n  boundary: -0.1\n"), "boundary", "", 20, ">= 0"},
       {"friction_not_map", base({}, "friction: 0.1\n"), "friction", "", 19, "expected a map"},
-      {"limits_three_items", base({{16, "    poisson_ratio: 0.6\n    rotation_limits: [1, 2, 3]"}}),
-       "rotation_limits", "inner", 17, "[min, max]"},
-      {"limits_scalar", base({{16, "    poisson_ratio: 0.6\n    rotation_limits: 3"}}), "rotation_limits", "inner",
-       17, "[min, max]"},
+      {"limits_three_items", base({{16, "    poisson_ratio: 0.6\n    rotation_limits: [1, 2, 3]"}}), "rotation_limits",
+       "inner", 17, "[min, max]"},
+      {"limits_scalar", base({{16, "    poisson_ratio: 0.6\n    rotation_limits: 3"}}), "rotation_limits", "inner", 17,
+       "[min, max]"},
       {"limits_min_gt_max", base({{16, "    poisson_ratio: 0.6\n    translation_limits: [-0.01, -0.05]"}}),
        "translation_limits", "inner", 17, "greater than max"},
-      {"limits_not_numbers", base({{16, "    poisson_ratio: 0.6\n    rotation_limits: [a, 1]"}}),
-       "rotation_limits", "inner", 17, "expected a number"},
+      {"limits_not_numbers", base({{16, "    poisson_ratio: 0.6\n    rotation_limits: [a, 1]"}}), "rotation_limits",
+       "inner", 17, "expected a number"},
       {"translation_limit_positive", base({{16, "    poisson_ratio: 0.6\n    translation_limits: [-0.1, 0.01]"}}),
        "translation_limits", "inner", 17, "<= 0"},
       {"tube_name_list", base({{11, "  - name: [a, b]"}}), "name", "", 11, "tube 2: expected a text"},
@@ -158,18 +183,16 @@ std::vector<BadRobot> badRobots() {
       {"non_scalar_key", base({{14, "    [curvature]: 4.1"}}), "", "inner", 14, "plain names"},
       // External loads.
       {"loads_not_map", base({}, "loads: 9.81\n"), "loads", "", 19, "expected a map"},
-      {"loads_unknown_key", base({}, "loads:\n  gravty: [0, 0, -9.81]\n"), "gravty", "", 20,
-       "did you mean 'gravity'?"},
+      {"loads_unknown_key", base({}, "loads:\n  gravty: [0, 0, -9.81]\n"), "gravty", "", 20, "did you mean 'gravity'?"},
       {"loads_two_items", base({}, "loads:\n  tip_force: [0.1, 0]\n"), "tip_force", "", 20, "[x, y, z]"},
       {"loads_scalar", base({}, "loads:\n  tip_moment: 0.1\n"), "tip_moment", "", 20, "[x, y, z]"},
       {"loads_not_number", base({}, "loads:\n  gravity: [0, a, -9.81]\n"), "gravity", "", 20, "expected a number"},
       {"loads_nan", base({}, "loads:\n  gravity: [0, .nan, -9.81]\n"), "gravity", "", 20, "finite"},
       {"loads_duplicate", base({}, "loads:\n  gravity: [0, 0, 1]\n  gravity: [0, 0, 2]\n"), "gravity", "", 21,
        "duplicate key"},
-      {"negative_linear_density", base({{16, "    poisson_ratio: 0.6\n    linear_density: -0.01"}}),
-       "linear_density", "inner", 17, ">= 0"},
-      {"negative_density", base({{16, "    poisson_ratio: 0.6\n    density: -6450"}}), "density", "inner", 17,
-       ">= 0"},
+      {"negative_linear_density", base({{16, "    poisson_ratio: 0.6\n    linear_density: -0.01"}}), "linear_density",
+       "inner", 17, ">= 0"},
+      {"negative_density", base({{16, "    poisson_ratio: 0.6\n    density: -6450"}}), "density", "inner", 17, ">= 0"},
       {"density_without_diameters", base({{16, "    poisson_ratio: 0.6\n    density: 6450"}, {17, ""}, {18, ""}}),
        "density", "inner", 17, "density needs outer_diameter"},
   };
@@ -206,6 +229,49 @@ TEST_P(BadRobotYaml, ClearInputError) {
 
 INSTANTIATE_TEST_SUITE_P(Io, BadRobotYaml, ::testing::ValuesIn(badRobots()),
                          [](const ::testing::TestParamInfo<BadRobot>& info) { return info.param.label; });
+
+// The drives of the actuation block: read, written back exactly, and kept by withFriction / withLoads.
+TEST(RobotYaml, ActuationBlockRoundTrips) {
+  const Robot r = parseRobot(
+      base({{18,
+             "    inner_diameter: 1.97e-3\n    actuation:\n      rotation: {offset: 0.0523, play: 0.0349, "
+             "ratio_error: -0.01, ratio_reference: 0.5, periodic: [0.001, -0.002, 0, 3e-4]}\n      translation:\n"
+             "        offset: -0.0004\n        play: 2e-4\n        stage_error: [1e-5, 0, -2e-5]\n"
+             "        stage_reference: -0.03\n        stage_scale: 0.02"}}),
+      "a.yaml");
+  ASSERT_TRUE(ctr::hasActuation(r));
+  EXPECT_TRUE(r.tube(0).rotation_drive.ideal() && r.tube(0).translation_drive.ideal());
+  const ctr::Drive& d = r.tube(1).rotation_drive;
+  EXPECT_EQ(d.offset, 0.0523);
+  EXPECT_EQ(d.play, 0.0349);
+  EXPECT_EQ(d.ratio_error, -0.01);
+  EXPECT_EQ(d.ratio_reference, 0.5);
+  EXPECT_EQ(d.periodic, (std::array<double, 4>{0.001, -0.002, 0, 3e-4}));
+  const ctr::Drive& t = r.tube(1).translation_drive;
+  EXPECT_EQ(t.offset, -0.0004);
+  EXPECT_EQ(t.play, 2e-4);
+  EXPECT_EQ(t.stage, (std::array<double, 3>{1e-5, 0, -2e-5}));
+  EXPECT_EQ(t.stage_reference, -0.03);
+  EXPECT_EQ(t.stage_scale, 0.02);
+  const std::string text = ctr::io::robotToYaml(r);
+  const Robot back = parseRobot(text, "back.yaml");
+  for (int i = 0; i < 2; ++i)
+    for (const bool rot : {true, false}) {
+      const ctr::Drive& a = rot ? r.tube(i).rotation_drive : r.tube(i).translation_drive;
+      const ctr::Drive& b = rot ? back.tube(i).rotation_drive : back.tube(i).translation_drive;
+      EXPECT_EQ(a.offset, b.offset);
+      EXPECT_EQ(a.play, b.play);
+      EXPECT_EQ(a.ratio_error, b.ratio_error);
+      EXPECT_EQ(a.ratio_reference, b.ratio_reference);
+      EXPECT_EQ(a.periodic, b.periodic);
+      EXPECT_EQ(a.stage, b.stage);
+      EXPECT_EQ(a.stage_reference, b.stage_reference);
+      EXPECT_EQ(a.stage_scale, b.stage_scale);
+    }
+  EXPECT_TRUE(ctr::hasActuation(r.withFriction({0.1, 0.0})));
+  EXPECT_FALSE(ctr::hasActuation(r.withoutActuation()));
+  EXPECT_EQ(ctr::io::robotToYaml(r.withoutActuation()).find("actuation"), std::string::npos);
+}
 
 TEST(RobotYaml, LoadsAndLinearDensity) {
   // No loads key: no external load (the torsion-only model).

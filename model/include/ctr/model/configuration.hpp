@@ -5,6 +5,7 @@
 #include <Eigen/Core>
 #include <string>
 
+#include "ctr/model/actuation.hpp"
 #include "ctr/model/robot.hpp"
 
 namespace ctr {
@@ -54,6 +55,15 @@ inline constexpr double kAdmissibilityTolerance = 1e-6;
 /// the violated constraint of the unprojected q (q unchanged). A q that checkAdmissible already accepts is left
 /// unchanged bit for bit.
 Admissibility projectAdmissible(const Robot& robot, Configuration& q, double tolerance = kAdmissibilityTolerance);
+
+/// @brief True when some tube's rotation or translation drive is not ideal (Tube::rotation_drive, translation_drive).
+bool hasActuation(const Robot& robot);
+
+/// @brief The tubes' joint values for a command through their drives (actuation.hpp): plays (updating `state`; a
+/// drive without history takes its play as centred on this command), transmission errors, offsets; translations
+/// then projected onto the admissible set (a stage cannot push a tube through the nesting order). The command
+/// itself for a robot without actuation. Throws std::invalid_argument for a command of another size.
+Configuration jointsOf(const Robot& robot, const Configuration& command, DriveState& state);
 
 /// @brief The default configuration of the command line and the Python module: rotations 0, each tube's straight
 /// part retracted (beta_i = -straight length), then made admissible (beta_{i+1} <= beta_i, ordered distal ends).

@@ -39,7 +39,11 @@ struct ContactMemory {
 
 /// @brief Everything the friction model remembers of the path so far. A plain value: copy it to branch a path.
 struct HysteresisState {
-  Configuration q;                  ///< Last commanded configuration.
+  /// The tubes' configuration at the last step (the joints: the command through the robot's drives; the command
+  /// itself for a robot without actuation).
+  Configuration q;
+  Configuration command;            ///< The last command.
+  DriveState drives;                ///< The plays' positions (actuation.hpp); empty for a robot without actuation.
   Eigen::VectorXd base_twist_rate;  ///< Equilibrium branch: u_iz(0) at the last step (warm start).
   Eigen::Vector3d base_moment = Eigen::Vector3d::Zero();  ///< With external loads: m(0) at the last step (warm start).
   std::vector<ContactMemory> contacts;                    ///< One per contact site at the last step.
@@ -85,7 +89,8 @@ struct StepResult {
   StepSummary summary;
 };
 
-/// @brief Memory of a robot at rest at q without friction torques (all contacts stuck at zero torque).
+/// @brief Memory of a robot at rest at the command q without friction torques (all contacts stuck at zero torque).
+/// A robot with actuation (hasActuation) is put at the joints of q (jointsOf; its plays centred on q).
 /// Uses the robot's coefficients from robot.friction(): boundary mu' (stick-slip or paper mode) or distributed mu
 /// (distributed_friction.hpp; sign from the commanded relative rotation), or both at once (the lumped torques then act
 /// on the distributed-friction equilibrium; stick-slip and paper modes as without distributed friction).
@@ -95,7 +100,9 @@ StepResult initialState(const Robot& robot, const Configuration& q, Workspace& w
                         const Solution* branch = nullptr);
 
 /// @brief Quasi-static move from the state `from` to the command q, sub-stepped so that the result does not depend
-/// on how the caller slices a path (see docs/friction.md for the tolerance rule at stick/slip changes).
+/// on how the caller slices a path (see docs/friction.md for the tolerance rule at stick/slip changes). A robot with
+/// actuation moves from the state's joints to the joints of q (jointsOf with the state's plays, which the new state
+/// carries); the straight move is then in joint space.
 StepResult step(const Robot& robot, const HysteresisState& from, const Configuration& q, Workspace& ws,
                 const FrictionOptions& options = {});
 

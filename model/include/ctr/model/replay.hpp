@@ -125,6 +125,9 @@ using ReplayObserver = std::function<bool(std::size_t index, ReplayRow& row)>;
 /// from the last evaluated state; when that move fails too, the row is reached from rest (Reached::Restart). A snap
 /// is followed: the replay continues from the branch it landed on. Each move is one step() (sub-stepped by
 /// subdivisions() of the friction options). With an observer that stops the replay, the rows replayed so far.
+/// A robot with actuation (hasActuation): the commands go through its drives first, in order (jointsOf; the plays
+/// remember the order, `path.via` included), and the tubes replay the joints: the rows' solutions and states are
+/// in joint space.
 std::vector<ReplayRow> replay(const Robot& robot, const std::vector<Configuration>& commands, Workspace& ws,
                               const ReplayOptions& options = {}, const ReplayPath& path = {},
                               const ReplayObserver& observer = {});

@@ -7,6 +7,7 @@
 #include <string>
 #include <vector>
 
+#include "ctr/model/actuation.hpp"
 #include "ctr/model/loads.hpp"
 
 namespace ctr {
@@ -27,6 +28,8 @@ struct Tube {
   double linear_density = 0.0;       ///< Mass per unit length (kg/m) for gravity; 0 if unknown (weightless).
   std::optional<std::array<double, 2>> rotation_limits;     ///< [min, max] of alpha (rad).
   std::optional<std::array<double, 2>> translation_limits;  ///< [min, max] of beta (m).
+  Drive rotation_drive;     ///< Between the rotation command and alpha (ideal by default; actuation.hpp).
+  Drive translation_drive;  ///< Between the translation command and beta (ideal by default).
 
   /// @brief Total length straight + curved (m).
   double length() const { return straight_length + curved_length; }
@@ -60,6 +63,8 @@ public:
   Robot withFriction(FrictionCoefficients f) const;
   /// @brief A copy with other external loads (validated again).
   Robot withLoads(const Loads& loads) const;
+  /// @brief A copy whose drives are all ideal (the physics of the tubes alone: commands are joints).
+  Robot withoutActuation() const;
   /// @brief A copy with one tube replaced (validated again).
   Robot withTube(int i, const Tube& t) const;
 

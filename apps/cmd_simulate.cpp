@@ -64,7 +64,7 @@ void registerSimulate(CLI::App& app, Action& action) {
           // written empty with a warning, as the diagnosis leaves it out. Anything else is a failure.
           const bool snap = row.failure == Failure::Snapped;
           failures += snap ? 0 : 1;
-          std::cerr << "warning: row " << r + 1 << (snap ? " " : " could not be evaluated: ") << row.reason << "\n";
+          std::cerr << "warning: row " << r + 1 << (snap ? " " : " could not be evaluated: ") << row.message << "\n";
           continue;
         }
         const Solution& s = row.result.solution;

@@ -107,7 +107,7 @@ void BM_FrictionMotionStep(benchmark::State& st) {
   if (!ctx) return st.SkipWithError(io::missingDataMessage("${CTR_DATA}/med-mpd").c_str());
   const Configuration q0(Eigen::Vector3d(0.0, 0.5, -0.5), Eigen::Vector3d(-0.118, -0.218, -0.318));
   const std::shared_ptr<const planner::StateCache> start = planner::startCache(*ctx, q0, planner::StartHistory{});
-  if (!start->physics_ok) return st.SkipWithError(("start not valid: " + start->why).c_str());
+  if (!start->physics_ok) return st.SkipWithError(("start not valid: " + start->message).c_str());
   std::shared_ptr<const planner::StateCache> cur = start;
   int k = 0;
   for (auto _ : st) {

@@ -97,7 +97,7 @@ json replayJson(const planner::PlanResult& r) {
           {"min_clearance", std::isfinite(r.replay.min_clearance) ? json(r.replay.min_clearance) : json(nullptr)},
           {"path_length", r.path_length},
           {"failure", toString(r.replay.failure)},
-          {"first_failure", r.replay.first_failure}};
+          {"first_failure", r.replay.message}};
 }
 
 // Replay properties added to every OMPL run (solved or not, so every run has the same columns).

@@ -218,7 +218,7 @@ DiagnosisReport diagnosePass(const Robot& nominal, const io::Recording& given, c
     ++nfailed;
     rep.failed_rows.push_back({s.origin[static_cast<std::size_t>(k)],
                                s.base.prediction.failure[static_cast<std::size_t>(k)],
-                               s.base.prediction.reason[static_cast<std::size_t>(k)], "nominal"});
+                               s.base.prediction.message[static_cast<std::size_t>(k)], "nominal"});
   }
   for (const auto& [k, row] : outliers) {
     s.evaluable[static_cast<std::size_t>(k)] = 0;
@@ -233,7 +233,7 @@ DiagnosisReport diagnosePass(const Robot& nominal, const io::Recording& given, c
   }
   if (nfailed == rows)
     throw std::runtime_error(
-        "the nominal model could not evaluate any row of the recording (row 1: " + s.base.prediction.reason[0] + ")");
+        "the nominal model could not evaluate any row of the recording (row 1: " + s.base.prediction.message[0] + ")");
   if (nfailed > 0) {
     rep.warnings.push_back(std::to_string(nfailed) + " of " + std::to_string(rows) +
                            " rows could not be evaluated by the nominal model and are excluded from every residual, "

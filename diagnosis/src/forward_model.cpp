@@ -177,7 +177,7 @@ Prediction predict(const Robot& nominal, const std::vector<Configuration>& comma
   p.moment.setConstant(rows, nan);
   p.ok.assign(static_cast<std::size_t>(rows), 0);
   p.failure.assign(static_cast<std::size_t>(rows), Failure::None);
-  p.reason.assign(static_cast<std::size_t>(rows), std::string());
+  p.message.assign(static_cast<std::size_t>(rows), std::string());
   p.reached.assign(static_cast<std::size_t>(rows), Reached::Path);
   p.alternatives.assign(static_cast<std::size_t>(rows), {});
   if (options.keep_solutions) p.solutions.assign(static_cast<std::size_t>(rows), Solution{});
@@ -191,7 +191,7 @@ Prediction predict(const Robot& nominal, const std::vector<Configuration>& comma
     if (!row.ok) {
       ++p.failures;
       p.failure[static_cast<std::size_t>(k)] = row.failure != Failure::None ? row.failure : Failure::NotConverged;
-      p.reason[static_cast<std::size_t>(k)] = row.reason.empty() ? "did not converge" : row.reason;
+      p.message[static_cast<std::size_t>(k)] = row.message.empty() ? "did not converge" : row.message;
       continue;
     }
     const Solution& s = row.result.solution;

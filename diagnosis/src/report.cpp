@@ -195,7 +195,7 @@ std::string reportToJson(const DiagnosisReport& r) {
   json failed = json::array();
   for (const FailedRow& fr : r.failed_rows)
     failed.push_back(
-        json{{"row", fr.row}, {"failure", toString(fr.failure)}, {"reason", fr.reason}, {"model", fr.model}});
+        json{{"row", fr.row}, {"failure", toString(fr.failure)}, {"reason", fr.message}, {"model", fr.model}});
   j["failed_rows"] = failed;
   j["reliable"] = r.reliable;
   if (r.unexplained.present) {
@@ -352,7 +352,7 @@ std::string reportToMarkdown(const DiagnosisReport& r, const io::Recording& full
         o << "| ... | | " << r.failed_rows.size() - 50 << " more in the JSON |\n";
         break;
       }
-      o << "| " << fr.row << " | " << fr.model << " | " << fr.reason << " |\n";
+      o << "| " << fr.row << " | " << fr.model << " | " << fr.message << " |\n";
     }
     o << "\n";
   }

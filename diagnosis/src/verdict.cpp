@@ -110,7 +110,7 @@ void writeVerdict(State& s) {
         !cur.fit.prediction.ok[static_cast<std::size_t>(k)])
       rep.failed_rows.push_back({s.origin[static_cast<std::size_t>(k)],
                                  cur.fit.prediction.failure[static_cast<std::size_t>(k)],
-                                 cur.fit.prediction.reason[static_cast<std::size_t>(k)], rep.final.model});
+                                 cur.fit.prediction.message[static_cast<std::size_t>(k)], rep.final.model});
   // Rows reached through a snap are excluded (the landing state of a dynamic jump is uncertain) but are a physical
   // prediction of the model, not a failure of it: they count separately from the rows the model could not solve.
   int snapped = 0;

@@ -70,7 +70,7 @@ struct Move {
   StepResult r;
   bool ok = false;
   Failure failure = Failure::None;
-  std::string reason;
+  std::string message;
 };
 
 /// Why a move's result is not a usable equilibrium (Failure::None when it is).
@@ -83,7 +83,7 @@ Failure failureOf(const Robot& robot, const StepResult& r) {
   return Failure::None;
 }
 
-/// Sets the move's failure, its reason in words and ok.
+/// Sets the move's failure, its message (the failure in words) and ok.
 void judge(const Robot& robot, Move& m) {
   const StepResult& r = m.r;
   m.failure = failureOf(robot, r);
@@ -91,22 +91,22 @@ void judge(const Robot& robot, Move& m) {
   const std::string& msg = r.summary.message.empty() ? r.solution.summary.message : r.summary.message;
   switch (m.failure) {
     case Failure::Inadmissible:
-      m.reason = "inadmissible command: " + r.summary.message;
+      m.message = "inadmissible command: " + r.summary.message;
       break;
     case Failure::NoContactSet:
-      m.reason = "no consistent stick/slip contact set" + (r.summary.message.empty() ? "" : ": " + r.summary.message);
+      m.message = "no consistent stick/slip contact set" + (r.summary.message.empty() ? "" : ": " + r.summary.message);
       break;
     case Failure::NotConverged:
-      m.reason = "did not converge" + (msg.empty() ? "" : ": " + msg);
+      m.message = "did not converge" + (msg.empty() ? "" : ": " + msg);
       break;
     case Failure::Snapped:
-      m.reason = "snapped (the equilibrium branch ended; the quasi-static model cannot follow the jump)";
+      m.message = "snapped (the equilibrium branch ended; the quasi-static model cannot follow the jump)";
       break;
     case Failure::Unstable:
-      m.reason = "unstable equilibrium";
+      m.message = "unstable equilibrium";
       break;
     default:
-      m.reason.clear();
+      m.message.clear();
   }
 }
 
@@ -166,7 +166,7 @@ Move fromRest(const Robot& robot, const Configuration& home, const Configuration
   if (!(start.summary.converged && start.state.valid)) {
     m.r = std::move(start);
     m.failure = Failure::NotConverged;
-    m.reason = "did not converge at rest: " + m.r.summary.message;
+    m.message = "did not converge at rest: " + m.r.summary.message;
     return m;
   }
   if (home.alpha == q.alpha) {
@@ -307,7 +307,7 @@ StepResult reachFromRest(const Robot& robot, const Configuration& q, Workspace& 
   ReplayOptions o;
   o.friction = options;
   Move m = fromRest(robot, restOf(q), q, ws, o);
-  if (!m.reason.empty() && m.r.summary.message.empty()) m.r.summary.message = m.reason;
+  if (!m.message.empty() && m.r.summary.message.empty()) m.r.summary.message = m.message;
   return std::move(m.r);
 }
 
@@ -317,7 +317,7 @@ StepResult restAt(const Robot& robot, const Configuration& q, Workspace& ws, con
   const Robot free = hasFriction(robot) ? robot.withFriction(FrictionCoefficients{}) : robot;
   Move m = fromRest(free, restOf(q), q, ws, o);
   if (!m.ok || !hasFriction(robot)) {
-    if (!m.reason.empty() && m.r.summary.message.empty()) m.r.summary.message = m.reason;
+    if (!m.message.empty() && m.r.summary.message.empty()) m.r.summary.message = m.message;
     return std::move(m.r);
   }
   StepResult r = initialState(robot, q, ws, options, &m.r.solution);
@@ -370,7 +370,7 @@ std::vector<ReplayRow> replay(const Robot& robot, const std::vector<Configuratio
     if (!adm) {
       Move m = inadmissibleMove(robot, q, adm);
       row.failure = m.failure;
-      row.reason = m.reason;
+      row.message = m.message;
       row.result = std::move(m.r);
       previous_failed = true;
       if (observer && !observer(k, row)) {
@@ -407,7 +407,7 @@ std::vector<ReplayRow> replay(const Robot& robot, const std::vector<Configuratio
     }
     row.ok = m.ok;
     row.failure = m.failure;
-    row.reason = m.reason;
+    row.message = m.message;
     last_command = q;
     if (o.find_alternatives) {
       // The row's own frictionless branch, solved only where other branches are searched or followed.

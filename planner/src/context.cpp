@@ -66,13 +66,13 @@ ShapeCheck checkShape(const Context& ctx, const Solution& sol, ThreadScratch& t)
   ShapeCheck c;
   if (!sol.converged()) {
     c.failure = sol.summary.status == SolveStatus::Inadmissible ? Failure::Inadmissible : Failure::NotConverged;
-    c.reason = sol.summary.status == SolveStatus::Inadmissible ? "inadmissible: " + sol.summary.message
-                                                               : "model not converged: " + sol.summary.message;
+    c.message = sol.summary.status == SolveStatus::Inadmissible ? "inadmissible: " + sol.summary.message
+                                                                : "model not converged: " + sol.summary.message;
     return c;
   }
   if (!sol.summary.stable) {
     c.failure = Failure::Unstable;
-    c.reason = "elastically unstable equilibrium";
+    c.message = "elastically unstable equilibrium";
     return c;
   }
   const environments::CollisionResult r = ctx.checker().check(sol, t.query);
@@ -82,7 +82,7 @@ ShapeCheck checkShape(const Context& ctx, const Solution& sol, ThreadScratch& t)
     std::snprintf(buf, sizeof buf, "collision (tube %d, s %g-%g m%s)", r.tube + 1, r.s0, r.s1,
                   r.outside_map ? ", outside the map" : "");
     c.failure = Failure::Collision;
-    c.reason = buf;
+    c.message = buf;
     return c;
   }
   c.ok = true;

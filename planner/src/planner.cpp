@@ -258,10 +258,10 @@ void CtrPlanner::checkStart() const {
   const std::shared_ptr<const StateCache> c = startCache(*ctx_, query_.start, query_.history);
   if (!c->solution.converged())
     throw io::InputError(query_.file, query_.lineOf("start"), "start",
-                         "the model does not converge at the start: " + c->why);
+                         "the model does not converge at the start: " + c->message);
   const ShapeCheck sc = checkShape(*ctx_, c->solution, t);
   if (!sc.ok)
-    throw io::InputError(query_.file, query_.lineOf("start"), "start", "start configuration is invalid: " + sc.reason);
+    throw io::InputError(query_.file, query_.lineOf("start"), "start", "start configuration is invalid: " + sc.message);
 }
 
 PlanResult CtrPlanner::solve() {
@@ -397,7 +397,7 @@ PlanResult CtrPlanner::replaySolution(const std::string& planner, double plannin
       replayPath(*ctx_, r.path, query_.history, test, query_.replay_rotation_step, query_.replay_translation_step);
   r.replay_time = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   r.solved = exact && r.replay.ok();
-  if (!r.solved) r.message = "replay: " + (r.replay.first_failure.empty() ? "failed" : r.replay.first_failure);
+  if (!r.solved) r.message = "replay: " + (r.replay.message.empty() ? "failed" : r.replay.message);
   return r;
 }
 

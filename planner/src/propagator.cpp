@@ -24,13 +24,13 @@ std::shared_ptr<StateCache> fromStep(const StepResult& r, bool snapped_before) {
                   !snapped_before;
   if (!r.summary.converged || !r.solution.converged()) {
     c->failure = r.summary.failure != Failure::None ? r.summary.failure : Failure::NotConverged;
-    c->why = "model not converged: " + r.summary.message;
+    c->message = "model not converged: " + r.summary.message;
   } else if (r.summary.snapped || snapped_before) {
     c->failure = Failure::Snapped;
-    c->why = "snap";
+    c->message = "snap";
   } else if (!r.solution.summary.stable) {
     c->failure = Failure::Unstable;
-    c->why = "unstable";
+    c->message = "unstable";
   }
   return c;
 }
@@ -81,7 +81,7 @@ ReplayOptions replayOptions(const Context& ctx) {
 
 std::string historyFailure(std::size_t index, const ReplayRow& row) {
   if (row.result.summary.converged && row.result.state.valid && row.reached != Reached::Restart) return "";
-  return "start history, command " + std::to_string(index + 1) + ": " + row.reason;
+  return "start history, command " + std::to_string(index + 1) + ": " + row.message;
 }
 
 std::shared_ptr<const StateCache> startCache(const Context& ctx, const Configuration& q, const StartHistory& h) {
@@ -91,7 +91,7 @@ std::shared_ptr<const StateCache> startCache(const Context& ctx, const Configura
     if (why.empty()) continue;
     auto c = std::make_shared<StateCache>();
     c->failure = rows[k].failure;
-    c->why = why;
+    c->message = why;
     return c;
   }
   return fromStep(rows.back().result, false);
@@ -101,7 +101,7 @@ std::shared_ptr<const StateCache> propagateCache(const Context& ctx, const State
   if (!from.hysteresis.valid) {
     auto c = std::make_shared<StateCache>();
     c->failure = Failure::NotConverged;
-    c->why = "no valid memory to propagate from";
+    c->message = "no valid memory to propagate from";
     return c;
   }
   const Admissibility adm = checkAdmissible(ctx.robot(), to);
@@ -111,7 +111,7 @@ std::shared_ptr<const StateCache> propagateCache(const Context& ctx, const State
     c->solution.q = to;
     c->solution.summary.status = SolveStatus::Inadmissible;
     c->failure = Failure::Inadmissible;
-    c->why = "inadmissible: " + adm.message;
+    c->message = "inadmissible: " + adm.message;
     return c;
   }
   // Follow the motion in sub-steps of the motion-checking resolution; every intermediate equilibrium must be valid
@@ -135,13 +135,13 @@ std::shared_ptr<const StateCache> propagateCache(const Context& ctx, const State
       [&](int k, int steps, SubStep&, bool snapped) {
         out = fromStep(r, snapped);
         if (k == steps) return SubStep{};
-        if (!out->physics_ok) return SubStep{nullptr, out->failure, out->why};
+        if (!out->physics_ok) return SubStep{nullptr, out->failure, out->message};
         const ShapeCheck sc = checkShape(ctx, r.solution, t);
         if (!sc.ok) {
           out->physics_ok = false;
           out->failure = sc.failure;
-          out->why = "intermediate state: " + sc.reason;
-          return SubStep{nullptr, sc.failure, out->why};
+          out->message = "intermediate state: " + sc.message;
+          return SubStep{nullptr, sc.failure, out->message};
         }
         h = r.state;
         return SubStep{};

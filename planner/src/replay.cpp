@@ -40,7 +40,7 @@ ReplayReport replayPath(const Context& ctx, const std::vector<Configuration>& wa
   ReplayReport R;
   if (waypoints.empty()) {
     R.failure = Failure::NotConverged;
-    R.first_failure = "empty path";
+    R.message = "empty path";
     return R;
   }
   ThreadScratch& t = scratch();
@@ -59,7 +59,7 @@ ReplayReport replayPath(const Context& ctx, const std::vector<Configuration>& wa
       const std::string why = historyFailure(k, row);
       if (!why.empty()) {
         R.failure = row.failure != Failure::None ? row.failure : Failure::NotConverged;
-        R.first_failure = "start: " + why;
+        R.message = "start: " + why;
       }
       completed = why.empty();
       return completed;
@@ -67,14 +67,14 @@ ReplayReport replayPath(const Context& ctx, const std::vector<Configuration>& wa
     StepResult& r = row.result;
     if (k == start && !r.solution.converged()) {
       R.failure = row.failure != Failure::None ? row.failure : Failure::NotConverged;
-      R.first_failure = "start: " + row.reason;
+      R.message = "start: " + row.message;
       completed = false;
       return false;
     }
     if (k > start && !(r.summary.converged && r.state.valid)) {
       if (R.failure == Failure::None) {
         R.failure = row.failure != Failure::None ? row.failure : Failure::NotConverged;
-        R.first_failure = "step " + std::to_string(R.steps) + ": " + row.reason;
+        R.message = "step " + std::to_string(R.steps) + ": " + row.message;
       }
       R.stable = false;
       completed = false;
@@ -100,7 +100,7 @@ ReplayReport replayPath(const Context& ctx, const std::vector<Configuration>& wa
     }
     if (!p.valid && R.failure == Failure::None) {
       R.failure = snapped ? Failure::Snapped : c.failure;
-      R.first_failure = "step " + std::to_string(R.steps) + ": " + (snapped ? std::string("snap") : c.reason);
+      R.message = "step " + std::to_string(R.steps) + ": " + (snapped ? std::string("snap") : c.message);
     }
     if (r.solution.converged() && ctx.checker().distanceField()) {
       p.clearance = ctx.checker().clearance(r.solution, t.query).clearance;
@@ -122,9 +122,9 @@ ReplayReport replayPath(const Context& ctx, const std::vector<Configuration>& wa
   R.tip_error = tip_err;
   R.direction_error = dir_err;
   R.goal_reached = reached;
-  if (!reached && R.first_failure.empty()) {
+  if (!reached && R.message.empty()) {
     R.failure = Failure::GoalMissed;
-    R.first_failure = "goal missed by " + num(tip_err) + " m";
+    R.message = "goal missed by " + num(tip_err) + " m";
   }
   return R;
 }

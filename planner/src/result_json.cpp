@@ -29,7 +29,7 @@ std::string resultJson(const Query& q, const PlanResult& r, int indent) {
                  {"collisions", r.replay.collisions},
                  {"snaps", r.replay.snaps},
                  {"failure", toString(r.replay.failure)},
-                 {"first_failure", r.replay.first_failure}};
+                 {"first_failure", r.replay.message}};
   if (!r.message.empty()) j["message"] = r.message;
   return j.dump(indent);
 }

@@ -65,9 +65,9 @@ bool releaseIsSmooth(const FrictionBand* previous, const FrictionBand& cur, doub
 
 // The friction band at q (ctr::frictionBand, vertices only), followed from the band at the previous configuration of
 // a motion: every shape converged, stable and collision-free, no shape leaving the branch of its counterpart in `prev`
-// (the branch rule of followMove). Returns why not (Failure::None when the band is valid).
+// (the branch rule of followMove). Returns why not (Failure::None when the band is valid); `message` gets it in words.
 Failure bandAt(const Context& ctx, const Configuration& q, ThreadScratch& t, const FrictionBand* prev,
-               FrictionBand& out, std::string& why) {
+               FrictionBand& out, std::string& message) {
   const double thr = ctx.options().motion.snap_threshold;
   FrictionBandOptions o;
   o.interior_samples = 0;
@@ -86,24 +86,24 @@ Failure bandAt(const Context& ctx, const Configuration& q, ThreadScratch& t, con
     }
     const ShapeCheck c = checkShape(ctx, s, t);
     failure = c.failure;
-    if (!c.ok) return (i == 0 ? "frictionless shape: " : "friction band shape: ") + c.reason;
+    if (!c.ok) return (i == 0 ? "frictionless shape: " : "friction band shape: ") + c.message;
     return "";
   };
   out = frictionBand(ctx.robot(), q, t.ws, o);
   if (!out.converged) {
     if (out.shapes.empty() && o.follow) {
-      why = "frictionless branch snaps";
+      message = "frictionless branch snaps";
       return Failure::Snapped;
     }
     if (out.shapes.empty()) {
-      why = "frictionless shape: not converged";
+      message = "frictionless shape: not converged";
       return Failure::NotConverged;
     }
-    why = out.message;
+    message = out.message;
     return failure != Failure::None ? failure : Failure::NotConverged;
   }
   if (!releaseIsSmooth(prev, out, thr)) {
-    why = "a contact site vanishes and releases its friction torque (the band jumps)";
+    message = "a contact site vanishes and releases its friction torque (the band jumps)";
     return Failure::Released;
   }
   return Failure::None;
@@ -118,14 +118,14 @@ ConfigurationCheck checkFrictionless(const Context& ctx, const Configuration& q,
   const ShapeCheck c = checkShape(ctx, r.shape, t);
   r.ok = c.ok;
   r.failure = c.failure;
-  r.reason = c.reason;
+  r.message = c.message;
   return r;
 }
 
 ConfigurationCheck checkRobust(const Context& ctx, const Configuration& q, ThreadScratch& t) {
   ConfigurationCheck r;
   FrictionBand b;
-  r.failure = bandAt(ctx, q, t, nullptr, b, r.reason);
+  r.failure = bandAt(ctx, q, t, nullptr, b, r.message);
   r.ok = r.failure == Failure::None;
   if (!b.shapes.empty()) r.shape = std::move(b.shapes[0]);
   return r;
@@ -156,7 +156,7 @@ bool sameBand(const FrictionBand& a, const FrictionBand& b) {
 // and the collision checks would then be about a shape the robot is not in. So a motion is valid only as far as it
 // ends on the own equilibrium of the configuration it reaches; otherwise nothing of it is valid.
 double checkMotionForward(const Context& ctx, const Configuration& q0, const Configuration& q1, ThreadScratch& t,
-                          std::string* reason, Failure* failure) {
+                          std::string* message, Failure* failure) {
   const FollowOptions& fo = ctx.options().motion;
   std::string why;
   auto result = [&](const FollowSummary& f, bool own) {
@@ -165,7 +165,7 @@ double checkMotionForward(const Context& ctx, const Configuration& q0, const Con
       kind = Failure::OffBranch;
       why = "the motion arrives on another equilibrium than the configuration's own (several are stable there)";
     }
-    if (kind != Failure::None && reason) *reason = why;
+    if (kind != Failure::None && message) *message = why;
     if (failure) *failure = kind;
     if (!own) return 0.0;
     return f.completedMove() ? 1.0 : static_cast<double>(f.completed) / f.steps;
@@ -196,7 +196,7 @@ double checkMotionForward(const Context& ctx, const Configuration& q0, const Con
   }
   ConfigurationCheck c = checkFrictionless(ctx, q0, t);
   if (!c.ok) {
-    why = c.reason;
+    why = c.message;
     f.failure = c.failure;
     return result(f, true);
   }
@@ -210,7 +210,7 @@ double checkMotionForward(const Context& ctx, const Configuration& q0, const Con
       noRecovery,
       [&](int, int, SubStep&, bool) {
         const ShapeCheck sc = checkShape(ctx, next, t);
-        if (!sc.ok) return SubStep{nullptr, sc.failure, sc.reason};
+        if (!sc.ok) return SubStep{nullptr, sc.failure, sc.message};
         cur = std::move(next);
         return SubStep{};
       });

@@ -247,7 +247,7 @@ void registerFriction(pyb::module_& m) {
         for (std::size_t k = 0; k < res.size(); ++k) {
           sols.push_back(&res[k].result.solution);
           snapped.mutable_at(static_cast<pyb::ssize_t>(k)) = res[k].result.summary.snapped;
-          messages.append(res[k].ok ? res[k].result.summary.message : res[k].reason);
+          messages.append(res[k].ok ? res[k].result.summary.message : res[k].message);
           failures.append(toString(res[k].failure));
           reached.append(toString(res[k].reached));
           if (keep_states) states.append(pyb::cast(res[k].result.state));

@@ -213,7 +213,12 @@ void registerPlanner(pyb::module_& m) {
       .def_property_readonly("snaps", [](const Replay& p) { return p.rep().snaps; })
       .def_property_readonly("unstable", [](const Replay& p) { return p.rep().unstable; })
       .def_property_readonly("failure", [](const Replay& p) { return std::string(toString(p.rep().failure)); })
-      .def_property_readonly("first_failure", [](const Replay& p) { return p.rep().first_failure; })
+      .def_property_readonly(
+          "message", [](const Replay& p) { return p.rep().message; },
+          "What went wrong first, in words, with the step ('' when nothing did; `failure` is the same as a value).")
+      .def_property_readonly(
+          "first_failure", [](const Replay& p) { return p.rep().message; },
+          "Deprecated alias of `message`; will be removed in the next release (use `message`).")
       .def_property_readonly("ok", [](const Replay& p) { return p.rep().ok(); })
       .def("__len__", [](const Replay& p) { return p.rep().points.size(); })
       .def_property_readonly(
@@ -295,7 +300,7 @@ void registerPlanner(pyb::module_& m) {
           "The `ctr plan --path` CSV text (recording columns + clearance, validity, hysteresis).")
       .def("__repr__", [](const Replay& p) {
         return "<ctr.ReplayReport " + std::to_string(p.rep().steps) + " steps, " +
-               (p.rep().ok() ? std::string("ok") : "failed: " + p.rep().first_failure) + ">";
+               (p.rep().ok() ? std::string("ok") : "failed: " + p.rep().message) + ">";
       });
 
   pyb::class_<Result>(m, "PlanResult", "Result of planning + replay; to_dict() is the `ctr plan --json` object.")

@@ -37,6 +37,8 @@ def test_plan_equals_cli(cli, tmp_path):
     rep = r.replay
     m = len(rep)
     assert rep.ok and rep.steps == expected["replay"]["steps"]
+    # what went wrong first, in words: the JSON's `first_failure` ("" here); first_failure is its deprecated alias
+    assert rep.message == expected["replay"]["first_failure"] == "" and rep.first_failure == rep.message
     tips = rep.tip_positions()
     assert tips.shape == (m, 3) and rep.clearance.shape == (m,) and rep.valid.all()
     assert rep.clearance.min() == pytest.approx(rep.min_clearance, abs=1e-12)

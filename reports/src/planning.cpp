@@ -147,7 +147,7 @@ std::string planningHtml(const planner::Context& ctx, const std::vector<Configur
     std::string reason;
     if (ok) {
       const planner::ShapeCheck sc = planner::checkShape(ctx, s, scratch);
-      if (!sc.ok) reason = sc.reason;
+      if (!sc.ok) reason = sc.message;
       if (sc.failure == Failure::Collision) ++collisions;
     } else {
       reason = "not converged" + (s.summary.message.empty() ? std::string() : ": " + s.summary.message);

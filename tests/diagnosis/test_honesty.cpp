@@ -74,7 +74,7 @@ TEST(ForwardModel, FailedRowIsNaNAndTheReplayContinuesFromTheLastEvaluatedState)
     ASSERT_EQ(a.rows(), b.rows() + 1);
     EXPECT_EQ(a.failures, 1);
     EXPECT_FALSE(a.ok[bad]);
-    EXPECT_EQ(a.reason[bad].rfind("inadmissible command", 0), 0u) << a.reason[bad];
+    EXPECT_EQ(a.message[bad].rfind("inadmissible command", 0), 0u) << a.message[bad];
     EXPECT_TRUE(a.tip_position.row(bad).array().isNaN().all());
     EXPECT_TRUE(a.twist.row(bad).array().isNaN().all());
     EXPECT_TRUE(std::isnan(a.moment[bad]));
@@ -104,7 +104,7 @@ TEST(ForwardModel, RoundedCoincidentEndsAreProjectedNotFailed) {
   Workspace ws;
   for (double mu : {0.0, 0.05}) {
     const Prediction p = predict(r, cmd, Eigen::VectorXd(), {{EffectKind::BoundaryFriction, 0, mu}}, ws);
-    EXPECT_EQ(p.failures, 0) << (p.failures ? p.reason[0] + " / " + p.reason[1] : "");
+    EXPECT_EQ(p.failures, 0) << (p.failures ? p.message[0] + " / " + p.message[1] : "");
   }
 }
 
@@ -121,7 +121,7 @@ TEST(Diagnose, FailedRowsAreListedExcludedAndMakeTheVerdictUnreliableWhenMany) {
   few.commands[40].beta[1] = 2e-3;
   const DiagnosisReport a = diagnose(r, few);
   EXPECT_EQ(failedRows(a), (std::vector<int>{11, 41}));
-  for (const FailedRow& f : a.failed_rows) EXPECT_TRUE(contains(f.reason, "inadmissible")) << f.reason;
+  for (const FailedRow& f : a.failed_rows) EXPECT_TRUE(contains(f.message, "inadmissible")) << f.message;
   EXPECT_TRUE(a.reliable);
   EXPECT_EQ(a.verdict, std::vector<std::string>{"boundary_friction"}) << a.summary;
   EXPECT_TRUE(a.plot.nominal.tip_position.row(10).array().isNaN().all());
@@ -162,7 +162,7 @@ TEST(Diagnose, RoundedCoincidentEndsGiveNoFailedRowsAndNoVerdict) {
   // (told the tracker's noise, the tool says nothing was left out: Noise.GivenNoiseDecidesAndAResidualTwiceItIsNever
   // AtTheNoise). Estimating it, the tool names nothing and says it cannot tell the noise from model error.
   const DiagnosisReport rep = diagnose(r, rec);
-  EXPECT_TRUE(rep.failed_rows.empty()) << rep.failed_rows.front().reason;
+  EXPECT_TRUE(rep.failed_rows.empty()) << rep.failed_rows.front().message;
   EXPECT_TRUE(rep.verdict.empty()) << rep.summary;
   EXPECT_FALSE(rep.unexplained.present) << rep.unexplained.where;
   if (rep.noise.supported())

@@ -314,8 +314,8 @@ TEST(ForwardModel, CoarsePassEqualsFineReplay) {
           EXPECT_LT((a.twist.row(k) - b.twist.row(k)).cwiseAbs().maxCoeff(), 1e-8) << "row " << k;
         }
       } else {
-        EXPECT_EQ(a.reason[static_cast<std::size_t>(k)].rfind("snapped", 0), 0u)
-            << a.reason[static_cast<std::size_t>(k)];
+        EXPECT_EQ(a.message[static_cast<std::size_t>(k)].rfind("snapped", 0), 0u)
+            << a.message[static_cast<std::size_t>(k)];
         EXPECT_TRUE(a.tip_position.row(k).array().isNaN().all()) << "row " << k;
       }
     }

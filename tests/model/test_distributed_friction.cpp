@@ -133,7 +133,7 @@ TEST(DistributedFriction, SelectedThroughTheRobotFrictionBlockInReplay) {
   ro.friction = fo;
   const std::vector<ReplayRow> res = replay(r, path, ws, ro);
   ASSERT_EQ(res.size(), path.size());
-  for (const auto& s : res) ASSERT_TRUE(s.ok) << s.reason;
+  for (const auto& s : res) ASSERT_TRUE(s.ok) << s.message;
   // Tiny but present envelope at 0.5 rad (rows 5 and 13): down branch above the up branch.
   EXPECT_GT(res[13].result.solution.twist[0] - res[5].result.solution.twist[0], 1e-5);
   EXPECT_LT(res[13].result.solution.twist[0] - res[5].result.solution.twist[0], 0.02);

@@ -40,8 +40,8 @@ TEST(Replay, EveryRowFollowsTheMoveFromThePreviousWhateverItsSize) {
     ASSERT_EQ(rows.size(), q.size());
     EXPECT_EQ(rows[0].reached, Reached::Rest);
     for (std::size_t k = 1; k < rows.size(); ++k) EXPECT_EQ(rows[k].reached, Reached::Path) << k;
-    for (const ReplayRow& row : rows) ASSERT_TRUE(row.ok) << row.reason;
-    ASSERT_TRUE(dense.back().ok) << dense.back().reason;
+    for (const ReplayRow& row : rows) ASSERT_TRUE(row.ok) << row.message;
+    ASSERT_TRUE(dense.back().ok) << dense.back().message;
     EXPECT_LT((rows.back().result.solution.tip_position - dense.back().result.solution.tip_position).norm(), 1e-6);
     EXPECT_FALSE(isLongMove(q[0], q[1], ReplayOptions{}));
     EXPECT_TRUE(isLongMove(q[1], q[2], ReplayOptions{}));
@@ -61,7 +61,7 @@ TEST(Replay, ALongMovePastAnotherBranchListsTheOneReachedFromRest) {
     const std::vector<Configuration> q = {pose(0), pose(200 * kDeg), pose(205 * kDeg)};
     const std::vector<ReplayRow> rows = replay(r, q, ws, o);
     for (std::size_t k = 1; k < rows.size(); ++k) {
-      ASSERT_TRUE(rows[k].ok) << k << ": " << rows[k].reason;
+      ASSERT_TRUE(rows[k].ok) << k << ": " << rows[k].message;
       EXPECT_EQ(rows[k].reached, Reached::Path);
       const StepResult rest = reachFromRest(free, q[k], ws);
       ASSERT_TRUE(rest.summary.converged) << rest.summary.message;
@@ -109,7 +109,7 @@ TEST(Replay, NeverAnUnstableEquilibriumAndTheOtherBranchIsListed) {
   for (int k = 0; k <= 12; ++k) q.push_back(pose(k * 30 * kDeg));
   const std::vector<ReplayRow> rows = replay(r, q, ws, o);
   for (std::size_t k = 0; k < rows.size(); ++k) {
-    ASSERT_TRUE(rows[k].ok) << k << ": " << rows[k].reason;
+    ASSERT_TRUE(rows[k].ok) << k << ": " << rows[k].message;
     EXPECT_TRUE(rows[k].result.solution.summary.stable) << k;
     const double rel = std::remainder(q[k].alpha[1], 2 * M_PI);
     if (std::abs(rel) < 1e-9) continue;
@@ -136,14 +136,14 @@ TEST(Replay, PathAndRestDifferWhereThePathWindsUp) {
   path.branch = BranchRule::Path;
   rest.branch = BranchRule::Rest;
   const std::vector<ReplayRow> a = replay(r, q, ws, path), b = replay(r, q, ws, rest);
-  ASSERT_TRUE(b.back().ok) << b.back().reason;
+  ASSERT_TRUE(b.back().ok) << b.back().message;
   if (a.back().ok) {
     EXPECT_GT((a.back().result.solution.tip_position - b.back().result.solution.tip_position).norm(), 0.05);
     EXPECT_TRUE(a.back().result.solution.summary.stable);
   } else {
     bool snapped = false;
-    for (const ReplayRow& row : a) snapped = snapped || row.reason.rfind("snapped", 0) == 0;
-    EXPECT_TRUE(snapped) << a.back().reason;
+    for (const ReplayRow& row : a) snapped = snapped || row.message.rfind("snapped", 0) == 0;
+    EXPECT_TRUE(snapped) << a.back().message;
   }
 }
 
@@ -161,9 +161,9 @@ TEST(Replay, FailedRowIsReportedAndTheNextComesFromTheLastState) {
     if (c.beta[0] <= 0) without.push_back(c);
   const std::vector<ReplayRow> a = replay(r, q, ws), b = replay(r, without, ws);
   EXPECT_FALSE(a[5].ok);
-  EXPECT_EQ(a[5].reason.rfind("inadmissible command", 0), 0u) << a[5].reason;
+  EXPECT_EQ(a[5].message.rfind("inadmissible command", 0), 0u) << a[5].message;
   for (std::size_t k = 6; k < a.size(); ++k) {
-    ASSERT_TRUE(a[k].ok) << a[k].reason;
+    ASSERT_TRUE(a[k].ok) << a[k].message;
     EXPECT_LT((a[k].result.solution.tip_position - b[k - 1].result.solution.tip_position).norm(), 1e-12);
   }
 }

@@ -462,7 +462,7 @@ TEST(MotionValidation, TheMotionCheckAndTheReplayAgreeWhereABranchSnaps) {
   for (int k = 0; k <= completed; ++k) EXPECT_TRUE(rows[static_cast<std::size_t>(k)].ok) << "row " << k;
   ASSERT_LT(completed + 1, static_cast<int>(rows.size()));
   EXPECT_EQ(rows[static_cast<std::size_t>(completed + 1)].failure, Failure::Snapped)
-      << rows[static_cast<std::size_t>(completed + 1)].reason;
+      << rows[static_cast<std::size_t>(completed + 1)].message;
 }
 
 TEST(Planning, TheMotionCheckAndTheReplayAgreeOnEveryMotionOfTheExamplePlans) {
@@ -486,7 +486,7 @@ TEST(Planning, TheMotionCheckAndTheReplayAgreeOnEveryMotionOfTheExamplePlans) {
       EXPECT_EQ(failure, Failure::None);
       const std::vector<ReplayRow> rows = replayAtResolution(ctx, r.path[k], r.path[k + 1]);
       for (std::size_t j = 0; j < rows.size(); ++j)
-        ASSERT_EQ(rows[j].failure, Failure::None) << "motion " << k << ", row " << j << ": " << rows[j].reason;
+        ASSERT_EQ(rows[j].failure, Failure::None) << "motion " << k << ", row " << j << ": " << rows[j].message;
       // The same equilibrium by the motion check's rule (different equilibria differ by 0.1-5 rad of twist and
       // 2-70 mm at the tip; the same one solved along two paths by the solver's tolerance).
       const Solution own = solve(ctx.frictionlessRobot(), r.path[k + 1], ws);
@@ -644,12 +644,12 @@ TEST(Planning, FrictionlessModePlansWithAGeometricPlannerAndIsReplayedWithFricti
   if (!r.planner_solved) r = p.solve();
   ASSERT_TRUE(r.planner_solved) << r.message;
   // The replay ran on the friction model (mu' = 0.1 from the query) from the start history.
-  EXPECT_TRUE(r.replay.completed) << r.replay.first_failure;
+  EXPECT_TRUE(r.replay.completed) << r.replay.message;
   EXPECT_GT(r.replay.steps, 10);
   EXPECT_EQ(r.solved, r.replay.ok());
   // What went wrong first, as a value next to the words (none exactly when nothing did).
-  EXPECT_EQ(r.replay.failure == Failure::None, r.replay.first_failure.empty()) << r.replay.first_failure;
-  EXPECT_EQ(r.replay.failure == Failure::None, r.replay.ok()) << r.replay.first_failure;
+  EXPECT_EQ(r.replay.failure == Failure::None, r.replay.message.empty()) << r.replay.message;
+  EXPECT_EQ(r.replay.failure == Failure::None, r.replay.ok()) << r.replay.message;
 }
 
 TEST(Planning, RobustValidityCoversTheWholeFrictionBand) {
@@ -660,7 +660,7 @@ TEST(Planning, RobustValidityCoversTheWholeFrictionBand) {
   ThreadScratch& t = scratch();
   ASSERT_GT(ctx.robot().friction().boundary, 0.0);
   const ConfigurationCheck c = checkRobust(ctx, q.start, t);
-  EXPECT_TRUE(c.ok) << c.reason;
+  EXPECT_TRUE(c.ok) << c.message;
   // The band at the start contains the shapes of both approach directions (positive and negative history).
   StartHistory pos, neg;
   pos.kind = StartHistory::Kind::Positive;

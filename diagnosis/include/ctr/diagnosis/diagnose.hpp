@@ -147,7 +147,7 @@ struct Finding {
 struct FailedRow {
   int row = 0;                      ///< 1-based data row of the recording as given (before any decimation).
   Failure failure = Failure::None;  ///< Why (NotConverged, Inadmissible, NoContactSet, Snapped, Unstable).
-  std::string reason;               ///< The same in words: "did not converge", "inadmissible command: ...".
+  std::string message;              ///< The same in words: "did not converge", "inadmissible command: ...".
   std::string model;   ///< "nominal" or the final model that failed on it.
 };
 

@@ -54,10 +54,10 @@ struct PredictOptions {
 /// @brief Model output per row of a recording.
 ///
 /// A row the model cannot evaluate (command inadmissible beyond the tolerance, not converged, snapped, unstable, no
-/// consistent stick/slip set) has ok = 0, its reason, and NaN outputs: no row ever carries another row's output. The
-/// replay (replay.hpp) continues past it from the last evaluated state (one quasi-static move to the next row, so the
-/// friction and backlash memory is kept); only if that move fails too is the row reached from rest and `restarts`
-/// counts it.
+/// consistent stick/slip set) has ok = 0, its failure and message, and NaN outputs: no row ever carries another row's
+/// output. The replay (replay.hpp) continues past it from the last evaluated state (one quasi-static move to the next
+/// row, so the friction and backlash memory is kept); only if that move fails too is the row reached from rest and
+/// `restarts` counts it.
 struct Prediction {
   Eigen::MatrixXd twist;                 ///< rows x (n-1) (rad); NaN on failed rows.
   Eigen::MatrixXd tip_position;          ///< rows x 3 (m); NaN on failed rows.
@@ -66,7 +66,7 @@ struct Prediction {
   std::vector<Configuration> actuation;  ///< The true actuation after latency/backlash/offset.
   std::vector<char> ok;                  ///< Row evaluated (admissible, converged, no snap).
   std::vector<Failure> failure;          ///< Why a row failed (Failure::None when ok).
-  std::vector<std::string> reason;       ///< The same in words ("" when ok).
+  std::vector<std::string> message;      ///< The same in words ("" when ok).
   int failures = 0;                      ///< Rows with ok = 0.
   int restarts = 0;                      ///< Rows reached from rest after a failure (memory lost).
   std::vector<Reached> reached;          ///< How each row was reached (path, rest, restart).

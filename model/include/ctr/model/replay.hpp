@@ -85,7 +85,7 @@ struct ReplayRow {
   bool ok = false;    ///< Admissible, converged, consistent stick/slip set, stable, no snap.
   Reached reached = Reached::Path;
   Failure failure = Failure::None;  ///< Why the row is not ok (None when ok).
-  std::string reason;               ///< The same in words ("" when ok).
+  std::string message;              ///< The same in words ("" when ok).
   /// With find_alternatives: every other stable frictionless equilibrium the robot may be in after an unknown path
   /// (found at rest rows, followed along path rows), nearest first.
   std::vector<Alternative> alternatives;

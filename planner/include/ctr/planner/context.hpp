@@ -87,7 +87,7 @@ ThreadScratch& scratch();
 struct ShapeCheck {
   bool ok = false;                  ///< Converged, stable, collision-free.
   Failure failure = Failure::None;  ///< Why not (Inadmissible, NotConverged, Unstable, Collision).
-  std::string reason;  ///< Why not ("not converged", "unstable", "collision (tube 2, s 0.031-0.035 m)").
+  std::string message;  ///< Why not, in words ("not converged", "unstable", "collision (tube 2, s 0.031-0.035 m)").
 };
 
 /// @brief Checks a solved shape (needs a recorded backbone): converged, stable, collision-free.

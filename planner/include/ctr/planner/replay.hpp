@@ -32,7 +32,7 @@ struct ReplayReport {
   int steps = 0;
   int collisions = 0, snaps = 0, unstable = 0;
   Failure failure = Failure::None;  ///< What went wrong first (None: nothing).
-  std::string first_failure;        ///< The same in words, with the step.
+  std::string message;              ///< The same in words, with the step.
   std::vector<ReplayPoint> points;  ///< At every replay step.
   bool ok() const { return completed && collision_free && stable && goal_reached; }
 };

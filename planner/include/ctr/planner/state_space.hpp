@@ -19,7 +19,7 @@ struct StateCache {
   Solution solution;        ///< With the backbone (for collision checking).
   bool physics_ok = false;  ///< Converged, stable, no snap on the way here.
   Failure failure = Failure::None;  ///< Why not.
-  std::string why;                  ///< Why not, in words.
+  std::string message;              ///< Why not, in words.
 };
 
 /// @brief Compound space: n rotations then one R^n of translations.

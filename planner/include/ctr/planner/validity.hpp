@@ -20,7 +20,7 @@ namespace ctr::planner {
 struct ConfigurationCheck {
   bool ok = false;
   Failure failure = Failure::None;  ///< Why not.
-  std::string reason;
+  std::string message;              ///< Why not, in words.
   Solution shape;  ///< The (frictionless) shape checked; its backbone holds the geometry only (no theta / u_z).
 };
 
@@ -32,10 +32,10 @@ ConfigurationCheck checkRobust(const Context& ctx, const Configuration& q, Threa
 
 /// @brief Forward check of the straight-line motion q0 -> q1 at the context's resolutions, in the context's mode
 /// (frictionless or robust; exact mode uses the propagator). Returns the fraction of the motion that is valid
-/// (1 when all of it), the reason of the first failure and its kind. The motion is followed by followMove
+/// (1 when all of it), the first failure's message (in words) and its kind. The motion is followed by followMove
 /// (model/follow.hpp) with the context's resolutions and snap threshold, stopping at the first snap.
 double checkMotionForward(const Context& ctx, const Configuration& q0, const Configuration& q1, ThreadScratch& t,
-                          std::string* reason = nullptr, Failure* failure = nullptr);
+                          std::string* message = nullptr, Failure* failure = nullptr);
 
 /// @brief OMPL state validity checker for the context's mode.
 class ValidityChecker : public ompl::base::StateValidityChecker {

@@ -18,7 +18,7 @@ namespace ctr::cli {
 void registerDiagnose(CLI::App& app, Action& action) {
   struct Opts {
     std::string robot, recording, frame = toString(diagnosis::FrameMode::Base), json, report, plot, candidates, html,
-                                  noise, branch = toString(BranchRule::Path);
+                                  noise, branch = toString(BranchRule::Path), robot_out;
     int folds = 4, threads = 2, max_effects = diagnosis::DiagnoseOptions{}.max_effects,
         max_rows = diagnosis::DiagnoseOptions{}.max_rows;
     double bic_threshold = 10.0;
@@ -39,6 +39,11 @@ void registerDiagnose(CLI::App& app, Action& action) {
   sub->add_option("--plot-data", o->plot, "Plot data JSON to write (measured/nominal/fitted curves, binned residuals)");
   sub->add_option("--html", o->html, "Self-contained HTML report to write (plots, candidates; docs/reports.md)")
       ->type_name("FILE");
+  sub->add_option("--robot-out", o->robot_out,
+                  "Write the robot the diagnosis found: the nominal description with every named effect applied "
+                  "(drives in the tubes' actuation blocks), commented with each value's 95 % interval and finding; "
+                  "the recording's own effects (latency, tracker) listed, not applied (docs/diagnosis.md)")
+      ->type_name("FILE.yaml");
   sub->add_option("--candidates", o->candidates, "Comma-separated effect names to try (default: all)");
   sub->add_option("--noise", o->noise,
                   "The tracker's noise, 1 sigma per component (tangent: per direction normal to it), e.g. "
@@ -66,8 +71,10 @@ void registerDiagnose(CLI::App& app, Action& action) {
     action = [o]() {
       requireHtmlReports(o->html);
       checkOutputTarget("--json", o->json, {{"--robot", o->robot}, {"--recording", o->recording}});
-      for (const auto& [opt, path] :
-           {std::pair<std::string, std::string>{"--report", o->report}, {"--plot-data", o->plot}, {"--html", o->html}})
+      for (const auto& [opt, path] : {std::pair<std::string, std::string>{"--report", o->report},
+                                      {"--plot-data", o->plot},
+                                      {"--html", o->html},
+                                      {"--robot-out", o->robot_out}})
         checkOutputPath(opt, path, {{"--robot", o->robot}, {"--recording", o->recording}});
       const Robot robot = io::loadRobot(o->robot);
       const io::Recording rec = io::loadRecording(o->recording, robot.size(), true);
@@ -127,9 +134,13 @@ void registerDiagnose(CLI::App& app, Action& action) {
       progress.setDetail(std::to_string(rep.final_effects.size()) + " effect(s) in the final model, " +
                          std::to_string(rep.evaluations) + " replays");
       progress.finish();
+      // The robot first: a description it cannot be written as fails before any output is written.
+      const std::string robot_out =
+          o->robot_out.empty() ? std::string() : diagnosis::diagnosedRobotYaml(robot, rep, o->recording);
       writeOutput(o->json, diagnosis::reportToJson(rep));
       if (!o->report.empty()) io::writeFileAtomic(o->report, diagnosis::reportToMarkdown(rep, rec));
       if (!o->plot.empty()) io::writeFileAtomic(o->plot, diagnosis::plotDataJson(rep, rec));
+      if (!o->robot_out.empty()) io::writeFileAtomic(o->robot_out, robot_out);
 #ifdef CTR_WITH_REPORTS
       if (!o->html.empty()) reports::writeHtml(o->html, reports::diagnosisHtml(rep, rec, "Diagnosis: " + o->recording));
 #endif

@@ -146,10 +146,10 @@ void registerIk(CLI::App& app, Action& action) {
         prefix.push_back(start);
         report.friction = io::IkReport::Friction{mu, o->history, o->approach, start, static_cast<int>(prefix.size())};
         for (const FrictionIkResult& r : frictionInverseKinematicsPath(robot, st.state, targets, ws, fo))
-          report.rows.emplace_back(r);
+          report.rows.emplace_back(r, hasActuation(robot));
       } else {
         for (const IkResult& r : inverseKinematicsPath(robot, targets, o->from.given() ? &start : nullptr, ws, ik))
-          report.rows.emplace_back(r);
+          report.rows.emplace_back(r, hasActuation(robot));
       }
       int reached = 0;
       std::vector<double> errors, blind_errors;

@@ -9,13 +9,17 @@
 
 namespace ctr::cli {
 
+/// The message of a build without the HTML reports, for `what` ("--html", "view").
+inline std::string htmlReportsMissing(const std::string& what) {
+  return what +
+         ": this ctr was built without HTML reports (configured with -DCTR_BUILD_REPORTS=OFF); "
+         "run scripts/install-deps.sh (Node.js, npm) and rebuild with -DCTR_BUILD_REPORTS=ON";
+}
+
 /// Throws a UsageError (exit 2) before any work when `--html` is given but the reports were not built.
 inline void requireHtmlReports(const std::string& html) {
 #ifndef CTR_WITH_REPORTS
-  if (!html.empty())
-    throw UsageError(
-        "--html: this ctr was built without HTML reports (configured with -DCTR_BUILD_REPORTS=OFF); "
-        "run scripts/install-deps.sh (Node.js, npm) and rebuild with -DCTR_BUILD_REPORTS=ON");
+  if (!html.empty()) throw UsageError(htmlReportsMissing("--html"));
 #else
   (void)html;
 #endif

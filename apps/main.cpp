@@ -3,6 +3,7 @@
 #include <iostream>
 
 #include "commands.hpp"
+#include "html_report.hpp"
 
 int main(int argc, char** argv) {
   using namespace ctr::cli;
@@ -31,6 +32,12 @@ int main(int argc, char** argv) {
 #endif
 #ifdef CTR_WITH_VIEW
   registerView(app, action);
+#elif defined(CTR_WITH_PLANNER)
+  // Without the HTML reports the viewer is not built: say so, as `--html` does, rather than "unknown subcommand".
+  CLI::App* view =
+      app.add_subcommand("view", "3D viewer of a planned path (not in this build: it needs the HTML reports)");
+  view->allow_extras();
+  view->callback([&action]() { action = []() -> int { throw UsageError(htmlReportsMissing("view")); }; });
 #endif
   std::vector<std::string> args = normalizeArguments(argc, argv);
   if (args.size() > 1 && !args[1].empty() && args[1][0] != '-') {

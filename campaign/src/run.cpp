@@ -21,6 +21,7 @@
 #include "ctr/io/input_error.hpp"
 #include "ctr/io/robot_yaml.hpp"
 #include "ctr/planner/planner.hpp"
+#include "ctr/planner/result_json.hpp"
 #include "ctr/planner/stopwatch.hpp"
 #include "records.hpp"
 
@@ -85,19 +86,13 @@ void reseedOmpl(std::uint64_t seed) {
   ompl::msg::setLogLevel(level);
 }
 
-json replayJson(const planner::PlanResult& r) {
-  return {{"solved", r.solved},
-          {"completed", r.replay.completed},
-          {"collision_free", r.replay.collision_free},
-          {"stable", r.replay.stable},
-          {"goal_reached", r.replay.goal_reached},
-          {"collisions", r.replay.collisions},
-          {"snaps", r.replay.snaps},
-          {"tip_error", std::isfinite(r.replay.tip_error) ? json(r.replay.tip_error) : json(nullptr)},
-          {"min_clearance", std::isfinite(r.replay.min_clearance) ? json(r.replay.min_clearance) : json(nullptr)},
-          {"path_length", r.path_length},
-          {"failure", toString(r.replay.failure)},
-          {"first_failure", r.replay.message}};
+// A run's replay in its record: the plan's replay object (planner::replayJson) with whether the run counts as solved
+// (planned and replayed clean) and the path length.
+json recordReplay(const planner::PlanResult& r) {
+  json j = json::parse(planner::replayJson(r));
+  j["solved"] = r.solved;
+  j["path_length"] = r.path_length;
+  return j;
 }
 
 // Replay properties added to every OMPL run (solved or not, so every run has the same columns).
@@ -184,7 +179,7 @@ json runUnit(const Campaign& c, const CampaignUnit& u, LoadedQuery& cache, const
     if (has) {
       const planner::PlanResult r = p.replaySolution(pl->getName(), std::stod(run["time REAL"]), true);
       addReplayProperties(run, &r);
-      replay = replayJson(r);
+      replay = recordReplay(r);
     } else {
       addReplayProperties(run, nullptr);
     }

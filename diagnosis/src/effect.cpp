@@ -416,6 +416,50 @@ std::string gravityUnavailable(const Robot& nominal) {
   return "no tube has a linear density, a density or diameters to compute its weight from";
 }
 
+bool addDriveEffect(const Effect& e, Drive& rotation, Drive& translation) {
+  switch (e.kind) {
+    case EffectKind::ActuatorBacklash:
+      rotation.play += e.value;
+      return true;
+    case EffectKind::TranslationBacklash:
+      translation.play += e.value;
+      return true;
+    case EffectKind::ActuatorOffset:
+      rotation.offset += e.value;
+      return true;
+    case EffectKind::TranslationOffset:
+      translation.offset += e.value;
+      return true;
+    case EffectKind::DriveRatio:
+      rotation.ratio_error += e.coef[0];
+      rotation.ratio_reference = e.ref[0];
+      return true;
+    case EffectKind::DrivePeriodic:
+      for (std::size_t j = 0; j < 4; ++j) rotation.periodic[j] += e.coef[static_cast<Eigen::Index>(j)];
+      return true;
+    case EffectKind::StageError:
+      for (std::size_t j = 0; j < 3; ++j) translation.stage[j] += e.coef[static_cast<Eigen::Index>(j)];
+      translation.stage_reference = e.ref[0];
+      translation.stage_scale = e.ref[1];
+      return true;
+    default:
+      return false;
+  }
+}
+
+Robot robotWithEffects(const Robot& nominal, const std::vector<Effect>& effects) {
+  const Robot physics = applyToRobot(nominal, effects);
+  std::vector<Tube> tubes = physics.tubes();
+  bool driven = false;
+  for (const Effect& e : effects) {
+    if (e.tube < 1 || e.tube > physics.size()) continue;  // applyToRobot checked the drive kinds' tubes
+    Tube& t = tubes[static_cast<std::size_t>(e.tube - 1)];
+    driven = addDriveEffect(e, t.rotation_drive, t.translation_drive) || driven;
+  }
+  if (!driven) return physics;
+  return Robot(physics.name(), std::move(tubes), physics.friction(), physics.loads());
+}
+
 Robot applyToRobot(const Robot& nominal, const std::vector<Effect>& effects) {
   std::vector<Tube> tubes = nominal.tubes();
   FrictionCoefficients f = nominal.friction();

@@ -52,40 +52,11 @@ std::vector<Configuration> transformActuation(const std::vector<Configuration>& 
   bool translated = false, driven = false;
   for (const Effect& e : effects) {
     if (e.tube < 1 || e.tube > n) continue;
-    Drive& r = rotation[static_cast<std::size_t>(e.tube - 1)];
-    Drive& t = translation[static_cast<std::size_t>(e.tube - 1)];
-    switch (e.kind) {
-      case EffectKind::ActuatorBacklash:
-        r.play = e.value;
-        break;
-      case EffectKind::TranslationBacklash:
-        t.play = e.value;
-        translated = translated || e.value > 0;
-        break;
-      case EffectKind::DriveRatio:
-        r.ratio_error = e.coef[0];
-        r.ratio_reference = e.ref[0];
-        break;
-      case EffectKind::DrivePeriodic:
-        for (std::size_t j = 0; j < 4; ++j) r.periodic[j] = e.coef[static_cast<Eigen::Index>(j)];
-        break;
-      case EffectKind::StageError:
-        for (std::size_t j = 0; j < 3; ++j) t.stage[j] = e.coef[static_cast<Eigen::Index>(j)];
-        t.stage_reference = e.ref[0];
-        t.stage_scale = e.ref[1];
-        translated = true;
-        break;
-      case EffectKind::ActuatorOffset:
-        r.offset += e.value;
-        break;
-      case EffectKind::TranslationOffset:
-        t.offset += e.value;
-        translated = translated || e.value != 0.0;
-        break;
-      default:
-        continue;
-    }
+    const auto t = static_cast<std::size_t>(e.tube - 1);
+    if (!addDriveEffect(e, rotation[t], translation[t])) continue;
     driven = true;
+    translated = translated || (e.kind == EffectKind::TranslationBacklash && e.value > 0) ||
+                 e.kind == EffectKind::StageError || (e.kind == EffectKind::TranslationOffset && e.value != 0.0);
   }
   if (driven) {
     const double none = std::numeric_limits<double>::quiet_NaN();

@@ -53,6 +53,17 @@ nlohmann::json answer(const IkReport::Row& r, bool with_direction) {
     f["beta_difference"] = number(c.beta_difference);
     j["friction"] = f;
   }
+  if (r.joints && r.joints->size() == r.q.size()) {
+    // The drives' compensation: where the commands put the tubes, and how far the commands are from those joints
+    // (the commands of the description without actuation).
+    const bool known = r.q.size() > 0;
+    j["drives"] = {{"joint_alpha", vec(r.joints->alpha)},
+                   {"joint_beta", vec(r.joints->beta)},
+                   {"alpha_difference",
+                    known ? number((r.q.alpha - r.joints->alpha).cwiseAbs().maxCoeff()) : nlohmann::json(nullptr)},
+                   {"beta_difference",
+                    known ? number((r.q.beta - r.joints->beta).cwiseAbs().maxCoeff()) : nlohmann::json(nullptr)}};
+  }
   return j;
 }
 

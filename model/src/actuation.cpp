@@ -3,6 +3,8 @@
 
 #include <cmath>
 #include <limits>
+#include <stdexcept>
+#include <string>
 
 #include "ctr/model/configuration.hpp"
 
@@ -29,6 +31,37 @@ double Drive::transmit(double x) const {
   return x + offset;
 }
 
+double Drive::untransmit(double joint) const {
+  double x = joint - offset;
+  if (ratio_error == 0.0 && periodic == std::array<double, 4>{} && stage == std::array<double, 3>{}) return x;
+  // Newton on transmit(x) - joint, with the derivative of each term; the transmission is monotone for the errors a
+  // description accepts (|ratio_error| < 1 and small periodic / stage terms).
+  for (int it = 0; it < 50; ++it) {
+    const double r = x + ratio_error * (x - ratio_reference);
+    double dr = 1.0 + ratio_error;
+    double y = r, dy = 1.0;
+    y += periodic[0] * std::cos(r) + periodic[1] * std::sin(r) + periodic[2] * std::cos(2 * r) +
+         periodic[3] * std::sin(2 * r);
+    dy += -periodic[0] * std::sin(r) + periodic[1] * std::cos(r) - 2 * periodic[2] * std::sin(2 * r) +
+          2 * periodic[3] * std::cos(2 * r);
+    const double u = (y - stage_reference) / stage_scale;
+    const double z = y + u * (stage[0] + u * (stage[1] + u * stage[2]));
+    const double dz = 1.0 + (stage[0] + u * (2 * stage[1] + 3 * u * stage[2])) / stage_scale;
+    const double f = z + offset - joint, df = dz * dy * dr;
+    if (std::abs(f) <= 1e-15 * std::max(1.0, std::abs(joint))) return x;
+    if (!(df > 0.0)) break;
+    x -= f / df;
+  }
+  const double check = transmit(x) - joint;
+  return std::abs(check) <= 1e-12 * std::max(1.0, std::abs(joint)) ? x : std::numeric_limits<double>::quiet_NaN();
+}
+
+double Drive::command(double joint, double position) const {
+  const double x = untransmit(joint);
+  if (!(play > 0.0) || std::isnan(position) || x == position) return x;
+  return x > position ? x + 0.5 * play : x - 0.5 * play;
+}
+
 double Drive::joint(double command, double& position) const {
   if (play > 0.0) {
     const double h = 0.5 * play;
@@ -47,6 +80,22 @@ bool hasActuation(const Robot& robot) {
   for (const Tube& t : robot.tubes())
     if (!t.rotation_drive.ideal() || !t.translation_drive.ideal()) return true;
   return false;
+}
+
+Configuration commandsFor(const Robot& robot, const Configuration& joints, const DriveState& state) {
+  const int n = robot.size();
+  if (joints.size() != n || joints.beta.size() != n)
+    throw std::invalid_argument("commandsFor: the joints have " + std::to_string(joints.size()) + " tubes, the robot " +
+                                std::to_string(n));
+  const double none = std::numeric_limits<double>::quiet_NaN();
+  Configuration c = joints;
+  for (int i = 0; i < n; ++i) {
+    const Tube& t = robot.tube(i);
+    c.alpha[i] = t.rotation_drive.command(joints.alpha[i], state.rotation.size() == n ? state.rotation[i] : none);
+    c.beta[i] =
+        t.translation_drive.command(joints.beta[i], state.translation.size() == n ? state.translation[i] : none);
+  }
+  return c;
 }
 
 Configuration jointsOf(const Robot& robot, const Configuration& command, DriveState& state) {

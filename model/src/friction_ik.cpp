@@ -54,7 +54,28 @@ void blindCost(FrictionCost& c, const IkResult& blind, const StepResult& blind_s
 std::vector<FrictionIkResult> frictionInverseKinematicsPath(const Robot& robot, const HysteresisState& start,
                                                             const std::vector<IkTarget>& targets, Workspace& ws,
                                                             const FrictionIkOptions& o) {
-  if (hasActuation(robot)) throw std::invalid_argument(detail::actuationNotCompensated(robot));
+  if (hasActuation(robot) && start.valid && start.q.size() == robot.size()) {
+    // The joints on the tubes alone (the state's q are the joints), then the commands through the drives.
+    std::vector<FrictionIkResult> out = frictionInverseKinematicsPath(robot.withoutActuation(), start, targets, ws, o);
+    HysteresisState state = start;
+    for (FrictionIkResult& r : out) {
+      const Configuration joints = r.q;
+      r.q = commandsFor(robot, joints, state.drives);
+      if (r.cost.blind_q.size() == robot.size()) r.cost.blind_q = commandsFor(robot, r.cost.blind_q, state.drives);
+      r.cost.drive_alpha_difference = (r.q.alpha - joints.alpha).cwiseAbs().maxCoeff();
+      r.cost.drive_beta_difference = (r.q.beta - joints.beta).cwiseAbs().maxCoeff();
+      const Admissibility adm = checkAdmissible(robot, r.q);
+      if (!adm && r.summary.status != IkStatus::Failed) {
+        r.summary.status = IkStatus::Failed;
+        r.summary.message =
+            "the commands that put the tubes there through the drives are not admissible: " + adm.message;
+        continue;
+      }
+      r.step = step(robot, state, r.q, ws, o.friction);  // the same joints from the same state, plays carried
+      if (r.step.state.valid) state = r.step.state;
+    }
+    return out;
+  }
   if (!start.valid)
     throw std::invalid_argument("frictionInverseKinematics: the hysteresis state is not initialised (initialState)");
   if (start.q.size() != robot.size())

@@ -95,7 +95,6 @@ class Run {
  public:
   Run(const Robot& robot, const IkTarget& target, Workspace& ws, const IkOptions& o)
       : robot_(robot), target_(target), o_(o), set_(robot, o), goal_(target, o), map_{robot, ws, o} {
-    if (hasActuation(robot)) throw std::invalid_argument(detail::actuationNotCompensated(robot));
     if (!set_.feasible())
       throw std::invalid_argument("inverseKinematics: robot '" + robot.name() +
                                   "' has no admissible translations (limits, nesting, min_protrusion)");
@@ -286,9 +285,31 @@ class Run {
 
 const char* kNoStart = "the model did not converge at any start configuration";
 
+/// The joints of a command through a robot's drives without history (plays centred on it).
+Configuration jointsCentred(const Robot& robot, const Configuration& command) {
+  DriveState fresh;
+  return jointsOf(robot, command, fresh);
+}
+
+/// A robot with drives: `r` is the inverse kinematics of its tubes (joints); its configuration becomes the commands
+/// that put them there without history (plays centred: only the transmission errors and offsets are compensated).
+IkResult throughDrives(const Robot& robot, IkResult r) {
+  if (r.q.size() != robot.size()) return r;
+  r.q = commandsFor(robot, r.q, DriveState{});
+  if (r.summary.status != IkStatus::Failed) {
+    const Admissibility adm = checkAdmissible(robot, r.q);
+    if (!adm) {
+      r.summary.status = IkStatus::Failed;
+      r.summary.message = "the commands that put the tubes there through the drives are not admissible: " + adm.message;
+    }
+  }
+  return r;
+}
+
 }  // namespace
 
 IkResult inverseKinematics(const Robot& robot, const IkTarget& target, Workspace& ws, const IkOptions& o) {
+  if (hasActuation(robot)) return throughDrives(robot, inverseKinematics(robot.withoutActuation(), target, ws, o));
   Run run(robot, target, ws, o);
   run.checkBranch(o.check_branch);
   run.restarts(1 + std::max(0, o.restarts));
@@ -298,6 +319,9 @@ IkResult inverseKinematics(const Robot& robot, const IkTarget& target, Workspace
 IkResult inverseKinematics(const Robot& robot, const IkTarget& target, const Configuration& start, Workspace& ws,
                            const IkOptions& o) {
   checkStart(robot, start);
+  if (hasActuation(robot))
+    return throughDrives(robot,
+                         inverseKinematics(robot.withoutActuation(), target, jointsCentred(robot, start), ws, o));
   Run run(robot, target, ws, o);
   run.checkBranch(o.check_branch);
   Configuration q0 = start;
@@ -310,6 +334,13 @@ IkResult inverseKinematics(const Robot& robot, const IkTarget& target, const Con
 
 IkResult inverseKinematics(const Robot& robot, const IkTarget& target, const IkResult& previous, Workspace& ws,
                            const IkOptions& o) {
+  if (hasActuation(robot) && previous.q.size() == robot.size()) {
+    IkResult tubes = previous;  // continued in joint space: where the previous result put the tubes
+    tubes.q = previous.solution.converged() && previous.solution.q.size() == robot.size()
+                  ? previous.solution.q
+                  : jointsCentred(robot, previous.q);
+    return throughDrives(robot, inverseKinematics(robot.withoutActuation(), target, tubes, ws, o));
+  }
   if (!previous.solution.converged() || previous.q.size() != robot.size()) {
     IkOptions once = o;
     once.restarts = 0;

@@ -272,11 +272,4 @@ void summarise(const Descent<Point>& d, const Solution& sol, const IkGoal& goal,
   s.message = os.str();
 }
 
-/// The refusal of the inverse kinematics for a robot with actuation (its commands would have to compensate the drives).
-inline std::string actuationNotCompensated(const Robot& robot) {
-  return "robot '" + robot.name() +
-         "' has an actuation block (drive plays, offsets or transmission errors): inverse kinematics that "
-         "compensates the drives is not implemented yet; solve with the description without it";
-}
-
 }  // namespace ctr::detail

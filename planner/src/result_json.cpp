@@ -1,5 +1,6 @@
 #include "ctr/planner/result_json.hpp"
 
+#include <cmath>
 #include <nlohmann/json.hpp>
 
 namespace ctr::planner {
@@ -18,20 +19,26 @@ std::string resultJson(const Query& q, const PlanResult& r, int indent) {
   j["path_length"] = r.path_length;
   j["waypoints"] = r.path.size();
   j["goal_pool"] = r.goal_pool;
-  j["replay"] = {{"completed", r.replay.completed},
-                 {"collision_free", r.replay.collision_free},
-                 {"stable", r.replay.stable},
-                 {"goal_reached", r.replay.goal_reached},
-                 {"tip_error", r.replay.tip_error},
-                 {"direction_error", r.replay.direction_error},
-                 {"min_clearance", r.replay.min_clearance},
-                 {"steps", r.replay.steps},
-                 {"collisions", r.replay.collisions},
-                 {"snaps", r.replay.snaps},
-                 {"failure", toString(r.replay.failure)},
-                 {"first_failure", r.replay.message}};
+  j["replay"] = nlohmann::json::parse(replayJson(r));
   if (!r.message.empty()) j["message"] = r.message;
   return j.dump(indent);
+}
+
+std::string replayJson(const PlanResult& r) {
+  auto number = [](double v) { return std::isfinite(v) ? nlohmann::json(v) : nlohmann::json(nullptr); };
+  const nlohmann::json j = {{"completed", r.replay.completed},
+                            {"collision_free", r.replay.collision_free},
+                            {"stable", r.replay.stable},
+                            {"goal_reached", r.replay.goal_reached},
+                            {"tip_error", number(r.replay.tip_error)},
+                            {"direction_error", number(r.replay.direction_error)},
+                            {"min_clearance", number(r.replay.min_clearance)},
+                            {"steps", r.replay.steps},
+                            {"collisions", r.replay.collisions},
+                            {"snaps", r.replay.snaps},
+                            {"failure", toString(r.replay.failure)},
+                            {"first_failure", r.replay.message}};
+  return j.dump();
 }
 
 }  // namespace ctr::planner

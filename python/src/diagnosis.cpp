@@ -4,6 +4,7 @@
 
 #include "common.hpp"
 #include "ctr/diagnosis/diagnose.hpp"
+#include "ctr/io/file.hpp"
 #include "ctr/io/recording.hpp"
 #include "ctr/model/replay.hpp"
 
@@ -67,7 +68,8 @@ void registerDiagnosis(pyb::module_& m) {
       [](const Robot& robot, const pyb::object& recording, const std::string& frame, int folds, int threads,
          int max_effects, double bic_threshold, const std::optional<std::vector<std::string>>& candidates,
          const pyb::object& progress, bool with_report, const std::optional<std::string>& noise,
-         const std::string& branch, bool calibrate, int max_rows) {
+         const std::string& branch, bool calibrate, int max_rows,
+         const std::optional<std::filesystem::path>& robot_out) {
         const io::Recording rec = recordingFrom(recording, robot.size());
         if (rec.rows() < 8) {
           const std::string file = pyb::isinstance<io::Recording>(recording) ? std::string("<recording>")
@@ -124,11 +126,17 @@ void registerDiagnosis(pyb::module_& m) {
           };
         }
         std::string json, markdown;
+        const std::string recording_name = pyb::isinstance<io::Recording>(recording)
+                                               ? std::string("<recording>")
+                                               : pyb::str(recording).cast<std::string>();
         {
           pyb::gil_scoped_release release;
           const diagnosis::DiagnosisReport rep = diagnosis::diagnose(robot, rec, d);
+          const std::string robot_yaml =
+              robot_out ? diagnosis::diagnosedRobotYaml(robot, rep, recording_name) : std::string();
           json = diagnosis::reportToJson(rep);
           if (with_report) markdown = diagnosis::reportToMarkdown(rep, rec);
+          if (robot_out) io::writeFileAtomic(robot_out->string(), robot_yaml);
         }
         d.progress = nullptr;  // drops the callback while holding the GIL
         pyb::object out = jsonLoads(json);
@@ -139,13 +147,13 @@ void registerDiagnosis(pyb::module_& m) {
       arg("max_effects") = diagnosis::DiagnoseOptions{}.max_effects, arg("bic_threshold") = 10.0,
       arg("candidates") = pyb::none(), arg("progress") = pyb::none(), arg("with_report") = false,
       arg("noise") = pyb::none(), arg("branch") = toString(BranchRule::Path), arg("calibrate") = false,
-      arg("max_rows") = diagnosis::DiagnoseOptions{}.max_rows,
+      arg("max_rows") = diagnosis::DiagnoseOptions{}.max_rows, arg("robot_out") = pyb::none(),
       "`ctr diagnose`: where the recording (a path or a ctr.Recording) and the nominal robot differ, and which "
       "left-out physics explains it. Returns the dict of the diagnosis JSON (docs/formats.md; the same object as "
       "--json writes); with_report=True returns (dict, Markdown report). progress: a callable taking a str. "
       "noise: the tracker's noise as `--noise` takes it ('tip_position=0.5mm,tip_tangent=1deg'); branch: 'path' "
-      "(default) or 'rest' (docs/diagnosis.md); calibrate: `--calibrate`; max_rows: `--max-rows`. Runs without the "
-      "GIL.");
+      "(default) or 'rest' (docs/diagnosis.md); calibrate: `--calibrate`; max_rows: `--max-rows`; robot_out: a "
+      "path, `--robot-out` (the robot the diagnosis found, as a description). Runs without the GIL.");
 }
 
 }  // namespace ctr::py

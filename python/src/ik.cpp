@@ -201,16 +201,16 @@ pyb::dict run(const Robot& r, const Inputs& in, const pyb::object& state, const 
         report.friction =
             io::IkReport::Friction{r.friction().boundary, history, approach, in.start, static_cast<int>(prefix.size())};
       } else {
-        report.friction = io::IkReport::Friction{r.friction().boundary, "state", 0.0, from.q, 0};
+        report.friction = io::IkReport::Friction{r.friction().boundary, "state", 0.0, from.command, 0};
       }
       const std::vector<FrictionIkResult> res = frictionInverseKinematicsPath(r, from, in.targets, workspace(), fo);
-      for (const FrictionIkResult& x : res) report.rows.emplace_back(x);
+      for (const FrictionIkResult& x : res) report.rows.emplace_back(x, hasActuation(r));
       final_state = res.back().step.state;
       solution = res.back().step.solution;
     } else {
       const std::vector<IkResult> res =
           inverseKinematicsPath(r, in.targets, in.from ? &in.start : nullptr, workspace(), ik);
-      for (const IkResult& x : res) report.rows.emplace_back(x);
+      for (const IkResult& x : res) report.rows.emplace_back(x, hasActuation(r));
       solution = res.back().solution;
     }
   }

@@ -33,6 +33,27 @@ pyb::dict tubeDict(const Tube& t) {
   if (t.translation_limits)
     d["translation_limits"] = pyb::make_tuple((*t.translation_limits)[0], (*t.translation_limits)[1]);
   if (t.linear_density > 0.0) d["linear_density"] = t.linear_density;
+  // The drives, with the keys of the robot YAML's actuation block (the ones that are not zero / default).
+  pyb::dict actuation;
+  for (const bool rotation : {true, false}) {
+    const Drive& v = rotation ? t.rotation_drive : t.translation_drive;
+    if (v.ideal()) continue;
+    pyb::dict a;
+    if (v.offset != 0.0) a["offset"] = v.offset;
+    if (v.play != 0.0) a["play"] = v.play;
+    if (v.ratio_error != 0.0) {
+      a["ratio_error"] = v.ratio_error;
+      a["ratio_reference"] = v.ratio_reference;
+    }
+    if (v.periodic != std::array<double, 4>{}) a["periodic"] = pyb::cast(v.periodic);
+    if (v.stage != std::array<double, 3>{}) {
+      a["stage_error"] = pyb::cast(v.stage);
+      a["stage_reference"] = v.stage_reference;
+      a["stage_scale"] = v.stage_scale;
+    }
+    actuation[rotation ? "rotation" : "translation"] = a;
+  }
+  if (pyb::len(actuation) > 0) d["actuation"] = actuation;
   return d;
 }
 

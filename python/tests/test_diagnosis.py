@@ -18,13 +18,21 @@ def test_diagnose_equals_cli(cli, tmp_path):
     if not rec.exists():
         rec = EXAMPLES / "recordings" / "friction_masked_B.csv"
         robot_yaml = EXAMPLES / "recordings" / "friction_masked_B.robot.yaml"
-    out = tmp_path / "d.json"
-    cli("diagnose", "--robot", robot_yaml, "--recording", rec, "--json", out, "--quiet")
+    out, robot_out = tmp_path / "d.json", tmp_path / "found.yaml"
+    cli("diagnose", "--robot", robot_yaml, "--recording", rec, "--json", out, "--quiet", "--robot-out", robot_out)
     expected = load_json(out.read_text())
     robot = ctr.load_robot(str(robot_yaml))
     messages = []
-    got = ctr.diagnose(robot, rec, progress=messages.append)
+    got = ctr.diagnose(robot, rec, progress=messages.append, robot_out=str(tmp_path / "found_py.yaml"))
     assert_same(got, expected, ignore=TIMING)
+    # --robot-out: the robot the diagnosis found, the same from Python; it loads, with the fitted friction
+    assert (tmp_path / "found_py.yaml").read_text() == robot_out.read_text()
+    found = ctr.load_robot(str(robot_out))
+    fitted = [e for e in expected["final"]["effects"] if e["effect"] == "boundary_friction"]
+    assert "boundary_friction" in expected["verdict"] and fitted
+    assert found.friction["boundary"] == pytest.approx(fitted[0]["mu"], rel=1e-12)
+    assert "95 %" in robot_out.read_text() and "friction.boundary" in robot_out.read_text()
+    cli("fk", "--robot", robot_out)
     assert messages and all(isinstance(m, str) for m in messages)
     assert got["verdict"] == expected["verdict"]
     # rejected one-parameter candidates say how large they would have had to be to be seen

@@ -150,5 +150,13 @@ def test_drives_of_the_robot_description_are_state(tmp_path):
     a, b = ctr.step(robot, st, [0, 0.8]), ctr.step(robot, back, [0, 0.8])
     assert np.array_equal(a.solution.tip_position, b.solution.tip_position)
     assert np.linalg.norm(a.solution.tip_position - r.solution.tip_position) < 1e-9  # within the play: no motion
-    with pytest.raises(ValueError, match="actuation"):
-        ctr.ik(robot, [0.0, 0.02, 0.14], alpha=[0, 0], beta=BETA)
+    # the inverse kinematics answers with the commands that compensate the drives (offset here: plays centred)
+    ik = ctr.ik(robot.with_friction(boundary=0.0), list(r.solution.tip_position), alpha=[0, 0.9], beta=BETA)
+    assert ik["reached"]
+    assert ik["alpha"][1] - ik["drives"]["joint_alpha"][1] == pytest.approx(-0.05, abs=1e-12)
+    assert ik["drives"]["alpha_difference"] == pytest.approx(0.05, abs=1e-12)
+    # the description as a dict keeps the drives (ctr.Robot(dict) gives the same robot back)
+    d = robot.to_dict()
+    assert d["tubes"][1]["actuation"]["rotation"] == {"offset": 0.05, "play": 0.3}
+    assert "actuation" not in d["tubes"][0]
+    assert ctr.Robot(d).to_dict() == d

@@ -129,6 +129,67 @@ TEST(Actuation, DriveEffectsAreTheRobotsDrives) {
   }
 }
 
+// `--robot-out`: the nominal description with the named effects applied (drives in the actuation blocks), the
+// recording's effects and unnamed partial explanations not applied; the written description reads back, says where
+// each value came from, and replays the final model's prediction (without the recording's latency) exactly.
+TEST(RobotOut, TheDiagnosedRobotReplaysTheFinalModelsPrediction) {
+  const Robot r = pairB();
+  DiagnosisReport rep;
+  rep.verdict = {"boundary_friction", "actuator_backlash", "actuator_offset", "sensor_latency"};
+  rep.final_effects = {{EffectKind::BoundaryFriction, 0, 0.1},
+                       {EffectKind::ActuatorBacklash, 2, 0.2},
+                       {EffectKind::ActuatorOffset, 2, 0.05},
+                       {EffectKind::SensorLatency, 0, 0.1},
+                       {EffectKind::TorsionalStiffness, 0, 0.4}};
+  for (std::size_t k = 0; k < rep.final_effects.size(); ++k) {
+    Finding f;
+    f.effect = rep.final_effects[k];
+    f.accepted = true;
+    f.named = k < 4;  // the torsional stiffness is a partial explanation, kept in the fit, not named
+    f.round = static_cast<int>(k) + 1;
+    rep.findings.push_back(f);
+  }
+  EffectUncertainty u;
+  u.interval95 = {{0.09, 0.11}};
+  rep.final_uncertainty["boundary_friction"] = u;
+  const Robot out = diagnosedRobot(r, rep);
+  EXPECT_EQ(out.friction().boundary, 0.1);
+  EXPECT_EQ(out.tube(1).rotation_drive.play, 0.2);
+  EXPECT_EQ(out.tube(1).rotation_drive.offset, 0.05);
+  EXPECT_TRUE(out.tube(0).rotation_drive.ideal() && out.tube(1).translation_drive.ideal());
+  EXPECT_EQ(out.tube(0).torsional_stiffness, r.tube(0).torsional_stiffness) << "a partial explanation is not applied";
+  const std::string yaml = diagnosedRobotYaml(r, rep, "rec.csv");
+  for (const char* words : {"rec.csv", "0.09 .. 0.11", "tubes[2].actuation.rotation.play", "sensor_latency",
+                            "an effect of the recording", "not named"})
+    EXPECT_NE(yaml.find(words), std::string::npos) << words << "\n" << yaml;
+  const Robot back = io::parseRobot(yaml, "out.yaml");
+  EXPECT_EQ(back.friction().boundary, 0.1);
+  EXPECT_EQ(back.tube(1).rotation_drive.play, 0.2);
+  EXPECT_EQ(back.tube(1).rotation_drive.offset, 0.05);
+
+  std::vector<Configuration> commands;
+  for (int k = 0; k < 40; ++k)
+    commands.emplace_back(Eigen::Vector2d(0, 1.2 * std::sin(0.25 * k)), Eigen::Vector2d(-0.018, -0.018));
+  std::vector<Effect> robot_effects(rep.final_effects.begin(), rep.final_effects.begin() + 3);
+  Workspace ws;
+  const Prediction p = predict(r, commands, Eigen::VectorXd(), robot_effects, ws);
+  const std::vector<ReplayRow> rows = replay(back, commands, ws, PredictOptions{}.replay);
+  ASSERT_EQ(rows.size(), commands.size());
+  for (std::size_t k = 0; k < rows.size(); ++k) {
+    ASSERT_TRUE(p.ok[k] && rows[k].ok) << k;
+    EXPECT_LT(
+        (p.tip_position.row(static_cast<Eigen::Index>(k)).transpose() - rows[k].result.solution.tip_position).norm(),
+        1e-9)
+        << k;
+  }
+  // A verdict that names nothing applies nothing.
+  rep.verdict.clear();
+  const Robot none = diagnosedRobot(r, rep);
+  EXPECT_FALSE(hasActuation(none));
+  EXPECT_EQ(none.friction().boundary, r.friction().boundary);
+  EXPECT_NE(diagnosedRobotYaml(r, rep, "rec.csv").find("Nothing applied"), std::string::npos);
+}
+
 TEST(Registration, RecoversRigidTransformAndOffset) {
   const Robot r = pairB();
   std::vector<Configuration> cmd;

@@ -7,6 +7,7 @@
 #include <limits>
 
 #include "ctr/model/friction.hpp"
+#include "ctr/model/friction_ik.hpp"
 #include "ctr/model/ik.hpp"
 #include "ctr/model/replay.hpp"
 #include "tube_factory.hpp"
@@ -148,19 +149,125 @@ TEST(Drives, ReplayIsTheTubesReplayAtTheJointsOfTheCommandsInOrder) {
   }
 }
 
-// Solvers that would have to compensate the drives refuse a robot with them (not silently wrong commands).
-TEST(Drives, InverseKinematicsRefusesARobotWithDrivesItDoesNotCompensate) {
-  const Robot r = driven(0.0, 0.1, 0.0);
+// The inverse of a drive: the command that puts the joint where it is wanted from the play's position. Going up, the
+// play is taken up below the target (command half the width beyond it); going down, above; staying, no play.
+TEST(Drives, TheCommandForAJointIsTheInverseOfTheDrive) {
+  Drive d;
+  d.play = 0.3;
+  d.ratio_error = -0.04;
+  d.ratio_reference = 0.2;
+  d.periodic = {0.01, -0.015, 0.004, 0.002};
+  d.offset = 0.07;
+  for (double position : {kNone, -0.5, 0.4})
+    for (double joint : {-1.0, -0.2, 0.3, 0.45, 2.0}) {
+      const double c = d.command(joint, position);
+      double p = position;
+      EXPECT_NEAR(d.joint(c, p), joint, 1e-12) << "from " << position << " to " << joint;
+    }
+  Drive play;
+  play.play = 0.3;
+  EXPECT_DOUBLE_EQ(play.command(1.0, 0.5), 1.15);  // up: half the width beyond
+  EXPECT_DOUBLE_EQ(play.command(0.2, 0.5), 0.05);  // a reversal: the whole width from the last command going up
+  EXPECT_DOUBLE_EQ(play.command(0.5, 0.5), 0.5);   // stays
+  Drive stage;
+  stage.stage = {2e-4, -1e-4, 5e-5};
+  stage.stage_reference = -0.02;
+  stage.stage_scale = 0.004;
+  stage.offset = -3e-4;
+  double none = kNone;
+  EXPECT_NEAR(stage.joint(stage.command(-0.031, kNone), none), -0.031, 1e-15);
+}
+
+// Inverse kinematics through the drives: the tubes' joints are solved on the tubes alone and the commands compensate
+// the offsets and a ratio error (frictionless, no history: plays centred) -- forward kinematics of the commands
+// through the drives is on the target; the joints themselves sent as commands miss it by the drives' effect.
+TEST(Drives, InverseKinematicsCompensatesTheOffsets) {
+  Robot r = pair();
+  Tube inner = r.tube(1), outer = r.tube(0);
+  inner.rotation_drive.offset = 0.15;
+  outer.rotation_drive.offset = -0.1;
+  outer.rotation_drive.ratio_error = 0.03;
+  r = r.withTube(1, inner).withTube(0, outer);
   Workspace ws;
-  IkTarget t;
-  t.position = Eigen::Vector3d(0.0, 0.02, 0.12);
-  try {
-    inverseKinematics(r, t, ws);
-    ADD_FAILURE() << "no refusal";
-  } catch (const std::invalid_argument& e) {
-    EXPECT_NE(std::string(e.what()).find("actuation"), std::string::npos) << e.what();
+  DriveState centred;
+  const Configuration truth(Eigen::Vector2d(0.3, 1.4), Eigen::Vector2d(-0.03, -0.03));
+  const Eigen::Vector3d target = solve(r.withoutActuation(), jointsOf(r, truth, centred), ws).tip_position;
+  const IkResult ik = inverseKinematics(r, IkTarget(target), ws);
+  ASSERT_TRUE(ik.summary.reached()) << ik.summary.message;
+  DriveState fresh;
+  const Configuration joints = jointsOf(r, ik.q, fresh);
+  EXPECT_LT((solve(r.withoutActuation(), joints, ws).tip_position - target).norm(), 1.01e-5);
+  EXPECT_NEAR(ik.q.alpha[1] - ik.solution.q.alpha[1], -0.15, 1e-12) << "the command compensates the offset";
+  DriveState naive_state;
+  const Eigen::Vector3d naive = solve(r.withoutActuation(), jointsOf(r, ik.solution.q, naive_state), ws).tip_position;
+  RecordProperty("tip_error_uncompensated_m", std::to_string((naive - target).norm()));
+  EXPECT_GT((naive - target).norm(), 1e-3) << "the uncompensated commands miss by the offsets' effect";
+}
+
+// Friction-aware inverse kinematics through play, offset and friction along a path: the commands replayed through the
+// drives from the same start put the tip on every target; the joints sent as commands (a controller that ignores the
+// drives) miss by far more, and the reversal costs the play.
+TEST(Drives, FrictionAwareInverseKinematicsCompensatesPlayOffsetAndFriction) {
+  Robot r = pair(0.1);
+  Tube inner = r.tube(1);
+  inner.rotation_drive.play = 0.3;
+  inner.rotation_drive.offset = 0.05;
+  r = r.withTube(1, inner);
+  Workspace ws;
+  const StepResult start = initialState(r, pose(0.0), ws);
+  ASSERT_TRUE(start.summary.converged);
+  // Targets on a path that goes up and comes back (a reversal of the inner tube).
+  std::vector<IkTarget> targets;
+  {
+    StepResult s = start;
+    for (double a : {0.4, 0.8, 1.2, 0.9, 0.6}) {
+      s = step(r, s.state, pose(a), ws);
+      ASSERT_TRUE(s.summary.converged);
+      targets.emplace_back(s.solution.tip_position);
+    }
   }
-  // Values a drive cannot have are refused by the robot.
+  FrictionIkOptions o;
+  const std::vector<FrictionIkResult> res = frictionInverseKinematicsPath(r, start.state, targets, ws, o);
+  ASSERT_EQ(res.size(), targets.size());
+  StepResult replayed = start, naive = start;
+  double worst = 0.0, worst_naive = 0.0;
+  for (std::size_t k = 0; k < res.size(); ++k) {
+    ASSERT_TRUE(res[k].summary.reached()) << k << ": " << res[k].summary.message;
+    EXPECT_GT(res[k].cost.drive_alpha_difference, 0.0);
+    replayed = step(r, replayed.state, res[k].q, ws, o.friction);
+    worst = std::max(worst, (replayed.solution.tip_position - targets[k].position).norm());
+    naive = step(r, naive.state, res[k].step.solution.q, ws, o.friction);  // the joints sent as commands
+    worst_naive = std::max(worst_naive, (naive.solution.tip_position - targets[k].position).norm());
+  }
+  RecordProperty("tip_error_compensated_m", std::to_string(worst));
+  RecordProperty("tip_error_uncompensated_m", std::to_string(worst_naive));
+  EXPECT_LT(worst, 2 * o.ik.tolerance);
+  EXPECT_GT(worst_naive, 10 * worst) << "compensated " << worst << " m, uncompensated " << worst_naive << " m";
+  // The inner tube's command is its joint less the offset, half the play (0.15 rad) beyond it in the direction the
+  // joint moved (none when it stays): after moving up and turning back, the commands come back by the joint's move
+  // plus the play's whole width.
+  int reversals = 0;
+  double last_direction = 0.0, position = 0.0;  // the play's position at the start (centred on the command 0)
+  for (std::size_t k = 0; k < res.size(); ++k) {
+    const double x = res[k].step.solution.q.alpha[1] - 0.05;
+    const double move = x - position;
+    const double direction = std::abs(move) < 1e-12 ? 0.0 : (move > 0 ? 1.0 : -1.0);
+    EXPECT_NEAR(res[k].q.alpha[1], x + direction * 0.15, 1e-9) << k;
+    if (direction != 0.0) {
+      reversals += last_direction != 0.0 && direction != last_direction;
+      last_direction = direction;
+    }
+    position = x;
+  }
+  std::string joints;
+  for (const FrictionIkResult& x : res)
+    joints += " (" + std::to_string(x.step.solution.q.alpha[0]) + ", " + std::to_string(x.step.solution.q.alpha[1]) +
+              ", " + std::to_string(x.step.solution.q.beta[0]) + ")";
+  EXPECT_GE(reversals, 1) << "the path turns the inner tube back:" << joints;
+}
+
+// Values a drive cannot have are refused by the robot.
+TEST(Drives, BadDriveValuesAreRefused) {
   Tube bad = pair().tube(1);
   bad.rotation_drive.play = -0.1;
   EXPECT_THROW(pair().withTube(1, bad), std::invalid_argument);

@@ -261,6 +261,18 @@ std::vector<Effect> candidateSlots(const Robot& nominal, const io::Recording& re
 /// @brief Runs the whole diagnosis. Throws std::invalid_argument when the recording does not fit the robot.
 DiagnosisReport diagnose(const Robot& nominal, const io::Recording& rec, const DiagnoseOptions& options = {});
 
+/// @brief The robot the diagnosis found (`ctr diagnose --robot-out`): the nominal description with every effect of the
+/// final model that the verdict names applied (robotWithEffects: friction, stiffness, precurvature, loads, and the
+/// drive effects in the tubes' `actuation:` blocks), at its final fitted value. Not applied: the recording's own
+/// effects (sensor latency, tracker drift, the tracker frame), effects kept in the final fit without being named
+/// (partial explanations), and everything when the verdict names nothing (e.g. a noise these data cannot establish).
+Robot diagnosedRobot(const Robot& nominal, const DiagnosisReport& report);
+
+/// @brief diagnosedRobot as a robot description (docs/formats.md), headed by comments: each applied value with its
+/// 95 % interval and the finding it came from (round, held-out improvement, look-alikes the recording cannot tell it
+/// from), then what was not applied and why. `recording` names the recording in the header.
+std::string diagnosedRobotYaml(const Robot& nominal, const DiagnosisReport& report, const std::string& recording);
+
 /// @brief The diagnosis JSON (docs/formats.md "Diagnosis": verdict, baseline, final, mismatch, findings, noise, ...).
 std::string reportToJson(const DiagnosisReport& report);
 /// @brief Plain-language Markdown report.

@@ -161,6 +161,18 @@ std::vector<NamedParameter> namedParameters(const Effect& e, const EffectUncerta
 /// effects (backlash, offset, latency) leave the robot unchanged.
 Robot applyToRobot(const Robot& nominal, const std::vector<Effect>& effects);
 
+/// @brief Puts a drive effect (actuator_backlash, actuator_offset, translation_backlash, translation_offset,
+/// drive_ratio, drive_periodic, stage_error) into the drives of its tube: plays, offsets, ratio errors and periodic /
+/// stage coefficients are added to what the drives hold (exact for plays and offsets, which compose by adding; first
+/// order for the transmission errors), the references set. Returns false (drives unchanged) for the other kinds.
+bool addDriveEffect(const Effect& e, Drive& rotation, Drive& translation);
+
+/// @brief The robot as a description can carry it: applyToRobot, and the drive effects in its tubes' drives
+/// (addDriveEffect: on top of the description's own drives). Measurement effects (sensor_latency, tracker_drift) are
+/// not the robot's and leave it unchanged. Throws std::invalid_argument for a tube out of range or a drive value the
+/// description refuses (e.g. a play wider than a turn).
+Robot robotWithEffects(const Robot& nominal, const std::vector<Effect>& effects);
+
 /// @brief The nominal value of an effect's parameter for the robot (0 for friction/backlash/offset/latency,
 /// the description's Poisson ratio, curvature or stiffness otherwise): the "left out" value. Vector kinds: 0 (use
 /// nominalEffect).

@@ -33,6 +33,13 @@ struct Drive {
   bool ideal() const;
   /// @brief The memoryless part: transmission errors and offset applied to a value after the play.
   double transmit(double x) const;
+  /// @brief The value after the play that transmit() turns into `joint` (the inverse of the memoryless part; Newton
+  /// on the monotone transmission, NaN when it does not converge: transmission errors too large to invert).
+  double untransmit(double joint) const;
+  /// @brief The command that puts the joint at `joint` from the play position `position` (NaN: no history): the
+  /// play taken up on the side of the move (half the width beyond the target), none when the joint stays. The
+  /// inverse of joint(): joint(command(j, p), p) == j up to rounding.
+  double command(double joint, double position) const;
   /// @brief The joint value for `command`, updating `position` (the play's output; NaN when the drive has no
   /// history yet: the play is then taken as centred on this command). Without a play `position` is left as it is.
   double joint(double command, double& position) const;

@@ -65,6 +65,12 @@ bool hasActuation(const Robot& robot);
 /// itself for a robot without actuation. Throws std::invalid_argument for a command of another size.
 Configuration jointsOf(const Robot& robot, const Configuration& command, DriveState& state);
 
+/// @brief The commands that put the tubes at `joints` from the drives' `state` (Drive::command per tube and joint:
+/// plays taken up on the side of each move, transmission errors and offsets inverted): jointsOf(robot,
+/// commandsFor(robot, joints, state), state) gives `joints` back (without translations projected by jointsOf). NaN
+/// where a transmission cannot be inverted. Throws std::invalid_argument for joints of another size.
+Configuration commandsFor(const Robot& robot, const Configuration& joints, const DriveState& state);
+
 /// @brief The default configuration of the command line and the Python module: rotations 0, each tube's straight
 /// part retracted (beta_i = -straight length), then made admissible (beta_{i+1} <= beta_i, ordered distal ends).
 Configuration defaultConfiguration(const Robot& robot);

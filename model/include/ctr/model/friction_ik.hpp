@@ -40,6 +40,11 @@ struct FrictionCost {
   double blind_tip_error = std::numeric_limits<double>::quiet_NaN();  ///< |blind_tip - target| (m).
   double alpha_difference = 0.0;  ///< max_i |alpha_i - blind alpha_i| of the friction-aware command (rad).
   double beta_difference = 0.0;   ///< max_i |beta_i - blind beta_i| (m).
+  /// A robot with drives: max_i |command_i - joint_i| of the rotations (rad) and translations (m), i.e. what the
+  /// compensation of the plays, transmission errors and offsets changes against the commands of the description
+  /// without actuation (whose commands are the joints). 0 without drives.
+  double drive_alpha_difference = 0.0;
+  double drive_beta_difference = 0.0;
 };
 
 /// @brief Result at one target.
@@ -54,7 +59,10 @@ struct FrictionIkResult {
 };
 
 /// @brief Friction-aware inverse kinematics from `state` (a valid HysteresisState of `robot`: initialState, a step,
-/// or approachState): the command q such that step(robot, state, q) puts the tip on the target. Starts from the
+/// or approachState): the command q such that step(robot, state, q) puts the tip on the target. A robot with drives
+/// (hasActuation): the tubes' joints are found on the tubes alone, then turned into the commands that put them there
+/// from the state's plays (commandsFor: a play is taken up before the tube turns, a reversal costs its width), and
+/// stepped through the drives (FrictionIkResult::step carries the plays on). Starts from the
 /// friction-blind command, then iterates damped least-squares steps on the stateful map (each evaluation a step from
 /// `state`, differentiated with the contact laws it ended in). A step that does not converge or snaps is refused.
 /// Throws std::invalid_argument for an invalid state or target.

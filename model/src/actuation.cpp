@@ -1,6 +1,7 @@
 // The drives between the commands and the tubes (actuation.hpp) and the joints of a command (configuration.hpp).
 #include "ctr/model/actuation.hpp"
 
+#include <algorithm>
 #include <cmath>
 #include <limits>
 #include <stdexcept>

@@ -804,3 +804,18 @@ TEST(Planning, PortfolioRunsItsMembersAndSolvesTheIntracardiacQuery) {
   EXPECT_TRUE(r.replay.collision_free);
   EXPECT_LE(r.replay.tip_error, q.tip_goal->tolerance);
 }
+
+// Planning through drives is not implemented: a robot with an actuation block is refused with the reason (a plan for
+// its joints would be replayed as commands and land elsewhere).
+TEST(Planning, ARobotWithDrivesIsRefusedWithTheReason) {
+  const Robot r = io::loadRobot(src("examples/robots/proc_intracardiac.yaml"));
+  Tube t = r.tube(1);
+  t.rotation_drive.play = 0.05;
+  try {
+    emptyMapContext(r.withTube(1, t), Mode::Exact);
+    ADD_FAILURE() << "no refusal";
+  } catch (const std::invalid_argument& e) {
+    EXPECT_NE(std::string(e.what()).find("actuation block"), std::string::npos) << e.what();
+  }
+  EXPECT_NO_THROW(emptyMapContext(r, Mode::Exact));
+}

@@ -41,10 +41,11 @@ void registerFk(CLI::App& app, Action& action) {
       const Configuration command = o->config.resolve(described);
       // With drives (the robot's actuation block) the tubes are at the joints of the command: offsets and
       // transmission errors applied, plays centred (a play needs a history of commands: ctr simulate has one).
+      const bool driven = hasActuation(described);
       DriveState drives;
-      const Configuration q = hasActuation(described) ? jointsOf(described, command, drives) : command;
-      const Robot robot = described.withoutActuation();
-      if (hasActuation(described)) {
+      const Configuration q = driven ? jointsOf(described, command, drives) : command;
+      const Robot robot = driven ? described.withoutActuation() : described;
+      if (driven) {
         bool play = false;
         for (const Tube& t : described.tubes())
           play = play || t.rotation_drive.play > 0 || t.translation_drive.play > 0;
@@ -79,7 +80,7 @@ void registerFk(CLI::App& app, Action& action) {
       };
       if (!o->json.empty()) {
         nlohmann::json j = solutionJson(sol);
-        if (hasActuation(described))
+        if (driven)
           j["command"] = {{"alpha", std::vector<double>(command.alpha.data(), command.alpha.data() + command.size())},
                           {"beta", std::vector<double>(command.beta.data(), command.beta.data() + command.size())}};
         if (jac.ok) {

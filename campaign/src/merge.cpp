@@ -118,12 +118,7 @@ json stats(std::vector<double> v) {
 
 MergeSummary mergeCampaign(const std::vector<std::string>& dirs, const std::string& out, const MergeOptions& options) {
   if (dirs.empty()) throw std::invalid_argument("mergeCampaign: no folders to merge");
-  if (out.empty()) throw std::invalid_argument("mergeCampaign: the output folder is empty");
-  {
-    std::error_code ec;
-    if (fs::exists(out, ec) && !fs::is_directory(out, ec))
-      throw io::InputError(out, 0, "", "exists and is not a folder");
-  }
+  detail::requireOutputFolder(out, "mergeCampaign");
   const bool allow_incomplete = options.allow_incomplete;
   // 1. The campaign: every folder must hold runs of the same one.
   std::optional<Campaign> campaign;

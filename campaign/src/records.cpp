@@ -5,6 +5,9 @@
 #include <ctime>
 #include <fstream>
 #include <sstream>
+#include <stdexcept>
+
+#include "ctr/io/input_error.hpp"
 
 namespace ctr::campaign::detail {
 
@@ -20,6 +23,13 @@ std::string isoNow() {
   char buf[32];
   std::strftime(buf, sizeof buf, "%Y-%m-%dT%H:%M:%SZ", std::gmtime(&t));
   return buf;
+}
+
+void requireOutputFolder(const std::string& out, const char* caller) {
+  if (out.empty()) throw std::invalid_argument(std::string(caller) + ": the output folder is empty");
+  std::error_code ec;
+  if (std::filesystem::exists(out, ec) && !std::filesystem::is_directory(out, ec))
+    throw io::InputError(out, 0, "", "exists and is not a folder");
 }
 
 std::string hostName() {

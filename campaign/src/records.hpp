@@ -15,5 +15,8 @@ std::string readText(const std::filesystem::path& p);
 std::string isoNow();
 /// This machine's host name ("unknown" when it cannot be told).
 std::string hostName();
+/// An output folder given to `caller` is a folder or does not exist yet: std::invalid_argument when it is empty,
+/// io::InputError naming it when it is a file.
+void requireOutputFolder(const std::string& out, const char* caller);
 
 }  // namespace ctr::campaign::detail

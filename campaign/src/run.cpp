@@ -231,13 +231,6 @@ json runUnit(const Campaign& c, const CampaignUnit& u, LoadedQuery& cache, const
   return rec;
 }
 
-// The output folder must be a folder (or not exist yet).
-void requireFolder(const std::string& out) {
-  if (out.empty()) throw std::invalid_argument("the output folder is empty");
-  std::error_code ec;
-  if (fs::exists(out, ec) && !fs::is_directory(out, ec)) throw io::InputError(out, 0, "", "exists and is not a folder");
-}
-
 }  // namespace
 
 RunSummary runCampaign(const Campaign& c, const RunOptions& options) {
@@ -245,7 +238,7 @@ RunSummary runCampaign(const Campaign& c, const RunOptions& options) {
   RunObserver& observer = options.observer ? *options.observer : silent;
   const std::vector<CampaignUnit> units = c.shard(options.shard);  // throws for a shard that is not I/N
   const std::string shard_label = options.shard.label();
-  requireFolder(options.out);
+  detail::requireOutputFolder(options.out, "runCampaign");
   const fs::path out(options.out), units_dir = out / "units";
   // A folder holds the runs of one campaign: refuse to mix (before any work).
   const fs::path manifest = out / "campaign.json";
@@ -331,7 +324,7 @@ BenchmarkSummary benchmarkQuery(const planner::Query& q, const BenchmarkOptions&
   if (options.runs < 1) throw std::invalid_argument("benchmarkQuery: runs must be >= 1");
   if (!(options.time_limit > 0) || !std::isfinite(options.time_limit))
     throw std::invalid_argument("benchmarkQuery: time_limit must be > 0 s");
-  requireFolder(options.out);
+  detail::requireOutputFolder(options.out, "benchmarkQuery");
   RunObserver silent;
   RunObserver& observer = options.observer ? *options.observer : silent;
   planner::CtrPlanner p(q);

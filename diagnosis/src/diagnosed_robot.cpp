@@ -5,6 +5,7 @@
 
 #include "ctr/diagnosis/diagnose.hpp"
 #include "ctr/io/robot_yaml.hpp"
+#include "diagnosis_state.hpp"
 
 namespace ctr::diagnosis {
 namespace {
@@ -52,28 +53,14 @@ std::string keyOf(const Effect& e) {
   }
 }
 
-std::string g4(double v) {
-  char b[32];
-  std::snprintf(b, sizeof b, "%.4g", v);
-  return b;
-}
-
-/// "name 0.21 (95 %: 0.19 .. 0.23)" for each reported parameter but the tube.
+/// "width=0.21 (95 %: [0.19, 0.23])" for each reported parameter but the tube, then the unit.
 std::string valueWords(const DiagnosisReport& r, const Effect& e) {
   const auto u = r.final_uncertainty.find(e.label());
   std::string out;
   for (const NamedParameter& p : namedParameters(e, u != r.final_uncertainty.end() ? &u->second : nullptr)) {
     if (p.name == "tube") continue;
-    out += (out.empty() ? "" : ", ") + p.name + " ";
-    if (p.value.size() > 1) out += "[";
-    for (std::size_t i = 0; i < p.value.size(); ++i) out += (i ? ", " : "") + g4(p.value[i]);
-    if (p.value.size() > 1) out += "]";
-    if (!p.interval95.empty()) {
-      out += " (95 %:";
-      for (std::size_t i = 0; i < p.interval95.size(); ++i)
-        out += (i ? "," : "") + std::string(" ") + g4(p.interval95[i][0]) + " .. " + g4(p.interval95[i][1]);
-      out += ")";
-    }
+    out += (out.empty() ? "" : ", ") + detail::paramText(p);
+    if (!p.interval95.empty()) out += " (95 %: " + detail::intervalText(p) + ")";
   }
   return out + " " + parameterUnit(e.kind);
 }
@@ -98,7 +85,8 @@ std::string diagnosedRobotYaml(const Robot& nominal, const DiagnosisReport& r, c
     const Finding* f = namingFinding(r, e);
     if (!r.verdict.empty() && f && !ofTheRecording(e.kind) && !isGeneric(e.kind)) {
       applied << "#   " << e.label() << " -> " << keyOf(e) << ": " << valueWords(r, e) << "; named in round "
-              << f->round << " (held-out p " << g4(f->heldout_p) << ", delta BIC " << g4(f->delta_bic) << ")";
+              << f->round << " (held-out p " << detail::fmt("%.4g", f->heldout_p) << ", delta BIC "
+              << detail::fmt("%.4g", f->delta_bic) << ")";
       for (const Rival& rv : f->ambiguous_with) applied << "; this recording cannot tell it from " << rv.effect.label();
       applied << "\n";
     } else {

@@ -18,6 +18,10 @@ namespace ctr::diagnosis::detail {
 
 /// printf-style formatting of up to four numbers.
 std::string fmt(const char* f, double a, double b = 0, double c = 0, double d = 0);
+/// A reported parameter in words: "mu=0.118" / "force=(0.05, 0, -0.1)" / "tube=2" (report.cpp).
+std::string paramText(const NamedParameter& p);
+/// Its 95 % interval: "[lo, hi]", one per component of a vector parameter (report.cpp).
+std::string intervalText(const NamedParameter& p);
 
 /// "nominal+effect+..." of a list of effects.
 std::string modelName(const std::vector<Effect>& e);

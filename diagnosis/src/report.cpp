@@ -5,6 +5,7 @@
 #include <sstream>
 
 #include "ctr/diagnosis/diagnose.hpp"
+#include "diagnosis_state.hpp"
 
 namespace ctr::diagnosis {
 
@@ -98,7 +99,15 @@ json intervalsJson(const std::vector<NamedParameter>& ps) {
   return j;
 }
 
-// "mu=0.118" / "force=(0.05, 0, -0.1)" / "tube=2".
+std::string f4(double v) {
+  char b[64];
+  std::snprintf(b, sizeof b, "%.4g", v);
+  return b;
+}
+}  // namespace
+
+namespace detail {
+
 std::string paramText(const NamedParameter& p) {
   char b[64];
   std::string t = p.name + "=";
@@ -120,12 +129,10 @@ std::string intervalText(const NamedParameter& p) {
   return t;
 }
 
-std::string f4(double v) {
-  char b[64];
-  std::snprintf(b, sizeof b, "%.4g", v);
-  return b;
-}
-}  // namespace
+}  // namespace detail
+
+using detail::intervalText;
+using detail::paramText;
 
 std::string reportToJson(const DiagnosisReport& r) {
   json j;

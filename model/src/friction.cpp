@@ -96,7 +96,6 @@ HysteresisState stateFrom(const Solution& sol, const std::vector<ContactMode>& m
                           const Eigen::VectorXd& direction) {
   HysteresisState st;
   st.q = q;
-  st.command = q;
   st.base_twist_rate = sol.base_twist_rate;
   st.base_moment = sol.base_moment;
   st.direction = direction;

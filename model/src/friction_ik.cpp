@@ -64,13 +64,8 @@ std::vector<FrictionIkResult> frictionInverseKinematicsPath(const Robot& robot, 
       if (r.cost.blind_q.size() == robot.size()) r.cost.blind_q = commandsFor(robot, r.cost.blind_q, state.drives);
       r.cost.drive_alpha_difference = (r.q.alpha - joints.alpha).cwiseAbs().maxCoeff();
       r.cost.drive_beta_difference = (r.q.beta - joints.beta).cwiseAbs().maxCoeff();
-      const Admissibility adm = checkAdmissible(robot, r.q);
-      if (!adm && r.summary.status != IkStatus::Failed) {
-        r.summary.status = IkStatus::Failed;
-        r.summary.message =
-            "the commands that put the tubes there through the drives are not admissible: " + adm.message;
-        continue;
-      }
+      const bool failed_before = r.summary.status == IkStatus::Failed;
+      if (!detail::driveCommandsAdmissible(robot, r.q, r.summary) && !failed_before) continue;
       r.step = step(robot, state, r.q, ws, o.friction);  // the same joints from the same state, plays carried
       if (r.step.state.valid) state = r.step.state;
     }

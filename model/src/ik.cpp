@@ -296,13 +296,7 @@ Configuration jointsCentred(const Robot& robot, const Configuration& command) {
 IkResult throughDrives(const Robot& robot, IkResult r) {
   if (r.q.size() != robot.size()) return r;
   r.q = commandsFor(robot, r.q, DriveState{});
-  if (r.summary.status != IkStatus::Failed) {
-    const Admissibility adm = checkAdmissible(robot, r.q);
-    if (!adm) {
-      r.summary.status = IkStatus::Failed;
-      r.summary.message = "the commands that put the tubes there through the drives are not admissible: " + adm.message;
-    }
-  }
+  detail::driveCommandsAdmissible(robot, r.q, r.summary);
   return r;
 }
 

@@ -272,4 +272,16 @@ void summarise(const Descent<Point>& d, const Solution& sol, const IkGoal& goal,
   s.message = os.str();
 }
 
+/// A robot with drives: whether the answer's commands (the joints through the inverse drives) are admissible; when
+/// they are not, an answer that was not failed already is marked failed with the reason.
+inline bool driveCommandsAdmissible(const Robot& robot, const Configuration& q, IkSummary& s) {
+  const Admissibility adm = checkAdmissible(robot, q);
+  if (adm) return true;
+  if (s.status != IkStatus::Failed) {
+    s.status = IkStatus::Failed;
+    s.message = "the commands that put the tubes there through the drives are not admissible: " + adm.message;
+  }
+  return false;
+}
+
 }  // namespace ctr::detail

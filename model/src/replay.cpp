@@ -217,7 +217,6 @@ struct Branches {
 HysteresisState frictionlessState(const Solution& s, const Configuration& q) {
   HysteresisState st;
   st.q = q;
-  st.command = q;
   st.base_twist_rate = s.base_twist_rate;
   st.base_moment = s.base_moment;
   st.twist = s.twist;

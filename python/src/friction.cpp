@@ -48,7 +48,7 @@ pyb::list contactMemoryList(const HysteresisState& h) {
 
 // Pickling: the state as plain Python values (every field; round-trips exactly).
 // Format 2 adds the solver's warm-start memory (previous_*), format 3 the command and the drives' plays; formats 1
-// and 2 still load (their command is their configuration, without plays).
+// and 2 still load (without drives: their command is their configuration).
 pyb::tuple stateGetState(const HysteresisState& h) {
   return pyb::make_tuple(3, h.q.alpha, h.q.beta, h.base_twist_rate, contactMemoryList(h), h.direction, h.twist,
                          h.interface_direction, h.valid, h.base_moment, h.previous_q.alpha, h.previous_q.beta,
@@ -88,7 +88,6 @@ HysteresisState stateSetState(const pyb::tuple& t) {
     h.previous_base_moment = t[13].cast<Eigen::Vector3d>();
     h.previous_torques = t[14].cast<Eigen::VectorXd>();
   }
-  h.command = h.q;
   if (format >= 3) {
     h.command = Configuration(t[15].cast<Eigen::VectorXd>(), t[16].cast<Eigen::VectorXd>());
     h.drives.rotation = t[17].cast<Eigen::VectorXd>();
@@ -134,7 +133,7 @@ void registerFriction(pyb::module_& m) {
       .def_property_readonly(
           "beta", [](const HysteresisState& h) { return h.q.beta; }, "The tubes' translations at the last step.")
       .def_property_readonly(
-          "command", [](const HysteresisState& h) { return configurationTuple(h.command); },
+          "command", [](const HysteresisState& h) { return configurationTuple(h.lastCommand()); },
           "The last command (alpha, beta).")
       .def_property_readonly(
           "plays", [](const HysteresisState& h) { return pyb::make_tuple(h.drives.rotation, h.drives.translation); },
@@ -204,8 +203,8 @@ void registerFriction(pyb::module_& m) {
       [](const Robot& r, const HysteresisState& from, const pyb::object& alpha, const pyb::object& beta,
          std::optional<FrictionOptions> options) {
         if (!from.valid) throw pyb::value_error("state: not initialised (use ctr.initial_state first)");
-        const pyb::object a = alpha.is_none() ? pyb::cast(from.command.alpha) : alpha;
-        const pyb::object b = beta.is_none() ? pyb::cast(from.command.beta) : beta;
+        const pyb::object a = alpha.is_none() ? pyb::cast(from.lastCommand().alpha) : alpha;
+        const pyb::object b = beta.is_none() ? pyb::cast(from.lastCommand().beta) : beta;
         const Configuration q = toConfiguration(r, a, b);
         pyb::gil_scoped_release release;
         return step(r, from, q, workspace(), options.value_or(FrictionOptions{}));

@@ -201,7 +201,7 @@ pyb::dict run(const Robot& r, const Inputs& in, const pyb::object& state, const 
         report.friction =
             io::IkReport::Friction{r.friction().boundary, history, approach, in.start, static_cast<int>(prefix.size())};
       } else {
-        report.friction = io::IkReport::Friction{r.friction().boundary, "state", 0.0, from.command, 0};
+        report.friction = io::IkReport::Friction{r.friction().boundary, "state", 0.0, from.lastCommand(), 0};
       }
       const std::vector<FrictionIkResult> res = frictionInverseKinematicsPath(r, from, in.targets, workspace(), fo);
       for (const FrictionIkResult& x : res) report.rows.emplace_back(x, hasActuation(r));

@@ -159,7 +159,7 @@ TEST(RobotOut, TheDiagnosedRobotReplaysTheFinalModelsPrediction) {
   EXPECT_TRUE(out.tube(0).rotation_drive.ideal() && out.tube(1).translation_drive.ideal());
   EXPECT_EQ(out.tube(0).torsional_stiffness, r.tube(0).torsional_stiffness) << "a partial explanation is not applied";
   const std::string yaml = diagnosedRobotYaml(r, rep, "rec.csv");
-  for (const char* words : {"rec.csv", "0.09 .. 0.11", "tubes[2].actuation.rotation.play", "sensor_latency",
+  for (const char* words : {"rec.csv", "[0.09, 0.11]", "tubes[2].actuation.rotation.play", "sensor_latency",
                             "an effect of the recording", "not named"})
     EXPECT_NE(yaml.find(words), std::string::npos) << words << "\n" << yaml;
   const Robot back = io::parseRobot(yaml, "out.yaml");

@@ -42,7 +42,8 @@ struct HysteresisState {
   /// The tubes' configuration at the last step (the joints: the command through the robot's drives; the command
   /// itself for a robot without actuation).
   Configuration q;
-  Configuration command;            ///< The last command.
+  /// The last command, for a robot with drives; empty otherwise (it is then q): read it with lastCommand().
+  Configuration command;
   DriveState drives;                ///< The plays' positions (actuation.hpp); empty for a robot without actuation.
   Eigen::VectorXd base_twist_rate;  ///< Equilibrium branch: u_iz(0) at the last step (warm start).
   Eigen::Vector3d base_moment = Eigen::Vector3d::Zero();  ///< With external loads: m(0) at the last step (warm start).
@@ -59,6 +60,9 @@ struct HysteresisState {
   Eigen::VectorXd previous_base_twist_rate;
   Eigen::Vector3d previous_base_moment = Eigen::Vector3d::Zero();
   Eigen::VectorXd previous_torques;
+
+  /// @brief The last command: `command` for a robot with drives, else q (the command itself).
+  const Configuration& lastCommand() const { return command.size() > 0 ? command : q; }
 };
 
 /// @brief Options of the friction stepping.

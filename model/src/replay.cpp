@@ -339,11 +339,17 @@ std::vector<ReplayRow> replay(const Robot& robot, const std::vector<Configuratio
     // The drives first, in the order the commands were given (the plays remember it), the passed-through commands
     // of `known` before their row; then the tubes alone replay the joints. Inadmissible commands stay as they are
     // (their rows report it) and do not move the drives.
+    // Each row's state then carries its command and the plays' positions after it, as step() gives them.
     DriveState drives;
     std::vector<Configuration> joints;
+    std::vector<DriveState> drives_after;
+    std::vector<std::size_t> last_command;  // per row: the last admissible command so far (commands.size(): none)
     joints.reserve(commands.size());
+    drives_after.reserve(commands.size());
+    last_command.reserve(commands.size());
     ReplayPath joint_path;
     joint_path.via.resize(known.via.size());
+    std::size_t commanded = commands.size();
     for (std::size_t k = 0; k < commands.size(); ++k) {
       if (k < known.via.size())
         for (const Configuration& v : known.via[k])
@@ -352,8 +358,18 @@ std::vector<ReplayRow> replay(const Robot& robot, const std::vector<Configuratio
       const Configuration& c = commands[k];
       const bool admissible = c.size() == robot.size() && c.beta.size() == robot.size() && checkAdmissible(robot, c);
       joints.push_back(admissible ? jointsOf(robot, c, drives) : c);
+      if (admissible) commanded = k;
+      drives_after.push_back(drives);
+      last_command.push_back(commanded);
     }
-    return replay(robot.withoutActuation(), joints, ws, o, joint_path, observer);
+    const ReplayObserver inner = [&](std::size_t k, ReplayRow& row) {
+      if (last_command[k] < commands.size()) {
+        row.result.state.command = commands[last_command[k]];
+        row.result.state.drives = drives_after[k];
+      }
+      return !observer || observer(k, row);
+    };
+    return replay(robot.withoutActuation(), joints, ws, o, joint_path, inner);
   }
   std::vector<ReplayRow> out(commands.size());
   const bool friction = hasFriction(robot);

@@ -41,20 +41,47 @@ FrictionOptions planningFrictionOptions() {
   return f;
 }
 
+std::string geometricDriveLimit(const Robot& robot) {
+  for (int i = 0; i < robot.size(); ++i) {
+    const Tube& t = robot.tube(i);
+    const std::string tube = "tube " + std::to_string(i + 1);
+    if (t.rotation_drive.play > 0.0) return tube + "'s rotation drive has a play (its position is history)";
+    if (t.translation_drive.play > 0.0) return tube + "'s translation drive has a play (its position is history)";
+    if (t.rotation_drive.ratio_error != 0.0)
+      return tube + "'s rotation drive has a ratio error (the joint depends on the unwrapped command)";
+  }
+  return "";
+}
+
 Context::Context(Robot robot, std::shared_ptr<const environments::Environment> env, ContextOptions options,
                  environments::CollisionOptions collision)
     : robot_(std::move(robot)),
-      frictionless_(robot_.withFriction({0.0, 0.0})),
+      tubes_(robot_.withoutActuation()),
+      frictionless_(tubes_.withFriction({0.0, 0.0})),
+      drives_(hasActuation(robot_)),
       env_(std::move(env)),
       options_(options),
       sampler_(robot_, options.min_protrusion) {
   if (!env_) throw std::invalid_argument("planning context: no environment");
-  if (hasActuation(robot_))
-    throw std::invalid_argument("robot '" + robot_.name() +
-                                "' has an actuation block (drive plays, offsets or transmission errors): planning "
-                                "through the drives is not implemented yet; plan with the description without it");
+  if (drives_ && options_.mode != Mode::Exact) {
+    const std::string why = geometricDriveLimit(robot_);
+    if (!why.empty())
+      throw std::invalid_argument("robot '" + robot_.name() + "': " + why + "; " + toString(options_.mode) +
+                                  " mode plans without history: plan in exact mode, whose states carry the drives");
+  }
   if (!sampler_.feasible()) throw std::invalid_argument("robot '" + robot_.name() + "' has no admissible translation");
   checker_ = std::make_shared<environments::CollisionChecker>(env_, robot_, collision);
+}
+
+Configuration Context::jointsAt(const Configuration& command) const {
+  if (!drives_) return command;
+  DriveState none;
+  return jointsOf(robot_, command, none);
+}
+
+Configuration Context::commandAt(const Configuration& joints) const {
+  if (!drives_) return joints;
+  return commandsFor(robot_, joints, DriveState{});
 }
 
 ThreadScratch& scratch() {

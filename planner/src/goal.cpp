@@ -64,7 +64,7 @@ double TipGoal::bandDistance(const Configuration& q, Eigen::Vector3d* center) co
   o.interior_samples = 0;
   o.kinematics = ctx_->options().friction.kinematics;
   o.kinematics.record_backbone = false;
-  const FrictionBand band = frictionBand(ctx_->robot(), q, scratch().ws, o);
+  const FrictionBand band = frictionBand(ctx_->tubes(), ctx_->jointsAt(q), scratch().ws, o);
   if (!band.converged) return std::numeric_limits<double>::infinity();
   double d = 0.0;
   Eigen::Vector3d lo = Eigen::Vector3d::Constant(std::numeric_limits<double>::infinity()), hi = -lo;
@@ -109,7 +109,7 @@ unsigned int TipGoal::maxSampleCount() const {
 }
 
 bool TipGoal::tryCandidate() const {
-  Configuration q;
+  Configuration q;  // joints (the inverse kinematics solves the tubes); the pool keeps their commands
   {
     std::lock_guard<std::mutex> lock(mutex_);
     q = sampleConfiguration(ctx_->robot(), ctx_->translationSampler(), gen_);
@@ -126,17 +126,19 @@ bool TipGoal::tryCandidate() const {
     // Centre the friction band's tips on the target: aim the frictionless tip at the target minus the offset of the
     // band's centre from it (a few fixed-point iterations).
     Eigen::Vector3d aim = spec_.position, centre;
-    band = bandDistance(q, &centre);
+    band = bandDistance(ctx_->commandAt(q), &centre);
     for (int it = 0; it < 3 && band > spec_.tolerance; ++it) {
       aim += spec_.position - centre;
       err = inverseKinematics(*ctx_, aim, q);
       if (!(err < 0.5 * spec_.tolerance)) break;
-      band = bandDistance(q, &centre);
+      band = bandDistance(ctx_->commandAt(q), &centre);
     }
     std::lock_guard<std::mutex> lock(mutex_);
     best_band_ = std::min(best_band_, band);
     band_reached_ += band <= spec_.tolerance;
   }
+  q = ctx_->commandAt(q);
+  if (!q.alpha.allFinite() || !q.beta.allFinite()) return false;  // the drives cannot be inverted there
   ob::State* st = si_->allocState();
   space_->setConfiguration(st, q);
   q = space_->configuration(st);  // as the state space stores it (rotations wrapped)

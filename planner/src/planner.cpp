@@ -368,7 +368,7 @@ PlanResult CtrPlanner::replaySolution(const std::string& planner, double plannin
       }
     }
     if (st->cache && st->cache->hysteresis.valid) {
-      r.path.push_back(st->cache->hysteresis.q);
+      r.path.push_back(st->cache->hysteresis.lastCommand());
     } else {
       const Configuration d = space.difference(states[k - 1], states[k]);
       r.path.push_back(Configuration(r.path.back().alpha + d.alpha, r.path.back().beta + d.beta));
@@ -378,7 +378,7 @@ PlanResult CtrPlanner::replaySolution(const std::string& planner, double plannin
   const auto t0 = std::chrono::steady_clock::now();
   GoalTest test;
   if (goal_) {
-    test = [this](const Solution& s) {
+    test = [this](const Solution& s, const Configuration&) {
       const auto [e, a] = goal_->errors(s);
       const bool ok = e <= goal_->spec().tolerance && (!goal_->spec().direction || a <= goal_->spec().cone_angle);
       return std::make_tuple(e, a, ok);
@@ -386,10 +386,10 @@ PlanResult CtrPlanner::replaySolution(const std::string& planner, double plannin
   } else {
     const Configuration g = *query_.goal_configuration;
     const double tol = query_.goal_configuration_tolerance;
-    test = [g, tol](const Solution& s) {
-      Eigen::VectorXd da = s.q.alpha - g.alpha;
+    test = [g, tol](const Solution&, const Configuration& q) {  // the commands (the query's coordinates)
+      Eigen::VectorXd da = q.alpha - g.alpha;
       for (int i = 0; i < da.size(); ++i) da[i] = std::remainder(da[i], 2 * M_PI);
-      const double d = std::sqrt(da.squaredNorm() + 2500.0 * (s.q.beta - g.beta).squaredNorm());
+      const double d = std::sqrt(da.squaredNorm() + 2500.0 * (q.beta - g.beta).squaredNorm());
       return std::make_tuple(d, 0.0, d <= tol);
     };
   }

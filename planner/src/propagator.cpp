@@ -124,7 +124,7 @@ std::shared_ptr<const StateCache> propagateCache(const Context& ctx, const State
   StepResult r;
   std::shared_ptr<StateCache> out;
   followMove(
-      from.hysteresis.q, to, h.twist, false, motion, OnSnap::Continue,
+      from.hysteresis.lastCommand(), to, h.twist, false, motion, OnSnap::Continue,
       [&](const Configuration& qk, int, int) {
         out.reset();
         r = step(ctx.robot(), h, qk, t.ws, fo);
@@ -163,7 +163,7 @@ void FrictionPropagator::propagate(const ob::State* state, const oc::Control* co
   std::shared_ptr<const StateCache> from = st->cache;
   if (!from) from = startCache(*ctx_, space_->configuration(state), StartHistory{});
   // Unwrapped rotations: continue from the memory's own (unwrapped) command.
-  Configuration q = from->hysteresis.valid ? from->hysteresis.q : space_->configuration(state);
+  Configuration q = from->hysteresis.valid ? from->hysteresis.lastCommand() : space_->configuration(state);
   for (int i = 0; i < n; ++i) {
     q.alpha[i] += u[i] * duration;
     q.beta[i] += u[n + i] * duration;

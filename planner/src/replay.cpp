@@ -118,7 +118,7 @@ ReplayReport replayPath(const Context& ctx, const std::vector<Configuration>& wa
   if (!std::isfinite(R.min_clearance)) R.min_clearance = 0.0;
   if (!completed) return R;
   R.completed = true;
-  const auto [tip_err, dir_err, reached] = goal(last);
+  const auto [tip_err, dir_err, reached] = goal(last, commands.back());
   R.tip_error = tip_err;
   R.direction_error = dir_err;
   R.goal_reached = reached;
@@ -142,6 +142,13 @@ std::string replayCsv(const Robot& robot, const ReplayReport& r) {
   for (int i = 1; i <= n; ++i) os << "beta_" << i << ',';
   for (int i = 2; i <= n; ++i) os << "twist_" << i << ',';
   os << "tip_x,tip_y,tip_z,tip_tx,tip_ty,tip_tz,clearance,valid";
+  const bool drives = hasActuation(robot);  // then also the tubes' joints and the plays' positions
+  if (drives) {
+    for (int i = 1; i <= n; ++i) os << ",joint_alpha_" << i;
+    for (int i = 1; i <= n; ++i) os << ",joint_beta_" << i;
+    for (int i = 1; i <= n; ++i) os << ",play_alpha_" << i;
+    for (int i = 1; i <= n; ++i) os << ",play_beta_" << i;
+  }
   for (const auto& s : sites) os << ',' << s << "_mode," << s << "_torque," << s << "_relative_twist";
   os << '\n';
   for (const auto& p : r.points) {
@@ -153,6 +160,13 @@ std::string replayCsv(const Robot& robot, const ReplayReport& r) {
     for (int d = 0; d < 3; ++d) os << (ok ? num(p.solution.tip_position[d]) : "") << ',';
     for (int d = 0; d < 3; ++d) os << (ok ? num(t[d]) : "") << ',';
     os << num(p.clearance) << ',' << (p.valid ? 1 : 0);
+    if (drives) {
+      for (int i = 0; i < n; ++i) os << ',' << (ok ? num(p.solution.q.alpha[i]) : "");
+      for (int i = 0; i < n; ++i) os << ',' << (ok ? num(p.solution.q.beta[i]) : "");
+      const DriveState& d = p.hysteresis.drives;
+      for (int i = 0; i < n; ++i) os << ',' << (i < d.rotation.size() ? num(d.rotation[i]) : "");
+      for (int i = 0; i < n; ++i) os << ',' << (i < d.translation.size() ? num(d.translation[i]) : "");
+    }
     for (const auto& s : sites) {
       const ContactMemory* m = nullptr;
       for (const auto& c : p.hysteresis.contacts)

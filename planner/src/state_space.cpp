@@ -159,7 +159,7 @@ bool tipOf(const Context& ctx, const CtrStateSpace& space, const ob::State* s, E
   }
   KinematicsOptions o = ctx.options().friction.kinematics;
   o.record_backbone = false;
-  const Solution sol = solve(ctx.modelRobot(), space.configuration(s), scratch().ws, o);
+  const Solution sol = solve(ctx.modelRobot(), ctx.jointsAt(space.configuration(s)), scratch().ws, o);
   if (!sol.converged()) return false;
   tip = ctx.basePose() * sol.tip_position;
   if (tangent) *tangent = ctx.basePose().linear() * sol.tipTangent();

@@ -89,7 +89,7 @@ Failure bandAt(const Context& ctx, const Configuration& q, ThreadScratch& t, con
     if (!c.ok) return (i == 0 ? "frictionless shape: " : "friction band shape: ") + c.message;
     return "";
   };
-  out = frictionBand(ctx.robot(), q, t.ws, o);
+  out = frictionBand(ctx.tubes(), ctx.jointsAt(q), t.ws, o);
   if (!out.converged) {
     if (out.shapes.empty() && o.follow) {
       message = "frictionless branch snaps";
@@ -109,12 +109,22 @@ Failure bandAt(const Context& ctx, const Configuration& q, ThreadScratch& t, con
   return Failure::None;
 }
 
+// A command the stages cannot take (a robot with drives: the solve sees only the joints, which the drives project).
+bool commandAdmissible(const Context& ctx, const Configuration& q, ConfigurationCheck& r) {
+  const Admissibility adm = checkAdmissible(ctx.robot(), q);
+  if (adm) return true;
+  r.failure = Failure::Inadmissible;
+  r.message = "inadmissible: " + adm.message;
+  return false;
+}
+
 }  // namespace
 
 ConfigurationCheck checkFrictionless(const Context& ctx, const Configuration& q, ThreadScratch& t,
                                      const Solution* warm) {
   ConfigurationCheck r;
-  r.shape = solve(ctx.frictionlessRobot(), q, t.ws, shapeOptions(ctx), warm);
+  if (ctx.hasDrives() && !commandAdmissible(ctx, q, r)) return r;
+  r.shape = solve(ctx.frictionlessRobot(), ctx.jointsAt(q), t.ws, shapeOptions(ctx), warm);
   const ShapeCheck c = checkShape(ctx, r.shape, t);
   r.ok = c.ok;
   r.failure = c.failure;
@@ -124,6 +134,7 @@ ConfigurationCheck checkFrictionless(const Context& ctx, const Configuration& q,
 
 ConfigurationCheck checkRobust(const Context& ctx, const Configuration& q, ThreadScratch& t) {
   ConfigurationCheck r;
+  if (ctx.hasDrives() && !commandAdmissible(ctx, q, r)) return r;
   FrictionBand b;
   r.failure = bandAt(ctx, q, t, nullptr, b, r.message);
   r.ok = r.failure == Failure::None;
@@ -204,7 +215,7 @@ double checkMotionForward(const Context& ctx, const Configuration& q0, const Con
   f = followMove(
       q0, q1, cur.twist, cur.converged() && cur.summary.stable, fo, OnSnap::Stop,
       [&](const Configuration& qk, int, int) {
-        next = solve(ctx.frictionlessRobot(), qk, t.ws, shapeOptions(ctx), &cur);
+        next = solve(ctx.frictionlessRobot(), ctx.jointsAt(qk), t.ws, shapeOptions(ctx), &cur);
         return SubStep{&next, Failure::None, {}};
       },
       noRecovery,
@@ -217,7 +228,7 @@ double checkMotionForward(const Context& ctx, const Configuration& q0, const Con
   why = f.message;
   if (f.completed == 0) return result(f, true);
   const Configuration last = interpolate(q0, q1, static_cast<double>(f.completed) / f.steps);
-  const Solution own = solve(ctx.frictionlessRobot(), last, t.ws, shapeOptions(ctx));
+  const Solution own = solve(ctx.frictionlessRobot(), ctx.jointsAt(last), t.ws, shapeOptions(ctx));
   return result(f, own.converged() && sameEquilibrium(cur, own));
 }
 
@@ -249,7 +260,7 @@ double ValidityChecker::clearance(const ob::State* state) const {
   if (st->cache && st->cache->solution.converged()) {
     shape = st->cache->solution;
   } else {
-    shape = solve(ctx_->frictionlessRobot(), space_->configuration(state), t.ws, shapeOptions(*ctx_));
+    shape = solve(ctx_->frictionlessRobot(), ctx_->jointsAt(space_->configuration(state)), t.ws, shapeOptions(*ctx_));
     if (!shape.converged()) return 0.0;
   }
   if (!ctx_->checker().distanceField()) return 0.0;

@@ -128,7 +128,8 @@ TEST(Drives, StepPutsTheTubesAtTheJointsOfTheCommand) {
   EXPECT_GT((s.solution.tip_position - below.solution.tip_position).norm(), 1e-3) << "hysteresis from the play";
 }
 
-// The replay of a robot with drives is the replay of its tubes at the joints of the commands taken in order.
+// The replay of a robot with drives is the replay of its tubes at the joints of the commands taken in order; each
+// row's state carries its command and the plays' positions as the chain of step() from the first row gives them.
 TEST(Drives, ReplayIsTheTubesReplayAtTheJointsOfTheCommandsInOrder) {
   for (double mu : {0.0, 0.1}) {
     const Robot r = driven(mu, 0.25, -0.04);
@@ -145,6 +146,21 @@ TEST(Drives, ReplayIsTheTubesReplayAtTheJointsOfTheCommandsInOrder) {
       ASSERT_TRUE(a[k].ok) << "mu " << mu << " row " << k << ": " << toString(a[k].failure);
       EXPECT_EQ(a[k].result.solution.tip_position, b[k].result.solution.tip_position) << "mu " << mu << " row " << k;
       EXPECT_EQ(a[k].result.solution.q.alpha, joints[k].alpha);
+    }
+    StepResult chain = initialState(r, commands[0], ws);
+    for (std::size_t k = 0; k < a.size(); ++k) {
+      if (k > 0) chain = step(r, chain.state, commands[k], ws);
+      const HysteresisState& h = a[k].result.state;
+      EXPECT_EQ(h.lastCommand().alpha, commands[k].alpha) << "row " << k;
+      EXPECT_EQ(h.lastCommand().beta, commands[k].beta) << "row " << k;
+      ASSERT_EQ(h.drives.rotation.size(), 2) << "row " << k;
+      EXPECT_EQ(h.drives.rotation[1], chain.state.drives.rotation[1]) << "row " << k;
+      EXPECT_TRUE(std::isnan(h.drives.rotation[0])) << "row " << k;
+      // Carried on, the replay's state steps like the chain's: the next command lands on the same joints.
+      if (k + 1 < a.size()) {
+        const StepResult next = step(r, h, commands[k + 1], ws);
+        EXPECT_EQ(next.solution.q.alpha, joints[k + 1].alpha) << "row " << k;
+      }
     }
   }
 }

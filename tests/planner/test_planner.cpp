@@ -4,6 +4,9 @@
 
 #include <Eigen/Geometry>
 
+#include <unistd.h>
+
+#include <cmath>
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
@@ -565,8 +568,8 @@ void expectReplayRecomputesThePlannersStates(const CtrPlanner& p, const PlanResu
     ASSERT_TRUE(st->cache && st->cache->hysteresis.valid);
     const HysteresisState& h = st->cache->hysteresis;
     // The replay point commanded exactly at this state's command (after the previous match: paths may revisit).
-    while (next < r.replay.points.size() &&
-           !(r.replay.points[next].q.alpha == h.q.alpha && r.replay.points[next].q.beta == h.q.beta))
+    while (next < r.replay.points.size() && !(r.replay.points[next].q.alpha == h.lastCommand().alpha &&
+                                              r.replay.points[next].q.beta == h.lastCommand().beta))
       ++next;
     ASSERT_LT(next, r.replay.points.size()) << "path state " << k << " is not a replay step";
     const ReplayPoint& rp = r.replay.points[next];
@@ -805,17 +808,87 @@ TEST(Planning, PortfolioRunsItsMembersAndSolvesTheIntracardiacQuery) {
   EXPECT_LE(r.replay.tip_error, q.tip_goal->tolerance);
 }
 
-// Planning through drives is not implemented: a robot with an actuation block is refused with the reason (a plan for
-// its joints would be replayed as commands and land elsewhere).
-TEST(Planning, ARobotWithDrivesIsRefusedWithTheReason) {
+// The intracardiac robot with drives: a 10 deg play on tube 2's rotation, a 6 deg offset on tube 3's.
+Robot intracardiacWithDrives(double play, double offset) {
   const Robot r = io::loadRobot(src("examples/robots/proc_intracardiac.yaml"));
-  Tube t = r.tube(1);
-  t.rotation_drive.play = 0.05;
-  try {
-    emptyMapContext(r.withTube(1, t), Mode::Exact);
-    ADD_FAILURE() << "no refusal";
-  } catch (const std::invalid_argument& e) {
-    EXPECT_NE(std::string(e.what()).find("actuation block"), std::string::npos) << e.what();
+  Tube t2 = r.tube(1), t3 = r.tube(2);
+  t2.rotation_drive.play = play;
+  t3.rotation_drive.offset = offset;
+  return r.withTube(1, t2).withTube(2, t3);
+}
+
+// A plan for a robot with drives is a plan of commands: exact mode steps the robot through its drives (the plays'
+// positions are part of every state), and the replay recomputes the planner's states with the plays in its state.
+TEST(Planning, ExactModePlansThroughTheDrivesAndReplaysWithThePlayInItsState) {
+  const double play = 10 * M_PI / 180, offset = 6 * M_PI / 180;
+  const Robot robot = intracardiacWithDrives(play, offset);
+  const fs::path dir = fs::temp_directory_path() / ("ctr_plan_drives_" + std::to_string(::getpid()));
+  fs::create_directories(dir);
+  const std::string robot_file = (dir / "robot.yaml").string();
+  io::saveRobot(robot, robot_file);
+  Query q = onCpuClock(loadQuery(src("examples/queries/proc_intracardiac.yaml")), Mode::Exact, "rrt", 20);
+  q.robot = robot_file;
+  CtrPlanner p(q);
+  const PlanResult r = solveWithRetry(p);
+  fs::remove_all(dir);
+  ASSERT_TRUE(r.solved) << r.message;
+  expectReplayRecomputesThePlannersStates(p, r);
+  EXPECT_TRUE(r.replay.collision_free);
+  EXPECT_EQ(r.replay.snaps, 0);
+  EXPECT_LE(r.replay.tip_error, q.tip_goal->tolerance);
+  // Every replayed state carries its command and the play's position; the tubes are where the drives put them.
+  ASSERT_FALSE(r.replay.points.empty());
+  for (const ReplayPoint& pt : r.replay.points) {
+    const HysteresisState& h = pt.hysteresis;
+    ASSERT_EQ(h.lastCommand().alpha, pt.q.alpha);
+    ASSERT_EQ(h.drives.rotation.size(), 3);
+    const double position = h.drives.rotation[1];
+    ASSERT_TRUE(std::isfinite(position));
+    EXPECT_LE(std::abs(pt.q.alpha[1] - position), 0.5 * play + 1e-12);  // within the dead band
+    EXPECT_DOUBLE_EQ(pt.solution.q.alpha[1], position);                 // tube 2 turns with the play's output
+    EXPECT_NEAR(pt.solution.q.alpha[2], pt.q.alpha[2] + offset, 1e-12);
+    EXPECT_DOUBLE_EQ(pt.solution.q.alpha[0], pt.q.alpha[0]);
   }
-  EXPECT_NO_THROW(emptyMapContext(r, Mode::Exact));
+  // The same commands through ideal drives put the tip elsewhere: the plan is one for this robot's drives.
+  Workspace ws;
+  const Solution ideal = solve(robot.withoutActuation().withFriction({0.0, 0.0}), r.replay.points.back().q, ws);
+  ASSERT_TRUE(ideal.converged());
+  EXPECT_GT((ideal.tip_position - r.replay.points.back().solution.tip_position).norm(), q.tip_goal->tolerance);
+  const std::string csv = replayCsv(robot, r.replay);
+  EXPECT_NE(csv.find("joint_alpha_1"), std::string::npos);
+  EXPECT_NE(csv.find("play_alpha_2"), std::string::npos);
+}
+
+// The geometric modes have no history and keep rotations within a turn: drives that need neither (offsets,
+// periodic errors) plan there; a play or a rotation ratio error is refused with the reason.
+TEST(Planning, GeometricModesPlanThroughMemorylessDrivesAndRefuseAPlay) {
+  const Robot with_play = intracardiacWithDrives(0.05, 0.0);
+  for (const Mode m : {Mode::Robust, Mode::Frictionless}) {
+    try {
+      emptyMapContext(with_play, m);
+      ADD_FAILURE() << "no refusal in " << toString(m) << " mode";
+    } catch (const std::invalid_argument& e) {
+      EXPECT_NE(std::string(e.what()).find("tube 2's rotation drive has a play"), std::string::npos) << e.what();
+      EXPECT_NE(std::string(e.what()).find("plan in exact mode"), std::string::npos) << e.what();
+    }
+  }
+  EXPECT_NO_THROW(emptyMapContext(with_play, Mode::Exact));
+  const Robot offset = intracardiacWithDrives(0.0, 6 * M_PI / 180);
+  const Context ctx = emptyMapContext(offset, Mode::Frictionless);
+  Configuration c(Eigen::Vector3d(0.1, 0.2, 0.3), Eigen::Vector3d(-0.10, -0.16, -0.21));
+  EXPECT_NEAR(ctx.jointsAt(c).alpha[2], 0.3 + 6 * M_PI / 180, 1e-12);
+  EXPECT_NEAR(ctx.commandAt(ctx.jointsAt(c)).alpha[2], 0.3, 1e-12);
+  // Frictionless mode with the offset: planned in commands, replayed through the drives with friction.
+  const fs::path dir = fs::temp_directory_path() / ("ctr_plan_offset_" + std::to_string(::getpid()));
+  fs::create_directories(dir);
+  io::saveRobot(offset, (dir / "robot.yaml").string());
+  Query q = onCpuClock(loadQuery(src("examples/queries/proc_intracardiac.yaml")), Mode::Frictionless, "rrtconnect", 20);
+  q.robot = (dir / "robot.yaml").string();
+  CtrPlanner p(q);
+  const PlanResult r = solveWithRetry(p);
+  fs::remove_all(dir);
+  ASSERT_TRUE(r.planner_solved) << r.message;
+  ASSERT_TRUE(r.replay.completed) << r.replay.message;
+  for (const ReplayPoint& pt : r.replay.points)
+    EXPECT_NEAR(pt.solution.q.alpha[2], pt.q.alpha[2] + 6 * M_PI / 180, 1e-12);
 }

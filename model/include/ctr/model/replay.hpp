@@ -127,7 +127,8 @@ using ReplayObserver = std::function<bool(std::size_t index, ReplayRow& row)>;
 /// subdivisions() of the friction options). With an observer that stops the replay, the rows replayed so far.
 /// A robot with actuation (hasActuation): the commands go through its drives first, in order (jointsOf; the plays
 /// remember the order, `path.via` included), and the tubes replay the joints: the rows' solutions and states are
-/// in joint space.
+/// in joint space, and each row's state also carries its command and the plays' positions after it
+/// (HysteresisState::command, drives; as step() gives them).
 std::vector<ReplayRow> replay(const Robot& robot, const std::vector<Configuration>& commands, Workspace& ws,
                               const ReplayOptions& options = {}, const ReplayPath& path = {},
                               const ReplayObserver& observer = {});

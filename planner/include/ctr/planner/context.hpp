@@ -46,18 +46,42 @@ struct ContextOptions {
   FrictionOptions friction = planningFrictionOptions();
 };
 
+/// @brief Why the geometric modes (robust, frictionless) cannot plan with this robot's drives, "" when they can.
+/// Their states carry no history and keep rotations within one turn, so a drive must give the same joint for every
+/// history and for a command and the same command a turn away: no play (its position is history) and no rotation
+/// ratio error (the joint then depends on the unwrapped command). Exact mode plans with every drive.
+std::string geometricDriveLimit(const Robot& robot);
+
 /// @brief The shared, constant part of a planning problem.
+///
+/// Configurations of the planner (states, paths, the query's start and goal) are **commands**: for a robot with
+/// drives (an `actuation:` block) the tubes' joints are the commands through the drives. Exact mode steps the robot
+/// with its drives (the plays' positions are in the states' HysteresisState, as the replay has them); a state
+/// without history (a goal sample) is judged at jointsAt(), its plays centred.
 class Context {
  public:
-  /// @brief Builds the collision checker (FCL octree + distance field) for `robot` in `env`.
+  /// @brief Builds the collision checker (FCL octree + distance field) for `robot` in `env`. Throws
+  /// std::invalid_argument when a geometric mode is asked of a robot whose drives need a history
+  /// (geometricDriveLimit).
   Context(Robot robot, std::shared_ptr<const environments::Environment> env, ContextOptions options = {},
           environments::CollisionOptions collision = {});
 
+  /// @brief The robot as described, with its drives (stepped and replayed with commands).
   const Robot& robot() const { return robot_; }
-  /// @brief The robot without friction (frictionless mode and comparisons).
+  /// @brief The robot without its drives (solved at joint values), with its friction.
+  const Robot& tubes() const { return tubes_; }
+  /// @brief The robot without its drives and without friction (frictionless mode and comparisons).
   const Robot& frictionlessRobot() const { return frictionless_; }
-  /// @brief The robot the validity checker uses in the current mode.
-  const Robot& modelRobot() const { return options_.mode == Mode::Frictionless ? frictionless_ : robot_; }
+  /// @brief The robot (without drives: solved at jointsAt()) whose shapes the current mode judges.
+  const Robot& modelRobot() const { return options_.mode == Mode::Frictionless ? frictionless_ : tubes_; }
+  /// @brief The joints of a command without history (jointsOf with centred plays); the command itself for a robot
+  /// without drives.
+  Configuration jointsAt(const Configuration& command) const;
+  /// @brief The command that puts the tubes at `joints` without history (commandsFor with centred plays; NaN where
+  /// a transmission cannot be inverted); `joints` itself for a robot without drives.
+  Configuration commandAt(const Configuration& joints) const;
+  /// @brief True when the robot has drives (hasActuation).
+  bool hasDrives() const { return drives_; }
   const environments::Environment& environment() const { return *env_; }
   const std::shared_ptr<const environments::Environment>& environmentPtr() const { return env_; }
   const environments::CollisionChecker& checker() const { return *checker_; }
@@ -67,7 +91,8 @@ class Context {
   const Eigen::Isometry3d& basePose() const { return env_->basePose(); }
 
  private:
-  Robot robot_, frictionless_;
+  Robot robot_, tubes_, frictionless_;
+  bool drives_ = false;
   std::shared_ptr<const environments::Environment> env_;
   ContextOptions options_;
   std::shared_ptr<environments::CollisionChecker> checker_;

@@ -14,8 +14,8 @@ namespace ctr::planner {
 /// @brief One replayed point.
 struct ReplayPoint {
   Configuration q;             ///< Unwrapped command.
-  Solution solution;           ///< Equilibrium reached (base frame, without backbone to save memory).
-  HysteresisState hysteresis;  ///< Memory after the step.
+  Solution solution;           ///< Equilibrium reached (base frame, without backbone to save memory; its q: joints).
+  HysteresisState hysteresis;  ///< Memory after the step (with drives: the command and the plays' positions).
   bool valid = true;           ///< Converged, stable, no snap, collision-free.
   double clearance = 0.0;      ///< Distance-field clearance (m).
 };
@@ -37,8 +37,9 @@ struct ReplayReport {
   bool ok() const { return completed && collision_free && stable && goal_reached; }
 };
 
-/// @brief Goal test at the end of a replay: (tip error m, direction error rad, reached).
-using GoalTest = std::function<std::tuple<double, double, bool>(const Solution&)>;
+/// @brief Goal test at the end of a replay, of the last equilibrium and its command: (tip error m, direction error
+/// rad, reached).
+using GoalTest = std::function<std::tuple<double, double, bool>(const Solution&, const Configuration& command)>;
 
 /// @brief The commands of a replay of `waypoints`: the first, then every motion between consecutive waypoints in its
 /// subdivisions() at the given steps (interpolate(); each motion ends exactly at its waypoint).

@@ -44,6 +44,9 @@ void registerPlan(CLI::App& app, Action& action) {
       if (o->time > 0) q.time_limit = o->time;
       if (o->seed >= 0) q.seed = static_cast<std::uint64_t>(o->seed);
       if (o->cpu_time) q.cpu_time_limit = true;
+      for (const std::string& e : q.uncertainty_skipped)
+        std::cerr << "note: " << q.robot_uncertainty << ": " << e
+                  << " is not a range the planner holds (friction and drives); planned at the robot's value\n";
       planner::CtrPlanner p(q);
       p.checkStart();
       p.makePlanner(q.planner);  // unknown planner: usage error before planning
@@ -71,6 +74,9 @@ void registerPlan(CLI::App& app, Action& action) {
         std::cerr << "wrote " << o->html << "\n";
       }
 #endif
+      if (r.range_replay)
+        std::cerr << "replayed at " << r.range_replay->corners << " corners and " << r.range_replay->samples
+                  << " samples of the ranges: " << r.range_replay->clean << " clean\n";
       if (!r.solved) {
         std::cerr << "not solved: " << r.message << "\n";
         return static_cast<int>(kRuntimeFailure);

@@ -63,11 +63,26 @@ Context::Context(Robot robot, std::shared_ptr<const environments::Environment> e
       options_(options),
       sampler_(robot_, options.min_protrusion) {
   if (!env_) throw std::invalid_argument("planning context: no environment");
-  if (drives_ && options_.mode != Mode::Exact) {
+  if (!options_.ranges.empty()) {
+    if (options_.mode != Mode::Robust)
+      throw std::invalid_argument(std::string("ranges of the robot's values are planned for in robust mode, not ") +
+                                  toString(options_.mode));
+    checkRanges(robot_, options_.ranges);
+  }
+  if (drives_ && options_.mode == Mode::Frictionless) {
     const std::string why = geometricDriveLimit(robot_);
     if (!why.empty())
-      throw std::invalid_argument("robot '" + robot_.name() + "': " + why + "; " + toString(options_.mode) +
-                                  " mode plans without history: plan in exact mode, whose states carry the drives");
+      throw std::invalid_argument("robot '" + robot_.name() + "': " + why +
+                                  "; frictionless mode plans without history: plan in exact mode, whose states carry "
+                                  "the drives, or in robust mode, which covers every position of a play");
+  }
+  if (options_.mode == Mode::Robust) {
+    try {
+      corners_ = planner::robustCorners(robot_, options_.ranges);
+    } catch (const std::invalid_argument& e) {
+      throw std::invalid_argument("robot '" + robot_.name() + "': " + e.what() +
+                                  "; robust mode keeps rotations within a turn: plan in exact mode");
+    }
   }
   if (!sampler_.feasible()) throw std::invalid_argument("robot '" + robot_.name() + "' has no admissible translation");
   checker_ = std::make_shared<environments::CollisionChecker>(env_, robot_, collision);

@@ -64,15 +64,18 @@ double TipGoal::bandDistance(const Configuration& q, Eigen::Vector3d* center) co
   o.interior_samples = 0;
   o.kinematics = ctx_->options().friction.kinematics;
   o.kinematics.record_backbone = false;
-  const FrictionBand band = frictionBand(ctx_->tubes(), ctx_->jointsAt(q), scratch().ws, o);
-  if (!band.converged) return std::numeric_limits<double>::infinity();
+  // Every shape of every robust corner's band (the ranges' corners; one without ranges and plays).
   double d = 0.0;
   Eigen::Vector3d lo = Eigen::Vector3d::Constant(std::numeric_limits<double>::infinity()), hi = -lo;
-  for (const Solution& s : band.shapes) {
-    const Eigen::Vector3d tip = ctx_->basePose() * s.tip_position;
-    d = std::max(d, goalDistance(tip, ctx_->basePose().linear() * s.tipTangent()));
-    lo = lo.cwiseMin(tip);
-    hi = hi.cwiseMax(tip);
+  for (const RobustCorner& corner : ctx_->robustCorners()) {
+    const FrictionBand band = frictionBand(corner.tubes, corner.joints(q), scratch().ws, o);
+    if (!band.converged) return std::numeric_limits<double>::infinity();
+    for (const Solution& s : band.shapes) {
+      const Eigen::Vector3d tip = ctx_->basePose() * s.tip_position;
+      d = std::max(d, goalDistance(tip, ctx_->basePose().linear() * s.tipTangent()));
+      lo = lo.cwiseMin(tip);
+      hi = hi.cwiseMax(tip);
+    }
   }
   if (center) *center = 0.5 * (lo + hi);
   return d;

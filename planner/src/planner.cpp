@@ -29,6 +29,7 @@
 #include <ompl/util/RandomNumbers.h>
 
 #include <chrono>
+#include <limits>
 #include <mutex>
 
 #include "ctr/environments/environment_yaml.hpp"
@@ -45,6 +46,7 @@ namespace {
 constexpr double kRotationRate = 1.0;      // rad per unit control time
 constexpr double kTranslationRate = 0.02;  // m per unit control time
 constexpr double kPropagationStep = 0.05;  // one propagation step: <= 0.05 rad / 1 mm
+constexpr int kRangeReplaySamples = 20;    // random points of the ranges a plan is replayed at (after the corners)
 
 void seedOnce(std::uint64_t seed) {
   static std::once_flag flag;
@@ -76,6 +78,27 @@ void CtrPlanner::init(Robot robot, environments::Environment e) {
     } catch (const std::invalid_argument& e) {
       throw io::InputError(query.file, query.lineOf("friction"), "friction", e.what());
     }
+  }
+  // The query's values and ranges of the robot's friction and drives: the robot at the middle of each; robust mode
+  // plans for every value of the open ranges.
+  RobotRanges open_ranges;
+  if (!query.ranges.empty()) {
+    const std::string key = !query.robot_uncertainty.empty() ? "robot_uncertainty" : "actuation";
+    std::vector<double> middle;
+    for (const RangeDimension& d : query.ranges) {
+      middle.push_back(0.5 * (d.lo + d.hi));
+      if (d.hi > d.lo) open_ranges.push_back(d);
+    }
+    try {
+      checkRanges(robot, query.ranges);
+      robot = robotAt(robot, query.ranges, middle);
+    } catch (const std::invalid_argument& ex) {
+      throw io::InputError(query.file, query.lineOf(key), key, ex.what());
+    }
+    if (!open_ranges.empty() && query.mode != Mode::Robust)
+      throw io::InputError(query.file, query.lineOf("mode"), "mode",
+                           "ranges of the robot's values (" + open_ranges[0].name() +
+                               ", ...) are planned for in robust mode, not " + toString(query.mode));
   }
   const int n = robot.size();
   if (query.start.size() != n)
@@ -141,7 +164,12 @@ void CtrPlanner::init(Robot robot, environments::Environment e) {
   co.motion.max_rotation_step = query.resolution_rotation;
   co.motion.max_translation_step = query.resolution_translation;
   co.friction.kinematics.record_backbone = true;
-  ctx_ = std::make_shared<const Context>(robot, env_, co, environments::CollisionOptions::fromEnvironment(*env_));
+  co.ranges = std::move(open_ranges);
+  try {
+    ctx_ = std::make_shared<const Context>(robot, env_, co, environments::CollisionOptions::fromEnvironment(*env_));
+  } catch (const std::invalid_argument& ex) {
+    throw io::InputError(query.file, query.lineOf("robot"), "robot", ex.what());
+  }
 
   auto space = std::make_shared<CtrStateSpace>(ctx_->robot(), ctx_->translationSampler());
   space->registerDefaultProjection(std::make_shared<TipProjection>(space.get(), ctx_));
@@ -395,9 +423,39 @@ PlanResult CtrPlanner::replaySolution(const std::string& planner, double plannin
   }
   r.replay =
       replayPath(*ctx_, r.path, query_.history, test, query_.replay_rotation_step, query_.replay_translation_step);
+  const RobotRanges& ranges = ctx_->options().ranges;
+  if (!ranges.empty() && r.replay.ok()) {
+    // The path replayed with the robot at every corner of the ranges and at random samples inside them.
+    RangeReplay rr;
+    for (const RangeDimension& d : ranges) rr.names.push_back(d.name());
+    const std::vector<std::vector<double>> points = rangeReplayPoints(ranges, kRangeReplaySamples, query_.seed);
+    rr.corners = static_cast<int>(points.size()) - kRangeReplaySamples;
+    rr.samples = kRangeReplaySamples;
+    rr.worst_clearance = std::numeric_limits<double>::infinity();
+    for (std::size_t k = 0; k < points.size(); ++k) {
+      const ReplayReport rep = replayPath(*ctx_, robotAt(ctx_->robot(), ranges, points[k]), r.path, query_.history,
+                                          test, query_.replay_rotation_step, query_.replay_translation_step);
+      RangeReplay::Point p{
+          points[k],  static_cast<int>(k) < rr.corners, rep.ok(), rep.min_clearance, rep.tip_error, rep.failure,
+          rep.message};
+      rr.clean += p.ok;
+      if (rep.completed && rep.min_clearance < rr.worst_clearance) {
+        rr.worst_clearance = rep.min_clearance;
+        rr.worst = k;
+      }
+      rr.points.push_back(std::move(p));
+    }
+    r.range_replay = std::move(rr);
+  }
   r.replay_time = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-  r.solved = exact && r.replay.ok();
+  r.solved = exact && r.replay.ok() && (!r.range_replay || r.range_replay->ok());
   if (!r.solved) r.message = "replay: " + (r.replay.message.empty() ? "failed" : r.replay.message);
+  if (!r.solved && r.replay.ok() && r.range_replay)
+    for (const RangeReplay::Point& p : r.range_replay->points)
+      if (!p.ok) {
+        r.message = "replay at " + r.range_replay->describe(p) + ": " + (p.message.empty() ? "failed" : p.message);
+        break;
+      }
   return r;
 }
 

@@ -36,6 +36,22 @@ struct Ctx : io::YamlReader {
   }
 };
 
+// A value (lo = hi) or a range [lo, hi] of one of the robot's values.
+RangeDimension range(const Ctx& c, const YAML::Node& n, const std::string& key, RangeDimension::Kind kind, int tube) {
+  RangeDimension d;
+  d.kind = kind;
+  d.tube = tube;
+  if (n.IsSequence()) {
+    const Eigen::VectorXd v = c.vec(n, key, 2);
+    if (!(v[0] <= v[1])) c.fail(n, key, "a range [lo, hi] needs lo <= hi");
+    d.lo = v[0];
+    d.hi = v[1];
+  } else {
+    d.lo = d.hi = c.number(n, key);
+  }
+  return d;
+}
+
 Configuration configuration(const Ctx& c, const YAML::Node& n, const std::string& where) {
   if (!n.IsMap()) c.fail(n, where, "must be a map with alpha and beta");
   c.allowOnly(n, where, {"alpha", "beta", "history", "approach"});
@@ -67,10 +83,10 @@ Query parseQueryYaml(const std::string& text, const std::string& source, const s
     throw InputError(source, e.mark.line + 1, "", std::string("not valid YAML: ") + e.msg);
   }
   if (!root.IsMap()) throw InputError(source, 0, "", "a query must be a YAML map");
-  c.allowOnly(
-      root, "",
-      {"name", "robot", "environment", "base_start", "friction", "start", "goal", "loads", "mode", "planner",
-       "time_limit", "time_limit_clock", "seed", "objective", "replay", "resolution", "environment_resolution"});
+  c.allowOnly(root, "",
+              {"name", "robot", "environment", "base_start", "friction", "start", "goal", "loads", "mode", "planner",
+               "time_limit", "time_limit_clock", "seed", "objective", "replay", "resolution", "environment_resolution",
+               "actuation", "robot_uncertainty"});
   Query q;
   q.file = source;
   // Lines of the keys (two levels) for messages about problems detected later.
@@ -91,11 +107,62 @@ Query parseQueryYaml(const std::string& text, const std::string& source, const s
     if (!f.IsMap()) c.fail(f, "friction", "must be a map with boundary and/or distributed");
     c.allowOnly(f, "friction", {"boundary", "distributed"});
     FrictionCoefficients fc;
-    if (f["boundary"]) fc.boundary = c.number(f["boundary"], "friction.boundary");
-    if (f["distributed"]) fc.distributed = c.number(f["distributed"], "friction.distributed");
-    if (fc.boundary < 0) c.fail(f["boundary"], "friction.boundary", "must be >= 0");
-    if (fc.distributed < 0) c.fail(f["distributed"], "friction.distributed", "must be >= 0");
+    // A number, or a range [lo, hi] (the robot at its middle; robust mode plans for all of it).
+    auto coefficient = [&](const char* key, RangeDimension::Kind kind, double& value) {
+      const std::string name = std::string("friction.") + key;
+      if (!f[key]) return;
+      if (f[key].IsSequence()) {
+        const RangeDimension d = range(c, f[key], name, kind, 0);
+        value = 0.5 * (d.lo + d.hi);
+        q.ranges.push_back(d);
+      } else {
+        value = c.number(f[key], name);
+      }
+      if (value < 0 || (f[key].IsSequence() && q.ranges.back().lo < 0)) c.fail(f[key], name, "must be >= 0");
+    };
+    coefficient("boundary", RangeDimension::Kind::BoundaryFriction, fc.boundary);
+    coefficient("distributed", RangeDimension::Kind::DistributedFriction, fc.distributed);
     q.friction = fc;
+  }
+  if (root["actuation"]) {
+    // Values or ranges of the robot's drives: a list of {tube, rotation: {offset, play}, translation: {...}}.
+    const YAML::Node a = root["actuation"];
+    if (!a.IsSequence()) c.fail(a, "actuation", "must be a list of {tube, rotation, translation}");
+    for (std::size_t i = 0; i < a.size(); ++i) {
+      const std::string where = "actuation[" + std::to_string(i) + "]";
+      const YAML::Node e = a[i];
+      if (!e.IsMap()) c.fail(e, where, "must be a map with tube and rotation and/or translation");
+      c.allowOnly(e, where, {"tube", "rotation", "translation"});
+      if (!e["tube"]) c.fail(e, where + ".tube", "missing (1 = the outermost tube)");
+      const double tube = c.number(e["tube"], where + ".tube");
+      if (tube < 1 || tube != std::floor(tube)) c.fail(e["tube"], where + ".tube", "must be a tube number >= 1");
+      for (const bool rotation : {true, false}) {
+        const char* joint = rotation ? "rotation" : "translation";
+        const YAML::Node j = e[joint];
+        if (!j) continue;
+        const std::string jw = where + "." + joint;
+        if (!j.IsMap()) c.fail(j, jw, "must be a map with offset and/or play");
+        c.allowOnly(j, jw, {"offset", "play"});
+        using K = RangeDimension::Kind;
+        if (j["offset"])
+          q.ranges.push_back(range(c, j["offset"], jw + ".offset", rotation ? K::RotationOffset : K::TranslationOffset,
+                                   static_cast<int>(tube)));
+        if (j["play"])
+          q.ranges.push_back(range(c, j["play"], jw + ".play", rotation ? K::RotationPlay : K::TranslationPlay,
+                                   static_cast<int>(tube)));
+      }
+    }
+  }
+  if (root["robot_uncertainty"]) {
+    // A diagnosis's 95 % intervals; the query's own ranges replace its range of the same value.
+    q.robot_uncertainty = c.path(root["robot_uncertainty"], "robot_uncertainty", base_dir);
+    if (std::filesystem::exists(q.robot_uncertainty)) {
+      for (const RangeDimension& d : rangesFromDiagnosis(q.robot_uncertainty, &q.uncertainty_skipped)) {
+        bool given = false;
+        for (const RangeDimension& e : q.ranges) given = given || (e.kind == d.kind && e.tube == d.tube);
+        if (!given) q.ranges.push_back(d);
+      }
+    }
   }
   if (root["loads"]) {
     const YAML::Node l = root["loads"];

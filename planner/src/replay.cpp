@@ -35,8 +35,21 @@ std::vector<Configuration> replayCommands(const std::vector<Configuration>& wayp
   return commands;
 }
 
+std::string RangeReplay::describe(const Point& p) const {
+  std::string out;
+  for (std::size_t i = 0; i < names.size() && i < p.values.size(); ++i)
+    out += (out.empty() ? "" : ", ") + names[i] + " " + num(p.values[i]);
+  return out;
+}
+
 ReplayReport replayPath(const Context& ctx, const std::vector<Configuration>& waypoints, const StartHistory& history,
                         const GoalTest& goal, double rotation_step, double translation_step) {
+  return replayPath(ctx, ctx.robot(), waypoints, history, goal, rotation_step, translation_step);
+}
+
+ReplayReport replayPath(const Context& ctx, const Robot& robot, const std::vector<Configuration>& waypoints,
+                        const StartHistory& history, const GoalTest& goal, double rotation_step,
+                        double translation_step) {
   ReplayReport R;
   if (waypoints.empty()) {
     R.failure = Failure::NotConverged;
@@ -114,7 +127,7 @@ ReplayReport replayPath(const Context& ctx, const std::vector<Configuration>& wa
     ++R.steps;
     return true;
   };
-  replay(ctx.robot(), commands, t.ws, replayOptions(ctx), {}, observe);
+  replay(robot, commands, t.ws, replayOptions(ctx), {}, observe);
   if (!std::isfinite(R.min_clearance)) R.min_clearance = 0.0;
   if (!completed) return R;
   R.completed = true;

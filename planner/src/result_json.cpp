@@ -20,6 +20,29 @@ std::string resultJson(const Query& q, const PlanResult& r, int indent) {
   j["waypoints"] = r.path.size();
   j["goal_pool"] = r.goal_pool;
   j["replay"] = nlohmann::json::parse(replayJson(r));
+  if (r.range_replay) {
+    const RangeReplay& rr = *r.range_replay;
+    auto number = [](double v) { return std::isfinite(v) ? nlohmann::json(v) : nlohmann::json(nullptr); };
+    nlohmann::json points = nlohmann::json::array();
+    for (const RangeReplay::Point& p : rr.points) {
+      nlohmann::json values;
+      for (std::size_t i = 0; i < rr.names.size(); ++i) values[rr.names[i]] = p.values[i];
+      points.push_back({{"values", values},
+                        {"corner", p.corner},
+                        {"ok", p.ok},
+                        {"min_clearance", number(p.min_clearance)},
+                        {"tip_error", number(p.tip_error)},
+                        {"failure", toString(p.failure)},
+                        {"message", p.message}});
+    }
+    j["range_replay"] = {{"ranges", rr.names},
+                         {"corners", rr.corners},
+                         {"samples", rr.samples},
+                         {"clean", rr.clean},
+                         {"worst_clearance", number(rr.worst_clearance)},
+                         {"worst", rr.points.empty() ? nlohmann::json(nullptr) : nlohmann::json(rr.worst)},
+                         {"points", points}};
+  }
   if (!r.message.empty()) j["message"] = r.message;
   return j.dump(indent);
 }

@@ -63,11 +63,12 @@ bool releaseIsSmooth(const FrictionBand* previous, const FrictionBand& cur, doub
   return true;
 }
 
-// The friction band at q (ctr::frictionBand, vertices only), followed from the band at the previous configuration of
-// a motion: every shape converged, stable and collision-free, no shape leaving the branch of its counterpart in `prev`
-// (the branch rule of followMove). Returns why not (Failure::None when the band is valid); `message` gets it in words.
-Failure bandAt(const Context& ctx, const Configuration& q, ThreadScratch& t, const FrictionBand* prev,
-               FrictionBand& out, std::string& message) {
+// The friction band of one robust corner at command q (ctr::frictionBand at the corner's joints, vertices only),
+// followed from the band at the previous configuration of a motion: every shape converged, stable and collision-free,
+// no shape leaving the branch of its counterpart in `prev` (the branch rule of followMove). Returns why not
+// (Failure::None when the band is valid); `message` gets it in words.
+Failure bandAt(const Context& ctx, const RobustCorner& corner, const Configuration& q, ThreadScratch& t,
+               const FrictionBand* prev, FrictionBand& out, std::string& message) {
   const double thr = ctx.options().motion.snap_threshold;
   FrictionBandOptions o;
   o.interior_samples = 0;
@@ -89,7 +90,7 @@ Failure bandAt(const Context& ctx, const Configuration& q, ThreadScratch& t, con
     if (!c.ok) return (i == 0 ? "frictionless shape: " : "friction band shape: ") + c.message;
     return "";
   };
-  out = frictionBand(ctx.tubes(), ctx.jointsAt(q), t.ws, o);
+  out = frictionBand(corner.tubes, corner.joints(q), t.ws, o);
   if (!out.converged) {
     if (out.shapes.empty() && o.follow) {
       message = "frictionless branch snaps";
@@ -135,10 +136,18 @@ ConfigurationCheck checkFrictionless(const Context& ctx, const Configuration& q,
 ConfigurationCheck checkRobust(const Context& ctx, const Configuration& q, ThreadScratch& t) {
   ConfigurationCheck r;
   if (ctx.hasDrives() && !commandAdmissible(ctx, q, r)) return r;
-  FrictionBand b;
-  r.failure = bandAt(ctx, q, t, nullptr, b, r.message);
+  // Every corner's band (one without ranges and plays); the first corner's frictionless shape is the one returned.
+  const std::vector<RobustCorner>& corners = ctx.robustCorners();
+  for (std::size_t k = 0; k < corners.size(); ++k) {
+    FrictionBand b;
+    r.failure = bandAt(ctx, corners[k], q, t, nullptr, b, r.message);
+    if (k == 0 && !b.shapes.empty()) r.shape = std::move(b.shapes[0]);
+    if (r.failure != Failure::None) {
+      if (corners.size() > 1) r.message = "corner " + std::to_string(k + 1) + " of the ranges: " + r.message;
+      break;
+    }
+  }
   r.ok = r.failure == Failure::None;
-  if (!b.shapes.empty()) r.shape = std::move(b.shapes[0]);
   return r;
 }
 
@@ -184,26 +193,58 @@ double checkMotionForward(const Context& ctx, const Configuration& q0, const Con
   FollowSummary f;
   f.steps = subdivisions(q0, q1, fo.max_rotation_step, fo.max_translation_step);
   if (ctx.options().mode == Mode::Robust) {
-    FrictionBand cur, next;
-    f.failure = bandAt(ctx, q0, t, nullptr, cur, why);
-    if (f.failure != Failure::None) return result(f, true);
-    f = followMove(
-        q0, q1, cur.shapes[0].twist, cur.shapes[0].converged() && cur.shapes[0].summary.stable, fo, OnSnap::Stop,
-        [&](const Configuration& qk, int, int) {
-          const Failure b = bandAt(ctx, qk, t, &cur, next, why);
-          return b == Failure::None ? SubStep{&next.shapes[0], b, {}} : SubStep{nullptr, b, why};
-        },
-        noRecovery,
-        [&](int, int, SubStep&, bool) {
-          std::swap(cur, next);
-          return SubStep{};
-        });
-    if (f.failure != Failure::None) why = f.message;
-    if (f.completed == 0) return result(f, true);  // cur is the cold band at q0
-    FrictionBand own;
-    std::string w;
-    const Configuration last = interpolate(q0, q1, static_cast<double>(f.completed) / f.steps);
-    return result(f, bandAt(ctx, last, t, nullptr, own, w) == Failure::None && sameBand(cur, own));
+    // Every corner's band followed along the motion; the motion is valid as far as the least of them.
+    const std::vector<RobustCorner>& corners = ctx.robustCorners();
+    double fraction = 1.0;
+    for (std::size_t k = 0; k < corners.size() && fraction > 0.0; ++k) {
+      const RobustCorner& corner = corners[k];
+      std::string corner_why;
+      Failure corner_failure = Failure::None;
+      FollowSummary fk;
+      fk.steps = f.steps;
+      FrictionBand cur, next;
+      const double done = [&]() -> double {
+        fk.failure = bandAt(ctx, corner, q0, t, nullptr, cur, corner_why);
+        if (fk.failure != Failure::None) return 0.0;
+        fk = followMove(
+            q0, q1, cur.shapes[0].twist, cur.shapes[0].converged() && cur.shapes[0].summary.stable, fo, OnSnap::Stop,
+            [&](const Configuration& qk, int, int) {
+              const Failure b = bandAt(ctx, corner, qk, t, &cur, next, corner_why);
+              return b == Failure::None ? SubStep{&next.shapes[0], b, {}} : SubStep{nullptr, b, corner_why};
+            },
+            noRecovery,
+            [&](int, int, SubStep&, bool) {
+              std::swap(cur, next);
+              return SubStep{};
+            });
+        if (fk.failure != Failure::None) corner_why = fk.message;
+        if (fk.completed == 0) return 0.0;  // cur is the cold band at q0
+        FrictionBand own;
+        std::string w;
+        const Configuration last = interpolate(q0, q1, static_cast<double>(fk.completed) / fk.steps);
+        if (!(bandAt(ctx, corner, last, t, nullptr, own, w) == Failure::None && sameBand(cur, own))) {
+          if (fk.failure == Failure::None) {
+            corner_failure = Failure::OffBranch;
+            corner_why =
+                "the motion arrives on another equilibrium than the configuration's own (several are "
+                "stable there)";
+          }
+          return 0.0;
+        }
+        return fk.completedMove() ? 1.0 : static_cast<double>(fk.completed) / fk.steps;
+      }();
+      if (corner_failure == Failure::None) corner_failure = fk.failure;
+      if (done < fraction || (corner_failure != Failure::None && f.failure == Failure::None)) {
+        fraction = std::min(fraction, done);
+        f.failure = corner_failure;
+        why = corners.size() > 1 && corner_failure != Failure::None
+                  ? "corner " + std::to_string(k + 1) + " of the ranges: " + corner_why
+                  : corner_why;
+      }
+    }
+    if (f.failure != Failure::None && message) *message = why;
+    if (failure) *failure = f.failure;
+    return fraction;
   }
   ConfigurationCheck c = checkFrictionless(ctx, q0, t);
   if (!c.ok) {

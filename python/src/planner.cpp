@@ -87,6 +87,21 @@ void registerPlanner(pyb::module_& m) {
       .def_readwrite("env_resolution", &planner::Query::env_resolution)
       .def_readwrite("goal_configuration_tolerance", &planner::Query::goal_configuration_tolerance)
       .def_readonly("target_name", &planner::Query::target_name)
+      .def_property_readonly(
+          "ranges",
+          [](const planner::Query& q) {
+            pyb::list l;
+            for (const planner::RangeDimension& d : q.ranges) {
+              pyb::dict e;
+              e["name"] = d.name();
+              e["lo"] = d.lo;
+              e["hi"] = d.hi;
+              l.append(e);
+            }
+            return l;
+          },
+          "Ranges (and values, lo == hi) of the robot's friction and drives: [{name, lo, hi}] (docs/planning.md "
+          "\"Ranges\").")
       .def_property(
           "start", [](const planner::Query& q) { return configurationTuple(q.start); },
           [](planner::Query& q, const pyb::object& v) { q.start = configurationFromTuple(v, "start"); },
@@ -330,6 +345,14 @@ void registerPlanner(pyb::module_& m) {
                                return Replay{x.r, x.ctx};
                              })
       .def_property_readonly("query", [](const Result& x) { return x.query; })
+      .def_property_readonly(
+          "range_replay",
+          [](const Result& x) {
+            return x.r->range_replay ? pyb::object(resultDict(x.query, *x.r)["range_replay"])
+                                     : pyb::object(pyb::none());
+          },
+          "With ranges (robust mode): the path replayed at every corner of the ranges and at 20 samples inside them, "
+          "as the JSON's range_replay (docs/formats.md); None without ranges or when the replay at the middle failed.")
       .def(
           "to_dict", [](const Result& x) { return resultDict(x.query, *x.r); },
           "The `ctr plan --json` object of this result.")

@@ -84,6 +84,21 @@ def test_query_loads_are_the_planners():
     assert np.allclose(planner.robot.loads["tip_force"], [0.03, 0, 0])
 
 
+def test_query_ranges():
+    # Ranges of friction and drives (robust mode plans for every value in them); the robot at their middle.
+    text = QUERY.read_text()
+    text = (text.replace("robot: ../robots/", f"robot: {EXAMPLES}/robots/")
+            .replace("environment: ../environments/", f"environment: {EXAMPLES}/environments/")
+            .replace("friction: {boundary: 0.1}", "friction: {boundary: [0.06, 0.12]}")
+            .replace("mode: exact", "mode: robust"))
+    q = ctr.parse_query(text + "actuation: [{tube: 2, rotation: {play: [0.05, 0.15]}}]\n", "q.yaml")
+    assert q.friction["boundary"] == pytest.approx(0.09)
+    assert [(r["name"], r["lo"], r["hi"]) for r in q.ranges] == [
+        ("friction.boundary", 0.06, 0.12), ("tube 2 rotation play", 0.05, 0.15)]
+    with pytest.raises(ctr.InputError, match="actuation"):
+        ctr.parse_query(text + "actuation: [{tube: 2, rotation: {play: [0.15, 0.05]}}]\n", "q.yaml")
+
+
 def test_invalid_start_raises_the_cli_message(cli, tmp_path):
     text = QUERY.read_text()
     text = (text.replace("robot: ../robots/", f"robot: {EXAMPLES}/robots/")

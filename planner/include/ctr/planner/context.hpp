@@ -10,6 +10,7 @@
 #include "ctr/environments/environment.hpp"
 #include "ctr/model/friction.hpp"
 #include "ctr/model/sampling.hpp"
+#include "ctr/planner/uncertainty.hpp"
 
 namespace ctr::planner {
 
@@ -44,12 +45,14 @@ struct ContextOptions {
   double min_protrusion = 1e-3;          ///< Innermost tube at least this far out of the actuation unit (m).
   /// Stepping options (sub-steps, paper / stick-slip); its `kinematics` are used by every solve of the planner.
   FrictionOptions friction = planningFrictionOptions();
+  /// Robust mode: ranges of the robot's friction and drives to plan for (every value in them; uncertainty.hpp).
+  RobotRanges ranges;
 };
 
-/// @brief Why the geometric modes (robust, frictionless) cannot plan with this robot's drives, "" when they can.
-/// Their states carry no history and keep rotations within one turn, so a drive must give the same joint for every
-/// history and for a command and the same command a turn away: no play (its position is history) and no rotation
-/// ratio error (the joint then depends on the unwrapped command). Exact mode plans with every drive.
+/// @brief Why frictionless mode cannot plan with this robot's drives, "" when it can. Its states carry no history and
+/// keep rotations within one turn, so a drive must give the same joint for every history and for a command and the
+/// same command a turn away: no play (its position is history) and no rotation ratio error (the joint then depends on
+/// the unwrapped command). Robust mode covers a play's every position (robustCorners); exact mode carries it.
 std::string geometricDriveLimit(const Robot& robot);
 
 /// @brief The shared, constant part of a planning problem.
@@ -61,8 +64,9 @@ std::string geometricDriveLimit(const Robot& robot);
 class Context {
  public:
   /// @brief Builds the collision checker (FCL octree + distance field) for `robot` in `env`. Throws
-  /// std::invalid_argument when a geometric mode is asked of a robot whose drives need a history
-  /// (geometricDriveLimit).
+  /// std::invalid_argument when frictionless mode is asked of a robot whose drives need a history
+  /// (geometricDriveLimit), robust mode of one with a rotation ratio error, or another mode than robust to plan for
+  /// ranges (ContextOptions::ranges, checked against the robot by checkRanges).
   Context(Robot robot, std::shared_ptr<const environments::Environment> env, ContextOptions options = {},
           environments::CollisionOptions collision = {});
 
@@ -82,6 +86,9 @@ class Context {
   Configuration commandAt(const Configuration& joints) const;
   /// @brief True when the robot has drives (hasActuation).
   bool hasDrives() const { return drives_; }
+  /// @brief Robust mode: the robots whose friction bands a robust-valid configuration holds (robustCorners of the
+  /// robot and the ranges); empty in the other modes.
+  const std::vector<RobustCorner>& robustCorners() const { return corners_; }
   const environments::Environment& environment() const { return *env_; }
   const std::shared_ptr<const environments::Environment>& environmentPtr() const { return env_; }
   const environments::CollisionChecker& checker() const { return *checker_; }
@@ -93,6 +100,7 @@ class Context {
  private:
   Robot robot_, tubes_, frictionless_;
   bool drives_ = false;
+  std::vector<RobustCorner> corners_;
   std::shared_ptr<const environments::Environment> env_;
   ContextOptions options_;
   std::shared_ptr<environments::CollisionChecker> checker_;

@@ -57,7 +57,8 @@ class TipGoal : public ompl::base::GoalSampleableRegion {
 
  private:
   double goalDistance(const Eigen::Vector3d& tip, const Eigen::Vector3d& tangent) const;
-  /// Largest goal distance over the friction band's vertex shapes at q; optionally the centre of their tips.
+  /// Largest goal distance over the vertex shapes of every robust corner's friction band at command q (one band
+  /// without ranges and plays); optionally the centre of their tips.
   double bandDistance(const Configuration& q, Eigen::Vector3d* center = nullptr) const;
   /// One IK candidate from a random configuration; adds it to the pool if it is a valid goal.
   bool tryCandidate() const;

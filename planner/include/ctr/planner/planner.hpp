@@ -7,6 +7,8 @@
 /// @endcode
 #pragma once
 
+#include <optional>
+
 #include <ompl/control/SimpleSetup.h>
 #include <ompl/geometric/SimpleSetup.h>
 
@@ -29,7 +31,10 @@ struct PlanResult {
   double path_length = 0.0;         ///< Joint-space length of the path (state-space metric).
   std::size_t goal_pool = 0;        ///< Goal configurations found by IK (sampleable goal), at the end of planning.
   std::vector<Configuration> path;  ///< Waypoints, unwrapped, from the start.
-  ReplayReport replay;
+  ReplayReport replay;              ///< At the robot as planned (each range at its middle).
+  /// With ranges (robust mode): the path replayed at every corner of the ranges and at 20 random samples inside them
+  /// (when the replay above is clean); solved needs every one clean.
+  std::optional<RangeReplay> range_replay;
   std::string message;  ///< Why not solved.
 };
 

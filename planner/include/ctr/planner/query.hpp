@@ -22,7 +22,13 @@ struct Query {
   std::string robot;                             ///< Robot YAML path.
   std::string environment;                       ///< Environment YAML path.
   std::string base_start;                        ///< Optional: environment start pose to use as the base pose.
-  std::optional<FrictionCoefficients> friction;  ///< Overrides the robot's friction block.
+  std::optional<FrictionCoefficients> friction;  ///< Overrides the robot's friction block (a range: its middle).
+  /// Ranges (and single values, lo == hi) of the robot's friction and drives: `friction:` intervals, `actuation:`,
+  /// `robot_uncertainty:` (a diagnosis's 95 % intervals). The robot is planned and replayed at the middle of each;
+  /// robust mode plans for every value in them and the plan is replayed at their corners and random samples.
+  RobotRanges ranges;
+  std::string robot_uncertainty;                 ///< The diagnosis JSON the ranges came from ("" if none).
+  std::vector<std::string> uncertainty_skipped;  ///< Its named effects that a range cannot hold (kept as described).
   /// Overrides the robot's `loads:` block (same keys and units as the robot YAML). In `loads_frame` Base (the robot
   /// YAML's convention) or Environment (world frame of the environment: turned into the base frame by the base pose
   /// the query uses, e.g. gravity as it points in the patient's scan).

@@ -37,6 +37,27 @@ struct ReplayReport {
   bool ok() const { return completed && collision_free && stable && goal_reached; }
 };
 
+/// @brief A plan replayed with the robot at points of its ranges (uncertainty.hpp): every corner, then samples.
+struct RangeReplay {
+  std::vector<std::string> names;  ///< The ranges (RangeDimension::name), in the order of each point's values.
+  struct Point {
+    std::vector<double> values;  ///< The robot's value for each range.
+    bool corner = false;         ///< A corner of the box (else a random sample).
+    bool ok = false;             ///< The replay is complete, collision-free, stable and reaches the goal.
+    double min_clearance = 0.0;  ///< Along the path (m).
+    double tip_error = 0.0;      ///< At the end (m).
+    Failure failure = Failure::None;
+    std::string message;
+  };
+  std::vector<Point> points;
+  int corners = 0, samples = 0, clean = 0;
+  double worst_clearance = 0.0;  ///< The least clearance of a completed replay (m).
+  std::size_t worst = 0;         ///< Its point.
+  bool ok() const { return clean == static_cast<int>(points.size()); }
+  /// @brief "friction.boundary 0.12, tube 2 rotation play 0.2" for a point.
+  std::string describe(const Point& p) const;
+};
+
 /// @brief Goal test at the end of a replay, of the last equilibrium and its command: (tip error m, direction error
 /// rad, reached).
 using GoalTest = std::function<std::tuple<double, double, bool>(const Solution&, const Configuration& command)>;
@@ -52,6 +73,11 @@ std::vector<Configuration> replayCommands(const std::vector<Configuration>& wayp
 /// converge (completed false). The goal is tested at the last state.
 ReplayReport replayPath(const Context& ctx, const std::vector<Configuration>& waypoints, const StartHistory& history,
                         const GoalTest& goal, double rotation_step, double translation_step);
+/// @brief The same with another robot than the context's (the same tubes: e.g. other friction or drives, as at the
+/// points of RangeReplay); the context's collision checker and options.
+ReplayReport replayPath(const Context& ctx, const Robot& robot, const std::vector<Configuration>& waypoints,
+                        const StartHistory& history, const GoalTest& goal, double rotation_step,
+                        double translation_step);
 
 /// @brief CSV of a replay (docs/formats.md "Planned path"): the recording columns plus clearance, validity and
 /// per-contact hysteresis (mode, torque, relative twist).

@@ -4,7 +4,8 @@
 /// - Frictionless: admissible, converged, stable, collision-free; motions are followed forward along the
 ///   equilibrium branch (continuation from the source) and are invalid if the branch snaps.
 /// - Robust: the whole friction band (every admissible history) at a configuration is converged, stable and
-///   collision-free; along a motion every band vertex is followed forward and must not snap.
+///   collision-free; along a motion every band vertex is followed forward and must not snap. With ranges of the
+///   robot's values or drive plays, the band of every robust corner (Context::robustCorners).
 /// - Exact: the state's cached physics (propagated forward through the stick-slip model) is valid and its shape is
 ///   collision-free.
 #pragma once
@@ -27,7 +28,7 @@ struct ConfigurationCheck {
 /// @brief Frictionless check of q (cold solve, or warm from `warm`).
 ConfigurationCheck checkFrictionless(const Context& ctx, const Configuration& q, ThreadScratch& t,
                                      const Solution* warm = nullptr);
-/// @brief Robust check: every shape of the friction band at q.
+/// @brief Robust check: every shape of the friction band of every robust corner at command q.
 ConfigurationCheck checkRobust(const Context& ctx, const Configuration& q, ThreadScratch& t);
 
 /// @brief Forward check of the straight-line motion q0 -> q1 at the context's resolutions, in the context's mode

@@ -367,6 +367,14 @@ void addLinearisation(Model& m, const std::vector<double>& x, FitResult& f) {
   f.x = x;
   f.interval_serial_correlation = hac.rho;
   f.uncertainty.assign(f.effects.size(), EffectUncertainty{});
+  {  // All coordinates together (FitResult::covariance): the per-effect blocks below are its diagonal blocks.
+    bool all_ok = true;
+    for (int j = 0; j < k; ++j) all_ok = all_ok && hac.covariance(j, j) > 0;
+    Eigen::VectorXd d(k);
+    for (int j = 0; j < k; ++j)
+      d[j] = m.span(j) * (all_ok ? std::sqrt(std::max(1.0, C(j, j) / hac.covariance(j, j))) : 1.0);
+    f.covariance = d.asDiagonal() * (all_ok ? hac.covariance : C) * d.asDiagonal();
+  }
   // Per effect: the block of its coordinates, the HAC covariance scaled so that no variance is below the classical
   // one (its correlations kept), in coordinate units.
   for (int j0 = 0; j0 < k;) {

@@ -62,6 +62,10 @@ struct FitResult {
   /// coordinates and their covariance, Gauss-Newton with the pre-whitened HAC covariance over rows (serial
   /// correlation).
   std::vector<EffectUncertainty> uncertainty;
+  /// The covariance of all fitted coordinates (effect by effect, parameterCount each; coordinate units), of which
+  /// `uncertainty` holds the diagonal blocks: the HAC covariance with each variance raised to at least the classical
+  /// one (the classical covariance when a HAC variance is not positive). Empty when intervals are not computed.
+  Eigen::MatrixXd covariance;
   double interval_serial_correlation = 0.0;  ///< AR(1) coefficient of the row scores behind the intervals.
   Registration registration;                 ///< Sensor registration (FrameMode::Unknown).
   Prediction prediction;                     ///< All rows, in the sensor frame.

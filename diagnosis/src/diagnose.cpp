@@ -32,6 +32,8 @@ const char* toString(DiagnoseProgress::Stage stage) {
       return "remainder";
     case DiagnoseProgress::Stage::Done:
       return "done";
+    case DiagnoseProgress::Stage::Recordings:
+      return "recordings";
   }
   return "?";
 }
@@ -110,6 +112,16 @@ void updateNoise(State& s, const Visits& visits) {
   }
   double p = 1.0;
   s.base_ratio = s.heldoutRatio(s.baseline_cv, p);
+}
+
+/// The command log behind every stride-th visit (empty for stride 1).
+CommandHistory historyOfVisits(const io::Recording& vrec, int stride) {
+  CommandHistory h;
+  if (stride <= 1) return h;
+  h.commands = vrec.commands;
+  if (vrec.hasTime()) h.time = vrec.time;
+  for (int r = 0; r < vrec.rows(); r += stride) h.rows.push_back(r);
+  return h;
 }
 
 namespace {
@@ -194,9 +206,7 @@ DiagnosisReport diagnosePass(const Robot& nominal, const io::Recording& given, c
   s.fo.frame = o.frame;
   s.fo.predict = o.predict;
   if (stride > 1) {
-    s.history.commands = vrec.commands;
-    if (vrec.hasTime()) s.history.time = vrec.time;
-    for (int r = 0; r < vrec.rows(); r += stride) s.history.rows.push_back(r);
+    s.history = detail::historyOfVisits(vrec, stride);
     s.fo.predict.history = &s.history;
   }
   s.fo.max_iterations = o.max_iterations;
@@ -350,11 +360,31 @@ DiagnosisReport diagnosePass(const Robot& nominal, const io::Recording& given, c
   out.residuals = s.cur.fit.residuals;
   out.noise = s.fo.noise;
   out.evaluable = s.evaluable;
+  rep.used_rows = s.evaluable;
   out.origin = s.origin;
   return rep;
 }
 
 }  // namespace
+
+CommandHistory diagnosedHistory(const io::Recording& rec, int stride) {
+  return detail::historyOfVisits(collapseFrames(rec).recording, stride);
+}
+
+FitOptions diagnosedFitOptions(const DiagnosisReport& report, const DiagnoseOptions& options,
+                               const CommandHistory& history) {
+  FitOptions fo;
+  fo.frame = report.frame;
+  fo.predict = options.predict;
+  fo.predict.replay.friction.kinematics.max_step = report.discretisation.max_step;
+  fo.predict.replay.friction.kinematics.max_bending_per_step = report.discretisation.max_bending_per_step;
+  if (report.stride > 1) fo.predict.history = &history;
+  fo.max_iterations = options.max_iterations;
+  fo.rows = report.used_rows;
+  fo.noise = report.noise.levels();
+  fo.threads = options.threads;
+  return fo;
+}
 
 DiagnosisReport diagnose(const Robot& nominal, const io::Recording& given, const DiagnoseOptions& o) {
   if (given.tubes != nominal.size())

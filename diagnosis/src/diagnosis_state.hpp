@@ -23,6 +23,17 @@ std::string paramText(const NamedParameter& p);
 /// Its 95 % interval: "[lo, hi]", one per component of a vector parameter (report.cpp).
 std::string intervalText(const NamedParameter& p);
 
+/// The command log behind every stride-th row of the visits `vrec` (PredictOptions::history; empty for stride 1).
+CommandHistory historyOfVisits(const io::Recording& vrec, int stride);
+
+/// The accepted finding that names `e`'s slot in the verdict (nullptr: none).
+const Finding* namingFinding(const DiagnosisReport& r, const Effect& e);
+/// Effects of the recording (its timing and its tracker), not of the robot: sensor latency, tracker drift.
+bool ofTheRecording(EffectKind k);
+/// An effect of the final model that --robot-out applies: named by the verdict, of the robot (not of the recording,
+/// not a generic description).
+bool robotEffectOf(const DiagnosisReport& r, const Effect& e);
+
 /// "nominal+effect+..." of a list of effects.
 std::string modelName(const std::vector<Effect>& e);
 

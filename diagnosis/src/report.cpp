@@ -99,6 +99,32 @@ json intervalsJson(const std::vector<NamedParameter>& ps) {
   return j;
 }
 
+// An effect of a final model: {"effect": name, "tube": k, "<parameter>": value, "interval95": ...}.
+json effectJson(const Effect& e, const EffectUncertainty* u) {
+  const std::vector<NamedParameter> ps = namedParameters(e, u);
+  json x{{"effect", toString(e.kind)}};
+  for (const NamedParameter& p : ps) x[p.name] = paramValueJson(p);
+  // One-parameter kinds: "interval95": [lo, hi] (as before); kinds with several parameters: one per parameter,
+  // {"scale": [lo, hi], "direction": [[lo, hi], [lo, hi], [lo, hi]]} or {"force": [[lo, hi], x3]}.
+  if (parameterCount(e.kind) == 1) {
+    for (const NamedParameter& p : ps)
+      if (p.name != "tube" && !p.interval95.empty()) x["interval95"] = paramIntervalJson(p);
+  } else if (!intervalsJson(ps).empty()) {
+    x["interval95"] = intervalsJson(ps);
+  }
+  return x;
+}
+
+json registrationJson(const Registration& g) {
+  json reg;
+  json R = json::array();
+  for (int a = 0; a < 3; ++a) R.push_back(json::array({g.rotation(a, 0), g.rotation(a, 1), g.rotation(a, 2)}));
+  reg["rotation"] = R;
+  reg["translation"] = json::array({g.translation.x(), g.translation.y(), g.translation.z()});
+  reg["tip_offset"] = g.tip_offset;
+  return reg;
+}
+
 std::string f4(double v) {
   char b[64];
   std::snprintf(b, sizeof b, "%.4g", v);
@@ -142,18 +168,7 @@ std::string reportToJson(const DiagnosisReport& r) {
   json effects = json::array();
   for (const Effect& e : r.final_effects) {
     const auto u = r.final_uncertainty.find(e.label());
-    const std::vector<NamedParameter> ps = namedParameters(e, u != r.final_uncertainty.end() ? &u->second : nullptr);
-    json x{{"effect", toString(e.kind)}};
-    for (const NamedParameter& p : ps) x[p.name] = paramValueJson(p);
-    // One-parameter kinds: "interval95": [lo, hi] (as before); kinds with several parameters: one per parameter,
-    // {"scale": [lo, hi], "direction": [[lo, hi], [lo, hi], [lo, hi]]} or {"force": [[lo, hi], x3]}.
-    if (parameterCount(e.kind) == 1) {
-      for (const NamedParameter& p : ps)
-        if (p.name != "tube" && !p.interval95.empty()) x["interval95"] = paramIntervalJson(p);
-    } else if (!intervalsJson(ps).empty()) {
-      x["interval95"] = intervalsJson(ps);
-    }
-    effects.push_back(x);
+    effects.push_back(effectJson(e, u != r.final_uncertainty.end() ? &u->second : nullptr));
   }
   fin["effects"] = effects;
   j["final"] = fin;
@@ -270,18 +285,7 @@ std::string reportToJson(const DiagnosisReport& r) {
     j["noise"][toString(q)] = x;
   }
   j["frame"] = toString(r.frame);
-  if (r.frame == FrameMode::Unknown) {
-    json reg;
-    json R = json::array();
-    for (int a = 0; a < 3; ++a)
-      R.push_back(
-          json::array({r.registration.rotation(a, 0), r.registration.rotation(a, 1), r.registration.rotation(a, 2)}));
-    reg["rotation"] = R;
-    reg["translation"] =
-        json::array({r.registration.translation.x(), r.registration.translation.y(), r.registration.translation.z()});
-    reg["tip_offset"] = r.registration.tip_offset;
-    j["registration"] = reg;
-  }
+  if (r.frame == FrameMode::Unknown) j["registration"] = registrationJson(r.registration);
   j["replay_discretisation"] = {{"max_step", r.discretisation.max_step},
                                 {"max_bending_per_step", r.discretisation.max_bending_per_step},
                                 {"error_over_noise", r.discretisation.error_over_noise},
@@ -502,6 +506,59 @@ std::string plotDataJson(const DiagnosisReport& r, const io::Recording& full) {
   j["moment"] = json{{"nominal", vectorJson(r.plot.nominal.moment)}, {"fitted", vectorJson(r.plot.fitted.moment)}};
   j["residual_bins"] = json{{"nominal", binsJson(r.mismatch.bins)}, {"fitted", binsJson(r.plot.final_mismatch.bins)}};
   return j.dump() + "\n";
+}
+
+std::string reportToJson(const MultiDiagnosisReport& r) {
+  json j;
+  json recs = json::array();
+  for (std::size_t i = 0; i < r.recordings.size(); ++i) {
+    json x{{"file", r.names[i]}, {"diagnosis", json::parse(reportToJson(r.recordings[i]))}};
+    if (i < r.fits.size()) {
+      const RecordingFit& f = r.fits[i];
+      json joint;
+      json effects = json::array();
+      for (const Effect& e : f.effects) effects.push_back(effectJson(e, nullptr));
+      joint["effects"] = effects;
+      joint["fit_rmse"] = mapJson(f.fit_rmse);
+      joint["own_fit_rmse"] = mapJson(f.own_fit_rmse);
+      if (r.frame == FrameMode::Unknown) joint["registration"] = registrationJson(f.registration);
+      x["joint_fit"] = joint;
+    }
+    recs.push_back(x);
+  }
+  j["recordings"] = recs;
+  j["shared_verdict"] = r.verdict;
+  json effects = json::array();
+  for (const JointEffect& e : r.effects) {
+    json x{{"effect", toString(e.effect.kind)}, {"agreement", toString(e.agreement)}, {"explanation", e.explanation}};
+    if (isPerTube(e.effect.kind)) x["tube"] = e.effect.tube;
+    if (e.agreement == Agreement::Shared) {
+      x["parameters"] = parametersJson(e.parameters);
+      x["interval95"] = intervalsJson(e.parameters);
+    }
+    json per = json::array();
+    json named = json::array();
+    for (const RecordingValue& v : e.per_recording) {
+      per.push_back(json{{"file", r.names[static_cast<std::size_t>(v.recording)]},
+                         {"parameters", parametersJson(v.parameters)},
+                         {"interval95", intervalsJson(v.parameters)},
+                         {"named", v.named},
+                         {"supports", v.supports},
+                         {"confounded", v.confounded}});
+      if (v.named) named.push_back(r.names[static_cast<std::size_t>(v.recording)]);
+    }
+    x["per_recording"] = per;
+    x["named_in"] = named;
+    if (e.dof > 0) x["consistency"] = json{{"chi2", num(e.chi2)}, {"dof", e.dof}, {"p", num(e.p)}};
+    effects.push_back(x);
+  }
+  j["effects"] = effects;
+  j["frame"] = toString(r.frame);
+  j["alpha"] = r.alpha;
+  j["seconds"] = r.seconds;
+  j["warnings"] = r.warnings;
+  j["summary"] = r.summary;
+  return j.dump(1) + "\n";
 }
 
 }  // namespace ctr::diagnosis

@@ -32,6 +32,7 @@ struct DiagnoseProgress {
     Calibration,  ///< The description's parameters fitted together (calibrateDescription).
     Remainder,    ///< What the final model leaves; proxies (constancy, confounding); generic descriptions.
     Done,
+    Recordings,  ///< Several recordings (diagnoseRecordings): their effects refitted in each and compared.
   };
   Stage stage = Stage::Baseline;
   int round = 0;         ///< Current selection round (1-based; 0 before the first).
@@ -239,6 +240,9 @@ struct DiagnosisReport {
   int visits = 0;                       ///< Rows after collapsing repeated frames (consecutive rows, same command).
   int stride = 1;                       ///< Visits used: every stride-th (see max_rows).
   int rounds = 0;                       ///< Selection rounds run.
+  /// Per diagnosed row (diagnosedRows(recording, stride)): used by the final model's fit and scores (0: failed,
+  /// off-branch or a tracker glitch). Not in the JSON (failed_rows, branch_ambiguous_rows and outlier_rows say why).
+  std::vector<char> used_rows;
   std::string branch;                   ///< Branch rule of the replay ("path", "rest").
   ReplayDiscretisation discretisation;  ///< The replays' integration steps and their error against the noise.
   double seconds = 0.0;
@@ -254,6 +258,16 @@ io::Recording decimateRecording(const io::Recording& rec, int k);
 /// @brief The rows a diagnosis works on: repeated frames averaged into visits (collapseFrames), then every
 /// `stride`-th visit (DiagnosisReport::stride).
 io::Recording diagnosedRows(const io::Recording& rec, int stride);
+
+/// @brief The full-rate command log behind the rows diagnosedRows(rec, stride) (PredictOptions::history; empty
+/// when stride is 1: the rows are the whole log).
+CommandHistory diagnosedHistory(const io::Recording& rec, int stride);
+
+/// @brief The options of the fits of a finished diagnosis of `rec` (its frame, noise levels, replay integration
+/// steps and used rows), with which its final model was fitted: to fit other models to the same rows.
+/// `history` must be diagnosedHistory(rec, report.stride) and outlive the options.
+FitOptions diagnosedFitOptions(const DiagnosisReport& report, const DiagnoseOptions& options,
+                               const CommandHistory& history);
 
 /// @brief The candidate slots (kind, tube) tried for a robot and recording.
 std::vector<Effect> candidateSlots(const Robot& nominal, const io::Recording& rec, const DiagnoseOptions& options);
@@ -275,6 +289,104 @@ std::string diagnosedRobotYaml(const Robot& nominal, const DiagnosisReport& repo
 
 /// @brief The diagnosis JSON (docs/formats.md "Diagnosis": verdict, baseline, final, mismatch, findings, noise, ...).
 std::string reportToJson(const DiagnosisReport& report);
+
+// ---- Several recordings of one robot (docs/diagnosis.md "Several recordings of one robot") ----
+
+/// @brief How an effect stands across several recordings of one robot (diagnoseRecordings).
+enum class Agreement {
+  Shared,          ///< A robot effect whose values in the recordings agree, supported by two or more of them: one
+                   ///< value, physics of the robot (applied by diagnosedRobot).
+  Differs,         ///< A robot effect whose values in the recordings disagree beyond their intervals: not shared.
+  OneRecording,    ///< A robot effect that one recording supports and the others cannot tell from none: not shared.
+  OfTheRecording,  ///< An effect of a recording's timing or tracker (sensor latency, tracker drift) or a generic
+                   ///< description: fitted per recording, never shared.
+};
+
+/// @brief "shared", "differs", "one_recording", "of_the_recording".
+const char* toString(Agreement agreement);
+
+/// @brief Options of diagnoseRecordings().
+struct MultiDiagnoseOptions {
+  DiagnoseOptions diagnose;  ///< Each recording's diagnosis, and the fits across recordings (frame, noise, ...).
+  /// Family-wise false-alarm rate of the consistency tests (chi-square of the recordings' values about their common
+  /// value), Bonferroni over the robot effects tested.
+  double alpha = 0.01;
+  int max_iterations = 20;  ///< Ceres iterations of each recording's refit.
+};
+
+/// @brief One recording's value of an effect (diagnoseRecordings).
+struct RecordingValue {
+  int recording = 0;                       ///< 0-based index of the recording.
+  Effect effect;                           ///< Fitted value in that recording.
+  std::vector<NamedParameter> parameters;  ///< With their 95 % intervals (namedParameters).
+  bool named = false;                      ///< That recording's own diagnosis named it.
+  bool supports = false;  ///< Its 95 % interval excludes the nominal value (the recording tells it from none).
+  /// The recording's other effects take up its prediction change to within 1 % (e.g. a drive's play and the sensor
+  /// latency in a sweep at constant speed): the recording cannot tell its value, which is left out of the
+  /// consistency test and of the common value.
+  bool confounded = false;
+};
+
+/// @brief An effect across the recordings: its agreement, its shared value or the recordings' values, and the test.
+struct JointEffect {
+  Effect effect;  ///< The slot (kind, tube); with the shared value when Agreement::Shared.
+  Agreement agreement = Agreement::OfTheRecording;
+  /// Shared: the common value with its 95 % interval (the joint estimate); empty otherwise.
+  std::vector<NamedParameter> parameters;
+  /// Robot effects: each recording's value with all robot effects of the union free in it (the consistency test's
+  /// inputs). Recording effects: each recording's value with the shared effects held at their common values.
+  std::vector<RecordingValue> per_recording;
+  double chi2 = 0.0;        ///< Consistency test (robot effects): sum of the squared deviations from the common value
+                            ///< over the recordings' covariances.
+  int dof = 0;              ///< Its degrees of freedom ((recordings - 1) x coordinates); 0 when not tested.
+  double p = 1.0;           ///< Its p-value.
+  std::string explanation;  ///< Why it has this agreement, in words.
+};
+
+/// @brief One recording's part of the joint fit: the shared effects held, its own effects refitted.
+struct RecordingFit {
+  std::vector<Effect> effects;                 ///< Shared effects (held) then the recording's own (fitted).
+  Registration registration;                   ///< Its tracker frame (FrameMode::Unknown).
+  std::map<std::string, double> fit_rmse;      ///< In-sample RMSE per quantity with the shared values.
+  std::map<std::string, double> own_fit_rmse;  ///< The same for the recording's own final model (its diagnosis).
+};
+
+/// @brief The diagnosis of several recordings of one robot.
+struct MultiDiagnosisReport {
+  std::vector<std::string> names;           ///< The recordings' names (files), as given.
+  std::vector<DiagnosisReport> recordings;  ///< Each recording's own diagnosis.
+  std::vector<RecordingFit> fits;           ///< Each recording's part of the joint fit.
+  std::vector<std::string> verdict;  ///< The shared effects' kinds, each once (verdictNames): physics of the robot.
+  std::vector<JointEffect> effects;  ///< Robot effects named by any recording, then the recording effects.
+  FrameMode frame = FrameMode::Base;
+  double alpha = 0.01;  ///< MultiDiagnoseOptions::alpha.
+  double seconds = 0.0;
+  std::vector<std::string> warnings;
+  std::string summary;  ///< Plain-language paragraph.
+};
+
+/// @brief Diagnoses several recordings of one robot together: each recording alone (diagnose()); the union of the
+/// robot effects any of them names refitted in every recording, with its own recording effects (latency, tracker
+/// frame and drift) and partial explanations free; a consistency test of each robot effect's values across the
+/// recordings; the effects that agree and that two or more recordings support estimated once (the recordings'
+/// values weighted by their covariances: the first-order joint estimate) and held in a refit of each recording's own
+/// effects. Throws std::invalid_argument (naming the recording) when a recording does not fit the robot, and when
+/// fewer than two recordings are given.
+MultiDiagnosisReport diagnoseRecordings(const Robot& nominal, const std::vector<io::Recording>& recordings,
+                                        const std::vector<std::string>& names,
+                                        const MultiDiagnoseOptions& options = {});
+
+/// @brief The robot several recordings found: the nominal description with the shared effects applied at their common
+/// values (never an effect that is not shared, nor a recording's effects).
+Robot diagnosedRobot(const Robot& nominal, const MultiDiagnosisReport& report);
+
+/// @brief diagnosedRobot as a robot description headed by comments: each applied value with its 95 % interval and the
+/// recordings that named it, then what was not applied and why (differs, one recording, of the recording).
+std::string diagnosedRobotYaml(const Robot& nominal, const MultiDiagnosisReport& report);
+
+/// @brief The JSON of several recordings (docs/formats.md "Diagnosis of several recordings"): each recording's own
+/// diagnosis (the single-recording document), the shared verdict, the effects with their agreement and values.
+std::string reportToJson(const MultiDiagnosisReport& report);
 /// @brief Plain-language Markdown report.
 std::string reportToMarkdown(const DiagnosisReport& report, const io::Recording& rec);
 /// @brief Plot data JSON: per-row measured / nominal / fitted values, configuration variables with direction, and

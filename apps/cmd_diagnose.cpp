@@ -17,8 +17,9 @@ namespace ctr::cli {
 
 void registerDiagnose(CLI::App& app, Action& action) {
   struct Opts {
-    std::string robot, recording, frame = toString(diagnosis::FrameMode::Base), json, report, plot, candidates, html,
-                                  noise, branch = toString(BranchRule::Path), robot_out;
+    std::vector<std::string> recordings;
+    std::string robot, frame = toString(diagnosis::FrameMode::Base), json, report, plot, candidates, html, noise,
+                       branch = toString(BranchRule::Path), robot_out;
     int folds = 4, threads = 2, max_effects = diagnosis::DiagnoseOptions{}.max_effects,
         max_rows = diagnosis::DiagnoseOptions{}.max_rows;
     double bic_threshold = 10.0;
@@ -30,7 +31,12 @@ void registerDiagnose(CLI::App& app, Action& action) {
                          "Locate where a recording and the nominal model differ, name the left-out physics, fit it and "
                          "score it on held-out blocks");
   sub->add_option("--robot", o->robot, "Nominal robot description YAML")->required();
-  sub->add_option("--recording", o->recording, "Recording CSV (docs/formats.md), rows in the order taken")->required();
+  sub->add_option("--recording", o->recordings,
+                  "Recording CSV (docs/formats.md), rows in the order taken; repeat it for several recordings of one "
+                  "robot, diagnosed together: robot effects shared across them, latency and tracker per recording "
+                  "(docs/diagnosis.md)")
+      ->required()
+      ->type_name("FILE");
   sub->add_option("--frame", o->frame,
                   "Frame of measured tips: base, or unknown (registration estimated in every model)")
       ->check(CLI::IsMember({toString(diagnosis::FrameMode::Base), toString(diagnosis::FrameMode::Unknown)}));
@@ -70,19 +76,36 @@ void registerDiagnose(CLI::App& app, Action& action) {
   sub->callback([o, &action]() {
     action = [o]() {
       requireHtmlReports(o->html);
-      checkOutputTarget("--json", o->json, {{"--robot", o->robot}, {"--recording", o->recording}});
+      const bool several = o->recordings.size() > 1;
+      if (several)
+        for (const auto& [opt, path] : {std::pair<std::string, std::string>{"--report", o->report},
+                                        {"--plot-data", o->plot},
+                                        {"--html", o->html}})
+          if (!path.empty()) throw UsageError(opt + " takes one --recording (several: --json and --robot-out)");
+      std::vector<std::pair<std::string, std::string>> inputs{{"--robot", o->robot}};
+      for (const std::string& r : o->recordings) inputs.emplace_back("--recording", r);
+      for (std::size_t i = 0; i < o->recordings.size(); ++i)
+        for (std::size_t k = 0; k < i; ++k)
+          if (o->recordings[i] == o->recordings[k])
+            throw UsageError("--recording " + o->recordings[i] + " is given twice");
+      checkOutputTarget("--json", o->json, inputs);
       for (const auto& [opt, path] : {std::pair<std::string, std::string>{"--report", o->report},
                                       {"--plot-data", o->plot},
                                       {"--html", o->html},
                                       {"--robot-out", o->robot_out}})
-        checkOutputPath(opt, path, {{"--robot", o->robot}, {"--recording", o->recording}});
+        checkOutputPath(opt, path, inputs);
       const Robot robot = io::loadRobot(o->robot);
-      const io::Recording rec = io::loadRecording(o->recording, robot.size(), true);
-      for (const auto& w : rec.warnings) std::cerr << "warning: " << o->recording << ": " << w << "\n";
-      if (rec.rows() < 8)  // diagnosis::diagnose needs 8 rows (held-out blocks); say which file is too short
-        throw io::InputError(
-            o->recording, 0, "",
-            "the recording has " + std::to_string(rec.rows()) + " data row(s); the diagnosis needs at least 8");
+      std::vector<io::Recording> recs;
+      for (const std::string& file : o->recordings) {
+        recs.push_back(io::loadRecording(file, robot.size(), true));
+        for (const auto& w : recs.back().warnings) std::cerr << "warning: " << file << ": " << w << "\n";
+        if (recs.back().rows() < 8)  // diagnosis::diagnose needs 8 rows (held-out blocks); say which file is short
+          throw io::InputError(file, 0, "",
+                               "the recording has " + std::to_string(recs.back().rows()) +
+                                   " data row(s); the diagnosis needs at least 8");
+      }
+      const io::Recording& rec = recs.front();
+      const std::string& rec_name = o->recordings.front();
       diagnosis::DiagnoseOptions d;
       d.frame = o->frame == toString(diagnosis::FrameMode::Unknown) ? diagnosis::FrameMode::Unknown
                                                                     : diagnosis::FrameMode::Base;
@@ -127,6 +150,20 @@ void registerDiagnose(CLI::App& app, Action& action) {
                                             std::to_string(p.candidates) + " candidates screened"
                                       : std::string(diagnosis::toString(p.stage)));
         };
+      std::ostream& words = o->json == kStandardOutput ? std::cerr : std::cout;
+      if (several) {
+        diagnosis::MultiDiagnoseOptions m;
+        m.diagnose = d;
+        const diagnosis::MultiDiagnosisReport rep = diagnosis::diagnoseRecordings(robot, recs, o->recordings, m);
+        progress.finish();
+        const std::string robot_out = o->robot_out.empty() ? std::string() : diagnosis::diagnosedRobotYaml(robot, rep);
+        writeOutput(o->json, diagnosis::reportToJson(rep));
+        if (!o->robot_out.empty()) io::writeFileAtomic(o->robot_out, robot_out);
+        words << "shared verdict: [";
+        for (std::size_t k = 0; k < rep.verdict.size(); ++k) words << (k ? ", " : "") << rep.verdict[k];
+        words << "]\n" << rep.summary << "\n";
+        return kOk;
+      }
       const diagnosis::DiagnosisReport rep = diagnosis::diagnose(robot, rec, d);
       // The rounds actually run (the selection stops when no candidate passes).
       progress.setTotal(static_cast<std::size_t>(std::max(1, rep.rounds)));
@@ -136,16 +173,15 @@ void registerDiagnose(CLI::App& app, Action& action) {
       progress.finish();
       // The robot first: a description it cannot be written as fails before any output is written.
       const std::string robot_out =
-          o->robot_out.empty() ? std::string() : diagnosis::diagnosedRobotYaml(robot, rep, o->recording);
+          o->robot_out.empty() ? std::string() : diagnosis::diagnosedRobotYaml(robot, rep, rec_name);
       writeOutput(o->json, diagnosis::reportToJson(rep));
       if (!o->report.empty()) io::writeFileAtomic(o->report, diagnosis::reportToMarkdown(rep, rec));
       if (!o->plot.empty()) io::writeFileAtomic(o->plot, diagnosis::plotDataJson(rep, rec));
       if (!o->robot_out.empty()) io::writeFileAtomic(o->robot_out, robot_out);
 #ifdef CTR_WITH_REPORTS
-      if (!o->html.empty()) reports::writeHtml(o->html, reports::diagnosisHtml(rep, rec, "Diagnosis: " + o->recording));
+      if (!o->html.empty()) reports::writeHtml(o->html, reports::diagnosisHtml(rep, rec, "Diagnosis: " + rec_name));
 #endif
       // The verdict and summary in words: on standard output, or on the error stream when the JSON goes there.
-      std::ostream& words = o->json == kStandardOutput ? std::cerr : std::cout;
       words << "verdict: [";
       for (std::size_t k = 0; k < rep.verdict.size(); ++k) words << (k ? ", " : "") << rep.verdict[k];
       words << "]\n" << rep.summary << "\n";

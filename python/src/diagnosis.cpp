@@ -70,14 +70,30 @@ void registerDiagnosis(pyb::module_& m) {
          const pyb::object& progress, bool with_report, const std::optional<std::string>& noise,
          const std::string& branch, bool calibrate, int max_rows,
          const std::optional<std::filesystem::path>& robot_out) {
-        const io::Recording rec = recordingFrom(recording, robot.size());
-        if (rec.rows() < 8) {
-          const std::string file = pyb::isinstance<io::Recording>(recording) ? std::string("<recording>")
-                                                                             : pyb::str(recording).cast<std::string>();
-          throw io::InputError(
-              file, 0, "",
-              "the recording has " + std::to_string(rec.rows()) + " data row(s); the diagnosis needs at least 8");
+        // One recording (a path or a ctr.Recording), or a list of them: diagnosed together (diagnoseRecordings).
+        const bool several = pyb::isinstance<pyb::list>(recording) || pyb::isinstance<pyb::tuple>(recording);
+        std::vector<pyb::object> items;
+        if (several)
+          for (const pyb::handle& h : recording) items.push_back(pyb::reinterpret_borrow<pyb::object>(h));
+        else
+          items.push_back(recording);
+        if (several && items.size() < 2)
+          throw pyb::value_error("recording: a list needs at least two recordings (or pass one recording)");
+        if (several && with_report) throw pyb::value_error("with_report: takes one recording");
+        std::vector<io::Recording> recs;
+        std::vector<std::string> names;
+        for (std::size_t i = 0; i < items.size(); ++i) {
+          const pyb::object& item = items[i];
+          names.push_back(pyb::isinstance<io::Recording>(item)
+                              ? (several ? "<recording " + std::to_string(i + 1) + ">" : std::string("<recording>"))
+                              : pyb::str(item).cast<std::string>());
+          recs.push_back(recordingFrom(item, robot.size()));
+          if (recs.back().rows() < 8)
+            throw io::InputError(names.back(), 0, "",
+                                 "the recording has " + std::to_string(recs.back().rows()) +
+                                     " data row(s); the diagnosis needs at least 8");
         }
+        const io::Recording& rec = recs.front();
         diagnosis::DiagnoseOptions d;
         if (frame == "base")
           d.frame = diagnosis::FrameMode::Base;
@@ -126,10 +142,16 @@ void registerDiagnosis(pyb::module_& m) {
           };
         }
         std::string json, markdown;
-        const std::string recording_name = pyb::isinstance<io::Recording>(recording)
-                                               ? std::string("<recording>")
-                                               : pyb::str(recording).cast<std::string>();
-        {
+        const std::string& recording_name = names.front();
+        if (several) {
+          pyb::gil_scoped_release release;
+          diagnosis::MultiDiagnoseOptions mo;
+          mo.diagnose = d;
+          const diagnosis::MultiDiagnosisReport rep = diagnosis::diagnoseRecordings(robot, recs, names, mo);
+          const std::string robot_yaml = robot_out ? diagnosis::diagnosedRobotYaml(robot, rep) : std::string();
+          json = diagnosis::reportToJson(rep);
+          if (robot_out) io::writeFileAtomic(robot_out->string(), robot_yaml);
+        } else {
           pyb::gil_scoped_release release;
           const diagnosis::DiagnosisReport rep = diagnosis::diagnose(robot, rec, d);
           const std::string robot_yaml =
@@ -150,7 +172,9 @@ void registerDiagnosis(pyb::module_& m) {
       arg("max_rows") = diagnosis::DiagnoseOptions{}.max_rows, arg("robot_out") = pyb::none(),
       "`ctr diagnose`: where the recording (a path or a ctr.Recording) and the nominal robot differ, and which "
       "left-out physics explains it. Returns the dict of the diagnosis JSON (docs/formats.md; the same object as "
-      "--json writes); with_report=True returns (dict, Markdown report). progress: a callable taking a str. "
+      "--json writes). A list of recordings of one robot is diagnosed together (`--recording A --recording B`): "
+      "returns the dict of docs/formats.md 'Diagnosis of several recordings'; with_report=True returns (dict, Markdown "
+      "report). progress: a callable taking a str. "
       "noise: the tracker's noise as `--noise` takes it ('tip_position=0.5mm,tip_tangent=1deg'); branch: 'path' "
       "(default) or 'rest' (docs/diagnosis.md); calibrate: `--calibrate`; max_rows: `--max-rows`; robot_out: a "
       "path, `--robot-out` (the robot the diagnosis found, as a description). Runs without the GIL.");

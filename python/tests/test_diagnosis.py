@@ -111,3 +111,31 @@ def test_diagnose_calibrates_like_the_cli(cli, tmp_path):
     got = ctr.diagnose(ctr.load_robot(str(robot_yaml)), rec, calibrate=True, max_effects=1, threads=1,
                        candidates=["precurvature", "torsional_stiffness", "actuator_offset"])
     assert_same(got, expected, ignore=TIMING)
+
+
+def test_diagnose_takes_a_list_of_recordings(cli, tmp_path):
+    """A list of recordings of one robot is diagnosed together: the same dict as `ctr diagnose --recording A
+    --recording B --json`, each recording's own diagnosis inside it; --robot-out the same from both."""
+    robot_yaml = EXAMPLES / "recordings" / "friction_masked_B.robot.yaml"
+    text = (EXAMPLES / "recordings" / "friction_masked_B.csv").read_text()
+    a, b = tmp_path / "a.csv", tmp_path / "b.csv"
+    a.write_text(text)
+    b.write_text(text)
+    opts = ("--candidates", "boundary_friction", "--max-effects", "1", "--threads", "1")
+    out, robot_out = tmp_path / "d.json", tmp_path / "found.yaml"
+    cli("diagnose", "--robot", robot_yaml, "--recording", a, "--recording", b, "--json", out, "--quiet",
+        "--robot-out", robot_out, *opts)
+    expected = load_json(out.read_text())
+    robot = ctr.load_robot(str(robot_yaml))
+    got = ctr.diagnose(robot, [str(a), str(b)], candidates=["boundary_friction"], max_effects=1, threads=1,
+                       robot_out=str(tmp_path / "found_py.yaml"))
+    assert_same(got, expected, ignore=TIMING)
+    assert (tmp_path / "found_py.yaml").read_text() == robot_out.read_text()
+    assert [r["file"] for r in got["recordings"]] == [str(a), str(b)]
+    single = ctr.diagnose(robot, str(a), candidates=["boundary_friction"], max_effects=1, threads=1)
+    assert_same(got["recordings"][0]["diagnosis"], single, ignore=TIMING)
+    assert all(e["agreement"] in ("shared", "differs", "one_recording", "of_the_recording") for e in got["effects"])
+    with pytest.raises(ValueError, match="at least two"):
+        ctr.diagnose(robot, [str(a)])
+    with pytest.raises(ValueError, match="with_report"):
+        ctr.diagnose(robot, [str(a), str(b)], with_report=True)

@@ -5,6 +5,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <iostream>
 #include <nlohmann/json.hpp>
 
 #include "actuation_cases.hpp"
@@ -69,6 +70,12 @@ const JointEffect* find(const MultiDiagnosisReport& r, EffectKind kind) {
 
 /// The shared play and friction: named once each, within 10 % of the truth, applied by diagnosedRobot.
 void expectSharedPlayAndFriction(const Robot& robot, const MultiDiagnosisReport& r) {
+  std::cout << r.summary << " (" << r.seconds << " s)\n";
+  for (std::size_t i = 0; i < r.recordings.size(); ++i) {
+    std::cout << "  alone, " << r.names[i] << ":";
+    for (const Effect& e : r.recordings[i].final_effects) std::cout << " " << e.label() << " " << e.valueText() << ";";
+    std::cout << "\n";
+  }
   std::vector<std::string> verdict = r.verdict;
   std::sort(verdict.begin(), verdict.end());
   EXPECT_EQ(verdict, (std::vector<std::string>{"actuator_backlash", "boundary_friction"})) << r.summary;

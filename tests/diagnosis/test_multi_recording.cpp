@@ -142,7 +142,9 @@ TEST(MultiRecording, ALatencyOfOneRecordingIsAnEffectOfThatRecording) {
   EXPECT_EQ(j->agreement, Agreement::OfTheRecording);
   EXPECT_LT(j->p, r.alpha) << j->explanation;  // its values differ between the recordings
   for (const RecordingValue& v : j->per_recording) {
-    if (v.recording == 0) EXPECT_NEAR(v.effect.value, 0.3, 0.03);
+    if (v.recording == 0) {
+      EXPECT_NEAR(v.effect.value, 0.3, 0.03);
+    }
   }
 }
 

@@ -298,8 +298,8 @@ enum class Agreement {
                    ///< value, physics of the robot (applied by diagnosedRobot).
   Differs,         ///< A robot effect whose values in the recordings disagree beyond their intervals: not shared.
   OneRecording,    ///< A robot effect that one recording supports and the others cannot tell from none: not shared.
-  OfTheRecording,  ///< An effect of a recording's timing or tracker (sensor latency, tracker drift) or a generic
-                   ///< description: fitted per recording, never shared.
+  OfTheRecording,  ///< An effect of a recording's timing (sensor latency): fitted per recording, never shared
+                   ///< (tracker frames are per recording too).
 };
 
 /// @brief "shared", "differs", "one_recording", "of_the_recording".
@@ -333,11 +333,11 @@ struct JointEffect {
   Agreement agreement = Agreement::OfTheRecording;
   /// Shared: the common value with its 95 % interval (the joint estimate); empty otherwise.
   std::vector<NamedParameter> parameters;
-  /// Robot effects: each recording's value with all robot effects of the union free in it (the consistency test's
-  /// inputs). Recording effects: each recording's value with the shared effects held at their common values.
+  /// Each recording's value, fitted with every effect of MultiDiagnosisReport::effects and its own effects free (the
+  /// consistency test's inputs); the values with the shared effects held are in MultiDiagnosisReport::fits.
   std::vector<RecordingValue> per_recording;
-  double chi2 = 0.0;        ///< Consistency test (robot effects): sum of the squared deviations from the common value
-                            ///< over the recordings' covariances.
+  double chi2 = 0.0;  ///< Consistency test: sum of the squared deviations of the recordings' values from the common
+                      ///< value over the recordings' covariances.
   int dof = 0;              ///< Its degrees of freedom ((recordings - 1) x coordinates); 0 when not tested.
   double p = 1.0;           ///< Its p-value.
   std::string explanation;  ///< Why it has this agreement, in words.
@@ -357,7 +357,8 @@ struct MultiDiagnosisReport {
   std::vector<DiagnosisReport> recordings;  ///< Each recording's own diagnosis.
   std::vector<RecordingFit> fits;           ///< Each recording's part of the joint fit.
   std::vector<std::string> verdict;  ///< The shared effects' kinds, each once (verdictNames): physics of the robot.
-  std::vector<JointEffect> effects;  ///< Robot effects named by any recording, then the recording effects.
+  std::vector<JointEffect> effects;  ///< Robot effects named by any recording, then sensor latency when a
+                                     ///< recording's final model has it.
   FrameMode frame = FrameMode::Base;
   double alpha = 0.01;  ///< MultiDiagnoseOptions::alpha.
   double seconds = 0.0;

@@ -144,8 +144,39 @@ void BM_InverseKinematics(benchmark::State& st) {
   st.counters["reached_fraction"] = static_cast<double>(reached) / static_cast<double>(st.iterations());
 }
 
+// Robust validity (every shape of the friction band of every robust corner, solved cold) along a planned motion of
+// lung 2 (the motion of BM_ValidityAlongPlannedPath, 64 configurations): without ranges (one band), with a play range
+// on tube 2's rotation (two corners), and with play ranges on tubes 2 and 3 (four corners); friction mu' in
+// [0.05, 0.1] in the last two (0.1 without ranges).
+void BM_RobustValidity(benchmark::State& st) {
+  const int drives = static_cast<int>(st.range(0));
+  static std::shared_ptr<const planner::Context> base = makeLungContext(2);
+  if (!base) return st.SkipWithError(io::missingDataMessage("${CTR_DATA}/med-mpd").c_str());
+  planner::ContextOptions co = base->options();
+  co.mode = planner::Mode::Robust;
+  using K = planner::RangeDimension::Kind;
+  if (drives > 0) co.ranges.push_back({K::BoundaryFriction, 0, 0.05, 0.1});
+  for (int t = 2; t < 2 + drives; ++t) co.ranges.push_back({K::RotationPlay, t, 0.02, 0.1});
+  const planner::Context ctx(base->robot(), base->environmentPtr(), co, base->checker().options());
+  const Configuration a(Eigen::Vector3d(0.0, 0.0, 0.0), Eigen::Vector3d(-0.118, -0.218, -0.318));
+  const Configuration b(Eigen::Vector3d(-0.537556, -1.836102, -2.506250),
+                        Eigen::Vector3d(-0.096936, -0.150559, -0.250559));
+  std::vector<Configuration> qs;
+  for (int k = 0; k < 64; ++k) qs.push_back(interpolate(a, b, k / 63.0));
+  std::size_t k = 0, valid = 0;
+  for (auto _ : st) valid += planner::checkRobust(ctx, qs[k++ % qs.size()], planner::scratch()).ok;
+  reportValidity(st, valid);
+  st.counters["corners"] = static_cast<double>(ctx.robustCorners().size());
+}
+
 }  // namespace
 
+BENCHMARK(BM_RobustValidity)
+    ->Name("planner/lung2/robust_validity_along_planned_path")
+    ->Arg(0)
+    ->Arg(1)
+    ->Arg(2)
+    ->Unit(benchmark::kMicrosecond);
 BENCHMARK(BM_ValidityCold)->Name("planner/lung1/frictionless_validity_cold")->Unit(benchmark::kMicrosecond);
 BENCHMARK(BM_ValidityAlongMotion)
     ->Name("planner/lung1/frictionless_validity_along_motion")

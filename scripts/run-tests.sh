@@ -28,11 +28,12 @@ RELIABILITY_BUILD=${CTR_RELIABILITY_BUILD_DIR:-build-asan}
 # plan (they would explore 3-10x fewer states in their time limit and fail for that reason alone; their code paths run under ASan in the other
 # planner tests and by hand with longer limits) and the slow diagnosis cases (the five concealed ones, the loads, and
 # the pose-set, real-design and outside-the-library cases of test_diagnosis_real_data, the two drive errors in the
-# whole real log of test_diagnosis_honesty, the public 3-tube coarse walk: minutes each under ASan; their
-# code paths run under ASan in the honesty, unit and noise tests); docs/reliability.md ("Sanitizers"). The
+# whole real log of test_diagnosis_honesty, the public 3-tube coarse walk, two of the three several-recordings cases
+# and their command-line test: minutes each under ASan; their code paths run under ASan in the honesty, unit, noise
+# and MultiRecording.SharedPlay tests); docs/reliability.md ("Sanitizers"). The
 # time-limited benchmark campaigns (Campaign.BenchCampaign*) and the Slurm job-array test (label slurm) run once, in
 # the normal build.
-export CTR_CTEST_ARGS=${CTR_CTEST_ARGS:--LE test_diagnosis_concealed|slurm -E Planning\.ExactMode|Planning\.FrictionlessMode|Planning\.TheMotionCheckAndTheReplayAgreeOnEvery|Planning\.RobustModeSolves|Planning\.Portfolio|Planning\.InfeasibleLung|Cli\.BenchWrites|Cli\.BenchFills|Cli\.DemoPlans|DesignSearch\.|Campaign\.|LoadsDiagnosis\.|PoseSet\.|RealDesign\.|RealLogTwoDrives\.|OutsideTheLibrary\.|pub_precurvature_coarse_walk_T3|fetch_data\.}
+export CTR_CTEST_ARGS=${CTR_CTEST_ARGS:--LE test_diagnosis_concealed|slurm -E Planning\.ExactMode|Planning\.FrictionlessMode|Planning\.TheMotionCheckAndTheReplayAgreeOnEvery|Planning\.RobustModeSolves|Planning\.Portfolio|Planning\.InfeasibleLung|Cli\.BenchWrites|Cli\.BenchFills|Cli\.DemoPlans|DesignSearch\.|Campaign\.|LoadsDiagnosis\.|PoseSet\.|RealDesign\.|RealLogTwoDrives\.|OutsideTheLibrary\.|pub_precurvature_coarse_walk_T3|fetch_data\.|Planning\.RobustModePlansForRanges|MultiRecording\.ADriveOffset|MultiRecording\.ALatency|cli\.DiagnoseSeveralRecordings}
 if [ "${CI:-}" = true ] || [ "${CTR_SKIP_SANITIZERS:-0}" != 1 ]; then
   scripts/run-sanitizers.sh "$RELIABILITY_BUILD"
 fi

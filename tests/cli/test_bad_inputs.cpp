@@ -358,6 +358,14 @@ const std::vector<Case> kCases = {
      const std::string t = edit(heartQuery(), "time_limit: 20", "time_limit: 0");
      d.write("q.yaml", t); d.expect["line"] = std::to_string(lineOf(t, "time_limit: 0")); },
    "plan {d}/q.yaml --json {d}/r.json", 2, {"q.yaml:{line}", "time_limit", "> 0"}},
+  {"PlanFrictionRangeReversed", "plan", "a friction range with lo > hi", "plan", [](Dir& d) {
+     const std::string t = edit(heartQuery(), "friction: {boundary: 0.1}", "friction: {boundary: [0.12, 0.06]}");
+     d.write("q.yaml", t); d.expect["line"] = std::to_string(lineOf(t, "[0.12, 0.06]")); },
+   "plan {d}/q.yaml --json {d}/r.json", 2, {"q.yaml:{line}", "friction.boundary", "lo <= hi"}},
+  {"PlanRangeInExactMode", "plan", "a range of a drive's play in exact mode", "plan", [](Dir& d) {
+     const std::string t = heartQuery() + "actuation: [{tube: 2, rotation: {play: [0.05, 0.15]}}]\n";
+     d.write("q.yaml", t); d.expect["line"] = std::to_string(lineOf(t, "mode: exact")); },
+   "plan {d}/q.yaml --json {d}/r.json", 2, {"q.yaml:{line}", "mode", "robust mode"}},
   {"PlanUnknownTimeClock", "plan", "time_limit_clock neither wall nor cpu", "plan", [](Dir& d) {
      const std::string t = edit(heartQuery(), "time_limit: 20", "time_limit: 20\ntime_limit_clock: sundial");
      d.write("q.yaml", t); d.expect["line"] = std::to_string(lineOf(t, "sundial")); },

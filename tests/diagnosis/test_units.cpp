@@ -500,6 +500,13 @@ TEST(Calibration, FitsTheDescriptionAsABlockAndKeepsWhatEarnsItsPlace) {
   EXPECT_FALSE(rep.unexplained.present) << rep.summary;
   const std::string js = reportToJson(rep);
   EXPECT_NE(js.find("accepted with the calibration of the robot's description"), std::string::npos);
+  // --robot-out with --calibrate: the description carries the calibrated values (precurvatures, the drive's offset).
+  const Robot found = diagnosedRobot(r, rep);
+  EXPECT_DOUBLE_EQ(found.tube(0).curvature, got["precurvature[tube 1]"]);
+  EXPECT_DOUBLE_EQ(found.tube(1).curvature, got["precurvature[tube 2]"]);
+  EXPECT_DOUBLE_EQ(found.tube(1).rotation_drive.offset, got["actuator_offset[tube 2]"]);
+  EXPECT_NE(diagnosedRobotYaml(r, rep, "rec.csv").find("precurvature[tube 1] -> tubes[1].curvature"),
+            std::string::npos);
 }
 
 // The detection limit of a candidate is what the selection can see: on a sweep with known white noise, a drive offset

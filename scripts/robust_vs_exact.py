@@ -33,23 +33,8 @@ import argparse, collections, concurrent.futures, csv, json, os, shutil, statist
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 
 
-def data_dir():
-    """The folder of the public data sets, looked up as CMake does: CTR_DATA, else ../shared/data beside the
-    checkout, else data/ in the checkout (filled by scripts/fetch-data.sh)."""
-    if os.environ.get('CTR_DATA'):
-        return os.path.abspath(os.environ['CTR_DATA'])
-    beside = os.path.join(os.path.dirname(ROOT), 'shared', 'data')
-    return beside if os.path.isdir(beside) else os.path.join(ROOT, 'data')
-
-
-DATA = data_dir()
-
-
-def require_data(data_set):
-    """Exits with the one message for a missing data set."""
-    if not os.path.isdir(os.path.join(DATA, data_set)):
-        sys.exit("data set '%s' not found in %s: run scripts/fetch-data.sh to fetch it (or set CTR_DATA to the folder "
-                 "of the data sets)" % (data_set, DATA))
+sys.path.insert(0, os.path.join(ROOT, 'scripts'))
+from known_answer_cases import DATA, require_data  # noqa: E402  (the one lookup of the data folder)
 
 
 EXAMPLES = os.path.join(ROOT, 'examples')

@@ -148,7 +148,16 @@ bool TipGoal::tryCandidate() const {
   si_->freeState(st);
   bool ok = false;
   if (robust) {
-    ok = band <= spec_.tolerance && checkRobust(*ctx_, q, scratch()).ok;
+    if (band <= spec_.tolerance) {
+      const ConfigurationCheck c = checkRobust(*ctx_, q, scratch());
+      ok = c.ok;
+      std::lock_guard<std::mutex> lock(mutex_);
+      // Why a goal configuration whose band reaches the target was rejected (for the reason of an empty pool).
+      if (c.failure == Failure::Collision)
+        ++rejected_collision_;
+      else if (c.failure == Failure::Unstable)
+        ++rejected_unstable_;
+    }
   } else {
     // One cold solve serves the goal test and the validity check (exact and frictionless modes check a goal
     // configuration on the frictionless shape, as ValidityChecker::isValid does for a state without history).
@@ -203,10 +212,14 @@ std::string TipGoal::emptyPoolReason() const {
            " put the frictionless tip on the target, but no friction band reaches it as a "
            "whole (closest: every band tip within " +
            mm(best_band_) + ", tolerance " + mm(spec_.tolerance) + ")";
-  if (ctx_->options().mode == Mode::Robust)
+  if (ctx_->options().mode == Mode::Robust) {
+    const std::size_t other = band_reached_ - std::min(band_reached_, rejected_collision_ + rejected_unstable_);
     return "robust mode: " + std::to_string(band_reached_) + " of " + n +
-           " reach the target with their whole "
-           "friction band, but none is valid (a band shape collides, is unstable or does not converge)";
+           " reach the target with their whole friction band, but none is valid: in " +
+           std::to_string(rejected_collision_) + " a band shape collides with the anatomy, in " +
+           std::to_string(rejected_unstable_) + " one is elastically unstable, in " + std::to_string(other) +
+           " one does not converge, snaps or is released";
+  }
   const std::size_t in_goal = ik_reached_ - std::min(ik_reached_, rejected_goal_);
   const std::size_t other = in_goal - std::min(in_goal, rejected_collision_ + rejected_unstable_);
   std::string why = "no valid goal configuration for this design: " + n + " put the tip on the target";

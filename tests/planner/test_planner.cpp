@@ -12,6 +12,7 @@
 #include <fstream>
 #include <memory>
 #include <random>
+#include <regex>
 
 #include "../data_sets.hpp"
 #include "ctr/environments/robot_geometry.hpp"
@@ -1086,4 +1087,25 @@ TEST(Query, RobotUncertaintyTakesTheDiagnosisIntervals) {
     EXPECT_NE(std::string(e.what()).find("not a diagnosis"), std::string::npos) << e.what();
   }
   fs::remove_all(dir);
+}
+
+// Robust mode names why goals whose whole friction band holds the target were rejected: in brain patient 2 every such
+// band sweeps a shape into the anatomy (the counts add up to the goals that held the target).
+TEST(Planning, RobustModeSaysWhyEveryBandGoalIsInvalid) {
+  if (!ctr_test::haveData("med-mpd/Brain/Patient2")) GTEST_SKIP() << ctr_test::missingData("med-mpd/Brain/Patient2");
+  const Query q =
+      onCpuClock(loadQuery(src("examples/queries/medmpd_brain_patient2.yaml")), Mode::Robust, "rrtconnect", 8);
+  CtrPlanner p(q);
+  const PlanResult r = p.solve();
+  ASSERT_FALSE(r.solved);
+  const std::regex counts(
+      "(\\d+) of \\d+ inverse-kinematics solutions reach the target with their whole friction "
+      "band, but none is valid: in (\\d+) a band shape collides with the anatomy, in (\\d+) one is "
+      "elastically unstable, in (\\d+) one does not converge, snaps or is released");
+  std::smatch m;
+  ASSERT_TRUE(std::regex_search(r.message, m, counts)) << r.message;
+  const int reached = std::stoi(m[1]), collide = std::stoi(m[2]), unstable = std::stoi(m[3]), other = std::stoi(m[4]);
+  EXPECT_GT(reached, 0);
+  EXPECT_EQ(collide + unstable + other, reached);
+  EXPECT_GT(collide, 0) << r.message;
 }

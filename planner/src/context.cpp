@@ -47,10 +47,8 @@ std::string geometricDriveLimit(const Robot& robot) {
     const std::string tube = "tube " + std::to_string(i + 1);
     if (t.rotation_drive.play > 0.0) return tube + "'s rotation drive has a play (its position is history)";
     if (t.translation_drive.play > 0.0) return tube + "'s translation drive has a play (its position is history)";
-    if (t.rotation_drive.ratio_error != 0.0)
-      return tube + "'s rotation drive has a ratio error (the joint depends on the unwrapped command)";
   }
-  return "";
+  return unwrappedCommandDependence(robot);
 }
 
 Context::Context(Robot robot, std::shared_ptr<const environments::Environment> env, ContextOptions options,

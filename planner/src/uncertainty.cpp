@@ -66,6 +66,7 @@ std::string RangeDimension::name() const {
 }
 
 void checkRanges(const Robot& robot, const RobotRanges& ranges) {
+  std::vector<double> lo, hi;
   for (std::size_t i = 0; i < ranges.size(); ++i) {
     const RangeDimension& d = ranges[i];
     const std::string name = "range of " + d.name();
@@ -75,17 +76,16 @@ void checkRanges(const Robot& robot, const RobotRanges& ranges) {
       throw std::invalid_argument(name + ": needs finite lo <= hi");
     for (std::size_t j = 0; j < i; ++j)
       if (ranges[j].kind == d.kind && ranges[j].tube == d.tube) throw std::invalid_argument(name + ": given twice");
-    const double turn = 2 * M_PI;
-    const double length = isDrive(d.kind) ? robot.tube(d.tube - 1).length() : 0.0;
-    if ((d.kind == Kind::BoundaryFriction || d.kind == Kind::DistributedFriction || isPlay(d.kind)) && d.lo < 0)
-      throw std::invalid_argument(name + ": must be >= 0");
-    if (d.kind == Kind::RotationPlay && d.hi >= turn)
-      throw std::invalid_argument(name + ": a play must be less than a turn");
-    if (d.kind == Kind::RotationOffset && (d.lo < -M_PI || d.hi > M_PI))
-      throw std::invalid_argument(name + ": must lie within [-pi, pi]");
-    if ((d.kind == Kind::TranslationPlay || d.kind == Kind::TranslationOffset) &&
-        std::max(std::abs(d.lo), std::abs(d.hi)) >= length)
-      throw std::invalid_argument(name + ": must be shorter than the tube");
+    lo.push_back(d.lo);
+    hi.push_back(d.hi);
+  }
+  // The values: the robot description's own checks (Robot, withTube, withFriction) at both ends of every range.
+  for (const std::vector<double>* end : {&lo, &hi}) {
+    try {
+      robotAt(robot, ranges, *end);
+    } catch (const std::invalid_argument& e) {
+      throw std::invalid_argument(std::string("a range's ") + (end == &lo ? "lower" : "upper") + " end: " + e.what());
+    }
   }
 }
 
@@ -104,7 +104,17 @@ Configuration RobustCorner::joints(const Configuration& q) const {
   return jointsOf(drives, c, none);
 }
 
+std::string unwrappedCommandDependence(const Robot& robot) {
+  for (int i = 0; i < robot.size(); ++i)
+    if (robot.tube(i).rotation_drive.ratio_error != 0.0)
+      return "tube " + std::to_string(i + 1) +
+             "'s rotation drive has a ratio error (the joint depends on the unwrapped command)";
+  return "";
+}
+
 std::vector<RobustCorner> robustCorners(const Robot& robot, const RobotRanges& ranges) {
+  const std::string unwrapped = unwrappedCommandDependence(robot);
+  if (!unwrapped.empty()) throw std::invalid_argument(unwrapped);
   const int n = robot.size();
   // Friction at its upper bounds; each drive's offset range and widest play.
   Robot upper = robot;
@@ -119,9 +129,6 @@ std::vector<RobustCorner> robustCorners(const Robot& robot, const RobotRanges& r
   for (int i = 0; i < n; ++i)
     for (const bool rotation : {true, false}) {
       const Drive& d = rotation ? upper.tube(i).rotation_drive : upper.tube(i).translation_drive;
-      if (rotation && d.ratio_error != 0.0)
-        throw std::invalid_argument("tube " + std::to_string(i + 1) +
-                                    "'s rotation drive has a ratio error (the joint depends on the unwrapped command)");
       Axis a{rotation, i, d.offset, d.offset, 0.5 * d.play};
       for (const RangeDimension& r : ranges)
         if (isDrive(r.kind) && !isPlay(r.kind) && r.tube == i + 1 && isRotation(r.kind) == rotation) {
@@ -199,15 +206,12 @@ RobotRanges rangesFromDiagnosis(const std::string& path, std::vector<std::string
   };
   struct Known {
     const char* effect;
-    const char* parameter;
     Kind kind;
   };
-  const Known known[] = {{"boundary_friction", "mu", Kind::BoundaryFriction},
-                         {"distributed_friction", "mu", Kind::DistributedFriction},
-                         {"actuator_backlash", "width", Kind::RotationPlay},
-                         {"actuator_offset", "offset", Kind::RotationOffset},
-                         {"translation_backlash", "width", Kind::TranslationPlay},
-                         {"translation_offset", "offset", Kind::TranslationOffset}};
+  const Known known[] = {
+      {"boundary_friction", Kind::BoundaryFriction},   {"distributed_friction", Kind::DistributedFriction},
+      {"actuator_backlash", Kind::RotationPlay},       {"actuator_offset", Kind::RotationOffset},
+      {"translation_backlash", Kind::TranslationPlay}, {"translation_offset", Kind::TranslationOffset}};
   RobotRanges out;
   for (const auto& e : effects) {
     const std::string effect = e.value("effect", "");

@@ -34,9 +34,9 @@ struct RangeDimension {
 /// @brief The ranges of a planning problem: at most one per value, each with lo <= hi.
 using RobotRanges = std::vector<RangeDimension>;
 
-/// @brief Checks ranges against a robot: tubes exist, lo <= hi, the values a robot description accepts (friction
-/// >= 0, plays >= 0 and less than a turn / the tube, |rotation offset| <= pi), one range per value. Throws
-/// std::invalid_argument naming the range.
+/// @brief Checks ranges against a robot: tubes exist, finite lo <= hi, one range per value, and both ends of every
+/// range are values the robot description accepts (the robot's own checks: friction >= 0, plays >= 0 and less than
+/// a turn / the tube, |rotation offset| <= pi, ...). Throws std::invalid_argument naming the range or the key.
 void checkRanges(const Robot& robot, const RobotRanges& ranges);
 
 /// @brief The robot at one point of the box: `values[i]` for ranges[i] (the robot's own value elsewhere).
@@ -52,6 +52,10 @@ struct RobustCorner {
   /// @brief The joints of command q at this corner.
   Configuration joints(const Configuration& q) const;
 };
+
+/// @brief Why the robot's joints depend on the unwrapped command, "" when they do not: a rotation drive with a ratio
+/// error (a state kept within one turn then does not determine its joints).
+std::string unwrappedCommandDependence(const Robot& robot);
 
 /// @brief The robots robust mode checks for `robot` over `ranges`. Friction at its upper bounds (the friction band
 /// of a larger coefficient contains every equilibrium of a smaller one: its torque box contains theirs). Each drive

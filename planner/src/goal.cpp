@@ -147,16 +147,19 @@ bool TipGoal::tryCandidate() const {
   q = space_->configuration(st);  // as the state space stores it (rotations wrapped)
   si_->freeState(st);
   bool ok = false;
+  // Why a goal configuration on the target was rejected (for the one-line reason of an empty pool; under the lock).
+  auto countRejected = [&](Failure f) {
+    if (f == Failure::Collision)
+      ++rejected_collision_;
+    else if (f == Failure::Unstable)
+      ++rejected_unstable_;
+  };
   if (robust) {
     if (band <= spec_.tolerance) {
       const ConfigurationCheck c = checkRobust(*ctx_, q, scratch());
       ok = c.ok;
       std::lock_guard<std::mutex> lock(mutex_);
-      // Why a goal configuration whose band reaches the target was rejected (for the reason of an empty pool).
-      if (c.failure == Failure::Collision)
-        ++rejected_collision_;
-      else if (c.failure == Failure::Unstable)
-        ++rejected_unstable_;
+      countRejected(c.failure);
     }
   } else {
     // One cold solve serves the goal test and the validity check (exact and frictionless modes check a goal
@@ -170,11 +173,7 @@ bool TipGoal::tryCandidate() const {
     if (!on_target) {
       ++rejected_goal_;
     } else if (!ok) {
-      // Why the goal configuration was rejected (for the one-line reason of an empty pool).
-      if (c.failure == Failure::Collision)
-        ++rejected_collision_;
-      else if (c.failure == Failure::Unstable)
-        ++rejected_unstable_;
+      countRejected(c.failure);
     }
   }
   if (!ok) return false;

@@ -9,6 +9,7 @@
 #include "ctr/model/friction.hpp"
 #include "ctr/model/jacobian.hpp"
 #include "ctr/model/kinematics.hpp"
+#include "ctr/model/uniqueness.hpp"
 
 namespace {
 
@@ -220,7 +221,31 @@ void BM_LoadedStickSlipStep(benchmark::State& st) {
 
 }  // namespace
 
+// The certificate of one equilibrium per torque vector: for every rotation (translations only), and around the
+// friction band of the lung robot at a planning configuration (the band itself not timed).
+template <bool kBand>
+void BM_Uniqueness(benchmark::State& st) {
+  const ctr::Robot robot = loadExample("medmpd_lung.yaml").withFriction({0.1, 0.0});
+  const ctr::Configuration q(Eigen::Vector3d(0.0, 1.2, -0.7), Eigen::Vector3d(-0.06, -0.14, -0.2));
+  ctr::Workspace ws;
+  ctr::FrictionBandOptions o;
+  o.interior_samples = 0;
+  o.kinematics.record_tube_states = true;
+  const ctr::FrictionBand band = ctr::frictionBand(robot, q, ws, o);
+  if (!band.converged) {
+    st.SkipWithError("band did not converge");
+    return;
+  }
+  for (auto _ : st) {
+    const ctr::UniquenessCertificate c =
+        kBand ? ctr::uniquenessCertificate(robot, band) : ctr::uniquenessCertificate(robot, q);
+    benchmark::DoNotOptimize(c.status);
+  }
+}
+
 BENCHMARK(BM_SolveWarm<false, false>)->Name("solve_warm/pairB/tip");
+BENCHMARK(BM_Uniqueness<false>)->Name("uniqueness/lung/every_rotation");
+BENCHMARK(BM_Uniqueness<true>)->Name("uniqueness/lung/around_band");
 BENCHMARK(BM_SolveWarm<false, true>)->Name("solve_warm/pairB/shape100");
 BENCHMARK(BM_SolveCold<false, false>)->Name("solve_cold/pairB/tip");
 BENCHMARK(BM_SolveWarm<true, false>)->Name("solve_warm/dupont3/tip");

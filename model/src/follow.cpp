@@ -25,6 +25,8 @@ const char* toString(Failure f) {
       return "out_of_bounds";
     case Failure::Released:
       return "released";
+    case Failure::NotUnique:
+      return "not_unique";
     case Failure::GoalMissed:
       return "goal_missed";
   }

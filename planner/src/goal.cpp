@@ -153,6 +153,8 @@ bool TipGoal::tryCandidate() const {
       ++rejected_collision_;
     else if (f == Failure::Unstable)
       ++rejected_unstable_;
+    else if (f == Failure::NotUnique)
+      ++rejected_not_unique_;
   };
   if (robust) {
     if (band <= spec_.tolerance) {
@@ -212,11 +214,13 @@ std::string TipGoal::emptyPoolReason() const {
            "whole (closest: every band tip within " +
            mm(best_band_) + ", tolerance " + mm(spec_.tolerance) + ")";
   if (ctx_->options().mode == Mode::Robust) {
-    const std::size_t other = band_reached_ - std::min(band_reached_, rejected_collision_ + rejected_unstable_);
+    const std::size_t other =
+        band_reached_ - std::min(band_reached_, rejected_collision_ + rejected_unstable_ + rejected_not_unique_);
     return "robust mode: " + std::to_string(band_reached_) + " of " + n +
            " reach the target with their whole friction band, but none is valid: in " +
            std::to_string(rejected_collision_) + " a band shape collides with the anatomy, in " +
-           std::to_string(rejected_unstable_) + " one is elastically unstable, in " + std::to_string(other) +
+           std::to_string(rejected_unstable_) + " one is elastically unstable, in " +
+           std::to_string(rejected_not_unique_) + " the band is not certified unique, in " + std::to_string(other) +
            " one does not converge, snaps or is released";
   }
   const std::size_t in_goal = ik_reached_ - std::min(ik_reached_, rejected_goal_);

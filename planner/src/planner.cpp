@@ -157,6 +157,11 @@ void CtrPlanner::init(Robot robot, environments::Environment e) {
       throw io::InputError(query.file, query.lineOf("loads"), "loads", ex.what());
     }
   }
+  if (query.mode == Mode::Robust && !robot.loads().empty())
+    throw io::InputError(query.file, query.lineOf(query.loads ? "loads" : "mode"), query.loads ? "loads" : "mode",
+                         "robust mode plans for every history only where one equilibrium per contact torque is "
+                         "certified, and the certificate covers the load-free model (docs/planning.md, \"What robust "
+                         "mode guarantees\"): plan with loads in exact mode");
   env_ = std::make_shared<const environments::Environment>(std::move(e));
 
   ContextOptions co;
@@ -290,6 +295,10 @@ void CtrPlanner::checkStart() const {
   const ShapeCheck sc = checkShape(*ctx_, c->solution, t);
   if (!sc.ok)
     throw io::InputError(query_.file, query_.lineOf("start"), "start", "start configuration is invalid: " + sc.message);
+  if (query_.mode == Mode::Robust) {
+    const std::string why = robustStartOutsideBand(*ctx_, query_.start, c->solution, t);
+    if (!why.empty()) throw io::InputError(query_.file, query_.lineOf("start.history"), "start.history", why);
+  }
 }
 
 PlanResult CtrPlanner::solve() {
@@ -363,8 +372,13 @@ PlanResult CtrPlanner::replaySolution(const std::string& planner, double plannin
   og::PathGeometric* gpath = nullptr;
   oc::PathControl* cpath = nullptr;
   if (gss_) {
+    // OMPL's simplifier checks the states it repairs, not always every motion between them ("Solution path may
+    // slightly touch on an invalid region"): a simplified path is kept only if every state and motion is valid in the
+    // planning mode (PathGeometric::check), else the planner's own path is replayed.
+    const og::PathGeometric found = gss_->getSolutionPath();
     gss_->simplifySolution(std::min(1.0, 0.1 * query_.time_limit));
     gpath = &gss_->getSolutionPath();
+    if (!gpath->check()) *gpath = found;
     for (const ob::State* s : gpath->getStates()) states.push_back(s);
   } else {
     cpath = &css_->getSolutionPath();

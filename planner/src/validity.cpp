@@ -6,6 +6,8 @@
 #include <cmath>
 #include <sstream>
 
+#include "ctr/model/uniqueness.hpp"
+
 namespace ob = ompl::base;
 
 namespace ctr::planner {
@@ -73,6 +75,7 @@ Failure bandAt(const Context& ctx, const RobustCorner& corner, const Configurati
   FrictionBandOptions o;
   o.interior_samples = 0;
   o.kinematics = shapeOptions(ctx);
+  o.kinematics.record_tube_states = true;  // the tubes' angles, for the uniqueness certificate
   o.follow = prev && !prev->shapes.empty() ? prev : nullptr;
   Failure failure = Failure::None;
   o.check = [&](const FrictionBand& b) -> std::string {
@@ -106,6 +109,14 @@ Failure bandAt(const Context& ctx, const RobustCorner& corner, const Configurati
   if (!releaseIsSmooth(prev, out, thr)) {
     message = "a contact site vanishes and releases its friction torque (the band jumps)";
     return Failure::Released;
+  }
+  // The band holds every history only if no history can reach another equilibrium at the same contact torques: the
+  // energy must be convex around the band (docs/planning.md, "What robust mode guarantees").
+  if (!uniquenessCertificate(corner.tubes, out).certified()) {
+    message =
+        "the band is not certified unique: around it the tubes' bending interaction exceeds their torsional "
+        "stiffness, so a history could reach another equilibrium with the same contact torques";
+    return Failure::NotUnique;
   }
   return Failure::None;
 }
@@ -149,6 +160,30 @@ ConfigurationCheck checkRobust(const Context& ctx, const Configuration& q, Threa
   }
   r.ok = r.failure == Failure::None;
   return r;
+}
+
+std::string robustStartOutsideBand(const Context& ctx, const Configuration& q, const Solution& replayed,
+                                   ThreadScratch& t) {
+  Eigen::VectorXd lo, hi;
+  for (const RobustCorner& corner : ctx.robustCorners()) {
+    FrictionBand b;
+    std::string why;
+    if (bandAt(ctx, corner, q, t, nullptr, b, why) != Failure::None) return "";  // checkRobust says why
+    lo = lo.size() ? Eigen::VectorXd(lo.cwiseMin(b.twist_min)) : b.twist_min;
+    hi = hi.size() ? Eigen::VectorXd(hi.cwiseMax(b.twist_max)) : b.twist_max;
+  }
+  if (lo.size() != replayed.twist.size()) return "";
+  const double thr = ctx.options().motion.snap_threshold;
+  double out = 0.0;
+  for (Eigen::Index i = 0; i < lo.size(); ++i)
+    out = std::max({out, lo[i] - replayed.twist[i], replayed.twist[i] - hi[i]});
+  if (out <= thr) return "";
+  std::ostringstream m;
+  m.precision(2);
+  m << std::fixed << "the start history leaves the robot on another equilibrium than the friction band of the start "
+    << "configuration (a tip twist " << out << " rad beyond the band's extremes, snap threshold " << thr
+    << " rad): robust mode plans from that band; exact mode follows the history";
+  return m.str();
 }
 
 namespace {

@@ -5,6 +5,7 @@
 #include "common.hpp"
 #include "ctr/model/friction.hpp"
 #include "ctr/model/replay.hpp"
+#include "ctr/model/uniqueness.hpp"
 
 namespace ctr::py {
 
@@ -395,6 +396,27 @@ void registerFriction(pyb::module_& m) {
       "contact, twist_min / twist_max are the two branches of a sweep's envelope. `follow`: the band of a "
       "configuration just before this one on a path; each shape is then continued from the shape with the same "
       "torque fractions at the same sites (the branch a robot moving along the path stays on) instead of solved cold.");
+
+  m.def(
+      "uniqueness_certificate",
+      [](const Robot& r, const pyb::object& alpha, const pyb::object& beta, const FrictionBand* band) {
+        UniquenessOptions o;
+        o.measure = true;
+        const UniquenessCertificate c =
+            band ? uniquenessCertificate(r, *band, o) : uniquenessCertificate(r, toConfiguration(r, alpha, beta), o);
+        pyb::dict d;
+        d["status"] = toString(c.status);
+        d["certified"] = c.certified();
+        d["interaction"] = c.interaction;
+        return d;
+      },
+      arg("robot"), arg("alpha") = pyb::none(), arg("beta") = pyb::none(), arg("band") = pyb::none(),
+      "Whether each contact torque vector has exactly one equilibrium (docs/friction.md, \"One equilibrium per "
+      "torque\"): at (alpha, beta) for every rotation, or around `band` (a friction_band with the tubes' angles "
+      "recorded, the default). Dict: status ('certified', 'interacting', 'loaded', 'inadmissible'), certified, "
+      "interaction (the largest ratio of the coupling over the torsional energy; < 0.98 is certified). ValueError for "
+      "a "
+      "band without the tubes' angles.");
 }
 
 }  // namespace ctr::py

@@ -129,6 +129,23 @@ def test_friction_band_names_its_sites_and_follows_a_path():
         assert np.allclose(prev.torque_fractions, cold.torque_fractions)
 
 
+def test_uniqueness_certificate_for_every_rotation_and_around_a_band():
+    pair = ctr.load_robot(str(PAIR_B)).with_friction(boundary=0.12)
+    c = ctr.uniqueness_certificate(pair, [0, 1.0], BETA)
+    assert c["certified"] and c["status"] == "certified" and 0 < c["interaction"] < 0.98
+    lung = ctr.load_robot(str(EXAMPLES / "robots" / "medmpd_lung.yaml")).with_friction(boundary=0.1)
+    q = ([0.0, 1.2, -0.7], [-0.06, -0.14, -0.2])
+    everywhere = ctr.uniqueness_certificate(lung, *q)
+    assert everywhere["status"] == "interacting" and everywhere["interaction"] > 1
+    band = ctr.friction_band(lung, *q, interior_samples=0)
+    around = ctr.uniqueness_certificate(lung, band=band)
+    assert around["certified"] and around["interaction"] < everywhere["interaction"]
+    bare = ctr.KinematicsOptions()
+    bare.record_tube_states = False
+    with pytest.raises(ValueError, match="angles"):
+        ctr.uniqueness_certificate(lung, band=ctr.friction_band(lung, *q, interior_samples=0, kinematics=bare))
+
+
 def test_drives_of_the_robot_description_are_state(tmp_path):
     """A robot with an actuation block: the tubes sit at the joints of the commands, the plays are part of the
     state (copied, pickled) and a reversal within a play does not move the tubes."""

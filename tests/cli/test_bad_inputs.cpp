@@ -366,6 +366,10 @@ const std::vector<Case> kCases = {
      const std::string t = heartQuery() + "actuation: [{tube: 2, rotation: {play: [0.05, 0.15]}}]\n";
      d.write("q.yaml", t); d.expect["line"] = std::to_string(lineOf(t, "mode: exact")); },
    "plan {d}/q.yaml --json {d}/r.json", 2, {"q.yaml:{line}", "mode", "robust mode"}},
+  {"PlanRobustWithLoads", "plan", "robust mode with a tip load (its guarantee covers the load-free model)", "plan", [](Dir& d) {
+     const std::string t = edit(heartQuery(), "mode: exact", "mode: robust") + "loads: {tip_force: [0, 0.1, 0]}\n";
+     d.write("q.yaml", t); d.expect["line"] = std::to_string(lineOf(t, "loads:")); },
+   "plan {d}/q.yaml --json {d}/r.json", 2, {"q.yaml:{line}", "loads", "exact mode"}},
   {"PlanUnknownTimeClock", "plan", "time_limit_clock neither wall nor cpu", "plan", [](Dir& d) {
      const std::string t = edit(heartQuery(), "time_limit: 20", "time_limit: 20\ntime_limit_clock: sundial");
      d.write("q.yaml", t); d.expect["line"] = std::to_string(lineOf(t, "sundial")); },

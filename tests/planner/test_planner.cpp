@@ -10,6 +10,7 @@
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
+#include <limits>
 #include <memory>
 #include <random>
 #include <regex>
@@ -19,6 +20,7 @@
 #include "ctr/io/input_error.hpp"
 #include "ctr/io/robot_yaml.hpp"
 #include "ctr/model/jacobian.hpp"
+#include "ctr/model/uniqueness.hpp"
 #include "ctr/planner/goal.hpp"
 #include "ctr/planner/planner.hpp"
 #include "ctr/planner/result_json.hpp"
@@ -740,6 +742,109 @@ TEST(Planning, RobustBandRejectsTheReleaseOfAVanishingContact) {
   EXPECT_EQ(checkMotionForward(ctx, u0, u1, scratch(), &why), 1.0) << why;
 }
 
+namespace {
+
+// A strongly interacting pair (its energy is not convex for every rotation: two stable equilibria near a relative
+// rotation of pi), 0.1 lumped friction.
+Robot interactingPair() {
+  auto tube = [](const char* name, double straight, double od) {
+    Tube t;
+    t.name = name;
+    t.straight_length = straight;
+    t.curved_length = 0.08;
+    t.curvature = 25.0;
+    t.bending_stiffness = 0.02;
+    t.torsional_stiffness = 0.02 / 1.3;
+    t.poisson_ratio = 0.3;
+    t.outer_diameter = od;
+    t.inner_diameter = od - 0.3e-3;
+    return t;
+  };
+  return Robot("interacting_pair", {tube("outer", 0.05, 2e-3), tube("inner", 0.07, 1.5e-3)}, {0.1, 0.0});
+}
+
+Configuration pairAt(double alpha2) {
+  return Configuration(Eigen::Vector2d(0, alpha2), Eigen::Vector2d(0, -0.02));
+}
+
+}  // namespace
+
+// The failure robust mode's band did not cover, constructed: a history (the inner tube turned to 4.5 rad, back to 2.5
+// and on to 4.0: a stick phase, then slip) leaves the robot with the friction torques of a band vertex (every contact
+// slipping) on another equilibrium, 5.8 rad of twist from every shape of the band at its configuration. The band itself
+// is valid there (stable, certified, collision-free), so robust validity alone accepted the start; robust mode now
+// refuses a start whose history leaves the robot outside the band, and accepts the same kind of history where it stays
+// inside.
+TEST(Planning, RobustModeRefusesAStartHistoryThatLeavesTheBand) {
+  const Robot r = interactingPair();
+  const Context ctx = emptyMapContext(r, Mode::Robust);
+  const Configuration start = pairAt(4.0);
+  StartHistory h;
+  h.kind = StartHistory::Kind::Path;
+  h.path = {pairAt(0.0), pairAt(4.5), pairAt(2.5)};
+  const std::shared_ptr<const StateCache> c = startCache(ctx, start, h);
+  ASSERT_TRUE(c->solution.converged()) << c->message;
+  ASSERT_TRUE(c->solution.summary.stable);
+  for (const ContactMemory& m : c->hysteresis.contacts) EXPECT_NE(m.mode, ContactMode::Stick);  // at a vertex
+  EXPECT_TRUE(checkRobust(ctx, start, scratch()).ok);
+  FrictionBandOptions bo;
+  bo.kinematics.record_tube_states = true;
+  const FrictionBand band = frictionBand(r, start, scratch().ws, bo);
+  ASSERT_TRUE(band.converged);
+  EXPECT_TRUE(uniquenessCertificate(r, band).certified());
+  double nearest = std::numeric_limits<double>::infinity();
+  for (const Solution& s : band.shapes)
+    nearest = std::min(nearest, (s.twist - c->solution.twist).cwiseAbs().maxCoeff());
+  EXPECT_GT(nearest, 3.0) << "the history's equilibrium must lie on another branch";
+  const std::string why = robustStartOutsideBand(ctx, start, c->solution, scratch());
+  EXPECT_NE(why.find("another equilibrium"), std::string::npos) << why;
+  // The same back-and-forth well below a half turn stays in the band.
+  StartHistory small;
+  small.kind = StartHistory::Kind::Path;
+  small.path = {pairAt(0.0), pairAt(1.2), pairAt(0.4)};
+  const std::shared_ptr<const StateCache> d = startCache(ctx, pairAt(0.8), small);
+  ASSERT_TRUE(d->solution.converged()) << d->message;
+  EXPECT_EQ(robustStartOutsideBand(ctx, pairAt(0.8), d->solution, scratch()), "");
+}
+
+// Along a motion of the inner tube from 2 to 6 rad the band of the interacting pair stays converged and stable, but
+// its relative angles approach pi where the tubes couple (the branch ends near 6.3 rad): from about 5.6 rad on the band
+// is not certified unique (a history could reach another equilibrium with the same contact torques) and robust
+// validity refuses the motion (a motion counts only as far as it ends on its end configuration's own band, which
+// here is on another branch: none of it). Every band before the first refused one is certified, and the refused
+// one is valid in every other respect.
+TEST(Planning, RobustValidityRejectsABandThatIsNotCertifiedUnique) {
+  const Robot r = interactingPair();
+  const Context ctx = emptyMapContext(r, Mode::Robust);
+  const Configuration a = pairAt(2.0), b = pairAt(6.0);
+  EXPECT_TRUE(checkRobust(ctx, a, scratch()).ok);
+  std::string why;
+  Failure f = Failure::None;
+  EXPECT_LT(checkMotionForward(ctx, a, b, scratch(), &why, &f), 1.0);
+  EXPECT_EQ(f, Failure::NotUnique) << why;
+  const FollowOptions& m = ctx.options().motion;
+  const int steps = subdivisions(a, b, m.max_rotation_step, m.max_translation_step);
+  FrictionBandOptions bo;
+  bo.kinematics = ctx.options().friction.kinematics;
+  bo.kinematics.record_tube_states = true;
+  FrictionBand prev = frictionBand(r, a, scratch().ws, bo);
+  int refused = 0;
+  for (int k = 1; k <= steps && refused == 0; ++k) {
+    FrictionBandOptions o = bo;
+    o.follow = &prev;
+    FrictionBand band = frictionBand(r, interpolate(a, b, static_cast<double>(k) / steps), scratch().ws, o);
+    ASSERT_TRUE(band.converged) << k;
+    for (const Solution& s : band.shapes) ASSERT_TRUE(s.summary.stable) << k;
+    ASSERT_LT((band.shapes[0].twist - prev.shapes[0].twist).cwiseAbs().maxCoeff(), m.snap_threshold) << k;
+    if (!uniquenessCertificate(r, band).certified()) refused = k;
+    prev = std::move(band);
+  }
+  ASSERT_GT(refused, 0) << "the band must be refused before 6 rad";
+  const double at = 2.0 + 4.0 * refused / steps;
+  EXPECT_GT(at, 5.0);
+  EXPECT_LT(at, 6.0);
+}
+
 TEST(Planning, RobustModeSolvesALungQueryWithTheGoalHeldByTheWholeBand) {
   if (!ctr_test::haveData("med-mpd/Lungs/Patient2")) GTEST_SKIP() << ctr_test::missingData("med-mpd/Lungs/Patient2");
   const Query q =
@@ -1101,11 +1206,13 @@ TEST(Planning, RobustModeSaysWhyEveryBandGoalIsInvalid) {
   const std::regex counts(
       "(\\d+) of \\d+ inverse-kinematics solutions reach the target with their whole friction "
       "band, but none is valid: in (\\d+) a band shape collides with the anatomy, in (\\d+) one is "
-      "elastically unstable, in (\\d+) one does not converge, snaps or is released");
+      "elastically unstable, in (\\d+) the band is not certified unique, in (\\d+) one does not converge, snaps or "
+      "is released");
   std::smatch m;
   ASSERT_TRUE(std::regex_search(r.message, m, counts)) << r.message;
-  const int reached = std::stoi(m[1]), collide = std::stoi(m[2]), unstable = std::stoi(m[3]), other = std::stoi(m[4]);
+  const int reached = std::stoi(m[1]), collide = std::stoi(m[2]), unstable = std::stoi(m[3]),
+            not_unique = std::stoi(m[4]), other = std::stoi(m[5]);
   EXPECT_GT(reached, 0);
-  EXPECT_EQ(collide + unstable + other, reached);
+  EXPECT_EQ(collide + unstable + not_unique + other, reached);
   EXPECT_GT(collide, 0) << r.message;
 }

@@ -29,10 +29,13 @@ enum class Failure {
   OutOfBounds,   ///< The shape leaves the workspace bounds.
   Released,      ///< A contact site vanishes and releases its friction torque (the friction band jumps).
   GoalMissed,    ///< A replayed plan ends off its goal.
+  /// A friction band not certified unique (uniqueness.hpp): a history could reach another equilibrium with the same
+  /// contact torques.
+  NotUnique,
 };
 
 /// @brief "none", "inadmissible", "not_converged", "no_contact_set", "snapped", "unstable", "off_branch",
-/// "collision", "out_of_bounds", "released", "goal_missed".
+/// "collision", "out_of_bounds", "released", "goal_missed", "not_unique".
 const char* toString(Failure f);
 
 /// @brief How the equilibrium changed over one sub-step (branchChange).

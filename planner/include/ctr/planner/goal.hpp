@@ -72,7 +72,7 @@ class TipGoal : public ompl::base::GoalSampleableRegion {
   mutable double best_band_ = std::numeric_limits<double>::infinity();
   mutable std::size_t ik_reached_ = 0, band_reached_ = 0;  // candidates with the tip / the whole band on target
   // Of ik_reached_ (exact / frictionless modes): outside the goal region (direction cone), colliding, unstable.
-  mutable std::size_t rejected_goal_ = 0, rejected_collision_ = 0, rejected_unstable_ = 0;
+  mutable std::size_t rejected_goal_ = 0, rejected_collision_ = 0, rejected_unstable_ = 0, rejected_not_unique_ = 0;
   mutable std::mutex mutex_;
   mutable ompl::RNG rng_;
 };

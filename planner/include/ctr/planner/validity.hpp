@@ -22,14 +22,23 @@ struct ConfigurationCheck {
   bool ok = false;
   Failure failure = Failure::None;  ///< Why not.
   std::string message;              ///< Why not, in words.
-  Solution shape;  ///< The (frictionless) shape checked; its backbone holds the geometry only (no theta / u_z).
+  /// The (frictionless) shape checked; its backbone holds the geometry (robust mode: also the tubes' angles).
+  Solution shape;
 };
 
 /// @brief Frictionless check of q (cold solve, or warm from `warm`).
 ConfigurationCheck checkFrictionless(const Context& ctx, const Configuration& q, ThreadScratch& t,
                                      const Solution* warm = nullptr);
-/// @brief Robust check: every shape of the friction band of every robust corner at command q.
+/// @brief Robust check: every shape of the friction band of every robust corner at command q, and each band certified
+/// unique (uniqueness.hpp: no history reaches another equilibrium with the same contact torques; Failure::NotUnique).
 ConfigurationCheck checkRobust(const Context& ctx, const Configuration& q, ThreadScratch& t);
+
+/// @brief Robust mode's states stand for the friction band of their configuration, so the robot a start history
+/// leaves at command q (its equilibrium `replayed`) must lie in it: every tip twist within the extremes of the robust
+/// corners' bands, widened by the snap threshold (further is another equilibrium). Returns why not ("" when it
+/// does).
+std::string robustStartOutsideBand(const Context& ctx, const Configuration& q, const Solution& replayed,
+                                   ThreadScratch& t);
 
 /// @brief Forward check of the straight-line motion q0 -> q1 at the context's resolutions, in the context's mode
 /// (frictionless or robust; exact mode uses the propagator). Returns the fraction of the motion that is valid

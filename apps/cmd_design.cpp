@@ -1,6 +1,7 @@
 // `ctr design`: patient-specific robot design for one or several planning queries (docs/design.md); `ctr design
 // merge` joins the shards of a run (--shard I/N, for Slurm job arrays and GNU parallel).
 #include <algorithm>
+#include <cmath>
 #include <cstdlib>
 #include <filesystem>
 #include <iomanip>
@@ -51,7 +52,8 @@ struct DesignOpts {
   std::string out, space, shard, planner;
   long seed = 1;
   int starts = 1, evaluations = 40, population = 8, threads = 0, probe_goals = 3, probe_candidates = 400, confirm = 1;
-  double time = 0.0, probe_time = 2.0, plan_time = 0.0, strain_limit = 0.06;
+  int finalists = 3, finalist_plans = 8;
+  double time = 0.0, probe_time = 2.0, plan_time = 0.0, strain_limit = 0.06, finalist_rate = 0.8;
   bool quiet = false;
   std::string html;  // --html [FILE]: kOutReport without a value
   // merge
@@ -212,6 +214,9 @@ int runDesign(const DesignOpts& o, const CLI::App* sub) {
   d.plan_time = o.plan_time;
   d.planner = o.planner;
   d.confirm_seeds = o.confirm;
+  d.finalists = o.finalists;
+  d.finalist_plans = o.finalist_plans;
+  d.finalist_rate = o.finalist_rate;
   campaign::Shard shard;
   if (!o.shard.empty()) {
     shard = parseShardOption(o.shard);
@@ -260,7 +265,8 @@ int runDesign(const DesignOpts& o, const CLI::App* sub) {
   const std::size_t nstarts = d.start_indices.empty() ? static_cast<std::size_t>(o.starts) : d.start_indices.size();
   Progress progress("design" + (shard.count > 1 ? " shard " + shard_label : std::string()),
                     nstarts * static_cast<std::size_t>(o.evaluations), "candidates", o.quiet);
-  d.progress = [&progress](std::size_t done, std::size_t, const std::string& detail) {
+  d.progress = [&progress](std::size_t done, std::size_t total, const std::string& detail) {
+    if (total != progress.total()) progress.setTotal(total);  // the finalists' independent plans follow the search
     progress.setDetail(detail);
     progress.set(done);
   };
@@ -295,8 +301,15 @@ int runDesign(const DesignOpts& o, const CLI::App* sub) {
                   << ")";
       else
         std::cout << " (" << q.message << ")";
+      if (!q.confirmation.empty())
+        std::cout << "; independent plans: " << q.confirmationSolved() << "/" << q.confirmation.size()
+                  << " solved with a clean replay";
       std::cout << "\n";
     }
+    if (r.best->score.confirmed())
+      std::cout << "  success rate of the independent plans: " << std::lround(r.best->score.success_rate * 100)
+                << " % (" << r.confirmation_seeds.size() << " seeds per query; required "
+                << std::lround(d.finalist_rate * 100) << " %), best of " << r.finalists.size() << " finalist(s)\n";
   }
   std::cout << "wrote " << dir << "/result.json" << (r.best ? ", robot.yaml, queries/, paths/" : "") << "\n";
   return r.solved ? kOk : kRuntimeFailure;
@@ -339,6 +352,16 @@ void registerDesign(CLI::App& app, Action& action) {
   sub->add_option("--planner", o->planner, "Override the queries' planner");
   sub->add_option("--confirm", o->confirm, "Further plans (other seeds) a solved candidate must pass (default 1)")
       ->check(CLI::Range(0, 100));
+  sub->add_option("--finalists", o->finalists,
+                  "Best candidates planned again with independent seeds after the search, ranked by their success "
+                  "rate; the design kept is the best of them (default 3, 0: none)")
+      ->check(CLI::Range(0, 1000));
+  sub->add_option("--finalist-plans", o->finalist_plans,
+                  "Independent plans per finalist and query, with the written query's settings (default 8)")
+      ->check(CLI::Range(0, 1000));
+  sub->add_option("--finalist-rate", o->finalist_rate,
+                  "Success rate of the independent plans the kept design needs to count as solved (default 0.8)")
+      ->check(CLI::Range(0.0, 1.0));
   sub->add_option("--shard", o->shard, "Run starts I, I+N, ... of --starts (0 <= I < N) into OUT/shards/");
   sub->add_flag("--quiet", o->quiet, "No progress on stderr");
   sub->add_option("--html", o->html,

@@ -2,6 +2,7 @@
 
 #include <yaml-cpp/yaml.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
@@ -48,8 +49,33 @@ json candidateJson(const DesignSpace& space, const Candidate& c) {
 }
 
 json scoreJson(const Score& s) {
-  return {
-      {"solved", s.solved()}, {"badness", num(s.badness)}, {"clearance", num(s.clearance)}, {"length", num(s.length)}};
+  return {{"solved", s.solved()},
+          {"badness", num(s.badness)},
+          {"clearance", num(s.clearance)},
+          {"length", num(s.length)},
+          {"success_rate", s.confirmed() ? json(s.success_rate) : json(nullptr)}};
+}
+
+// A query's independent plans of a finalist: counts and rate, with every plan when `runs`.
+json confirmationJson(const QueryOutcome& q, bool runs) {
+  int found = 0;
+  json plans = json::array();
+  for (const ConfirmationPlan& p : q.confirmation) {
+    found += p.path_found ? 1 : 0;
+    plans.push_back({{"seed", p.seed},
+                     {"path_found", p.path_found},
+                     {"solved", p.solved},
+                     {"min_clearance", num(p.min_clearance)},
+                     {"planning_time", p.planning_time},
+                     {"message", p.message}});
+  }
+  const int n = static_cast<int>(q.confirmation.size());
+  json j = {{"plans", n},
+            {"paths_found", found},
+            {"solved", q.confirmationSolved()},
+            {"success_rate", n > 0 ? json(static_cast<double>(q.confirmationSolved()) / n) : json(nullptr)}};
+  if (runs) j["runs"] = plans;
+  return j;
 }
 
 Score scoreFrom(const json& j) {
@@ -58,6 +84,7 @@ Score scoreFrom(const json& j) {
   s.badness = get("badness", std::numeric_limits<double>::infinity());
   s.clearance = get("clearance", -std::numeric_limits<double>::infinity());
   s.length = get("length", std::numeric_limits<double>::infinity());
+  s.success_rate = get("success_rate", -1.0);
   return s;
 }
 
@@ -77,6 +104,8 @@ json evaluationJson(const DesignSpace& space, const Evaluation& e) {
                   {"min_clearance", num(q.min_clearance)},
                   {"seconds", q.seconds},
                   {"message", q.message}});
+  for (std::size_t k = 0; k < e.queries.size(); ++k)
+    if (!e.queries[k].confirmation.empty()) qs[k]["confirmation"] = confirmationJson(e.queries[k], true);
   return {{"start", e.start},
           {"index", e.index},
           {"generation", e.generation},
@@ -97,7 +126,7 @@ std::string fingerprint(const Designer& d, const DesignOptions& o) {
   }
   s << spaceToYaml(d.space()) << o.seed << "/" << o.starts << "/" << o.evaluations << "/" << o.population << "/"
     << o.probe_time << "/" << o.probe_candidates << "/" << o.probe_goals << "/" << o.plan_time << "/" << o.planner
-    << "/" << o.confirm_seeds;
+    << "/" << o.confirm_seeds << "/" << o.finalists << "/" << o.finalist_plans << "/" << o.finalist_rate;
   std::ostringstream h;
   h << std::hex << std::hash<std::string>{}(s.str());
   return h.str();
@@ -162,7 +191,10 @@ std::string resultJson(const Designer& d, const DesignResult& r, const DesignOpt
                   {"probe_goals", o.probe_goals},
                   {"plan_time", o.plan_time},
                   {"planner", o.planner},
-                  {"confirm_seeds", o.confirm_seeds}};
+                  {"confirm_seeds", o.confirm_seeds},
+                  {"finalists", o.finalists},
+                  {"finalist_plans", o.finalist_plans},
+                  {"finalist_rate", o.finalist_rate}};
   json starts = json::array();
   if (o.start_indices.empty())
     for (int s = 0; s < o.starts; ++s) starts.push_back(s);
@@ -180,6 +212,7 @@ std::string resultJson(const Designer& d, const DesignResult& r, const DesignOpt
       e["start"] = {{"alpha", vecJson(b.start.alpha)}, {"beta", vecJson(b.start.beta)}};
       e["plan"] = b.plan_json.empty() ? json(nullptr) : json::parse(b.plan_json);
       if (!b.message.empty()) e["message"] = b.message;
+      if (!b.confirmation.empty()) e["confirmation"] = confirmationJson(b, false);
     }
     queries.push_back(e);
   }
@@ -204,6 +237,44 @@ std::string resultJson(const Designer& d, const DesignResult& r, const DesignOpt
   } else {
     j["design"] = nullptr;
   }
+  // The kept design's independent plans (null when it was not confirmed), and every finalist's, best first.
+  if (r.best && r.best->score.confirmed()) {
+    int plans = 0, solved = 0;
+    json per = json::array();
+    for (std::size_t k = 0; k < r.best->queries.size(); ++k) {
+      const QueryOutcome& q = r.best->queries[k];
+      plans += static_cast<int>(q.confirmation.size());
+      solved += q.confirmationSolved();
+      json e = confirmationJson(q, false);
+      e["query"] = k < d.queries().size() ? d.queries()[k].name : std::to_string(k);
+      per.push_back(e);
+    }
+    j["confirmation"] = {{"seeds", r.confirmation_seeds},
+                         {"plans", plans},
+                         {"solved", solved},
+                         {"success_rate", r.best->score.success_rate},
+                         {"required_rate", o.finalist_rate},
+                         {"passed", r.best->score.success_rate >= o.finalist_rate},
+                         {"queries", per}};
+  } else {
+    j["confirmation"] = nullptr;
+  }
+  json fin = json::array();
+  for (std::size_t i : r.finalists) {
+    const Evaluation& e = r.evaluations.at(i);
+    int plans = 0, solved = 0;
+    for (const QueryOutcome& q : e.queries) {
+      plans += static_cast<int>(q.confirmation.size());
+      solved += q.confirmationSolved();
+    }
+    fin.push_back({{"start", e.start},
+                   {"index", e.index},
+                   {"plans", plans},
+                   {"solved", solved},
+                   {"success_rate", e.score.confirmed() ? json(e.score.success_rate) : json(nullptr)},
+                   {"score", scoreJson(e.score)}});
+  }
+  j["finalists"] = fin;
   json evs = json::array();
   for (const Evaluation& e : r.evaluations) evs.push_back(evaluationJson(d.space(), e));
   j["evaluations"] = evs;
@@ -310,6 +381,15 @@ std::string mergeDesigns(const std::vector<std::string>& dirs, const std::string
     wall = std::max(wall, p.j.value("wall_time", 0.0));
   }
   m["evaluations"] = evs;
+  // Every shard's finalists, best first (each shard confirmed its own).
+  std::vector<json> fins;
+  for (const Part& p : parts)
+    if (p.j.contains("finalists"))
+      for (const auto& f : p.j["finalists"]) fins.push_back(f);
+  std::stable_sort(fins.begin(), fins.end(), [](const json& a, const json& b) {
+    return scoreFrom(a.value("score", json::object())).better(scoreFrom(b.value("score", json::object())));
+  });
+  m["finalists"] = fins;
   m["shards"] = shards;
   m["shard"] = "merged";
   m["wall_time"] = wall;

@@ -52,6 +52,34 @@ std::uint64_t mix(std::uint64_t a, std::uint64_t b) {
 // The fitness of a candidate that was not evaluated (the time limit, or past the budget in the last batch).
 constexpr double kUnevaluated = 1e15;
 
+// Runs fn(i) for every i in [0, n) on `threads` threads (the calling one included), each taking the next i as it
+// frees up; the first exception is rethrown once every thread has finished.
+void parallelFor(std::size_t n, int threads, const std::function<void(std::size_t)>& fn) {
+  std::atomic<std::size_t> next{0};
+  std::exception_ptr error;
+  std::mutex error_mutex;
+  auto worker = [&] {
+    for (std::size_t i = next++; i < n; i = next++) {
+      try {
+        fn(i);
+      } catch (...) {
+        std::lock_guard<std::mutex> lock(error_mutex);
+        if (!error) error = std::current_exception();
+      }
+    }
+  };
+  std::vector<std::thread> pool;
+  const int nt = static_cast<int>(std::min<std::size_t>(static_cast<std::size_t>(std::max(1, threads)), n));
+  for (int k = 1; k < nt; ++k) pool.emplace_back(worker);
+  worker();
+  for (auto& th : pool) th.join();
+  if (error) std::rethrow_exception(error);
+}
+
+int threadCount(const DesignOptions& o) {
+  return o.threads > 0 ? o.threads : std::max(1, static_cast<int>(std::thread::hardware_concurrency()));
+}
+
 double longestTube(const Candidate& c) {
   double l = 0.0;
   for (const auto& t : c.tubes) l = std::max(l, t.straight_length + t.curved_length);
@@ -76,6 +104,11 @@ const char* toString(QueryOutcome::Stage s) {
   return "?";
 }
 
+int QueryOutcome::confirmationSolved() const {
+  return static_cast<int>(
+      std::count_if(confirmation.begin(), confirmation.end(), [](const ConfirmationPlan& p) { return p.solved; }));
+}
+
 double Score::fitness() const {
   if (!(badness < std::numeric_limits<double>::infinity())) return kUnevaluated;  // never evaluated (or NaN)
   const double l = length >= 0.0 ? length / (1.0 + length) : 0.0;                 // in [0, 1): shorter is smaller
@@ -83,7 +116,11 @@ double Score::fitness() const {
   if (b > 0.0) return 2e6 + std::min(b, 1e14) + l;
   // Solved: clearance in 0.1 mm bins (a shorter robot wins over a few micrometres of clearance), larger first.
   const double bin = std::clamp(std::floor(clearance * 1e4), -1e6, 1e6);
-  return -bin + l;
+  if (!confirmed()) return -bin + l;
+  // A finalist: its success rate (steps of 0.001) before the clearance; each step spans more than the whole range of
+  // -bin + l, and every step lies below the unconfirmed designs.
+  const double rate = std::round(std::clamp(success_rate, 0.0, 1.0) * 1000.0);
+  return -2.2e6 * (1.0 + rate) - bin + l;
 }
 
 Score scoreOf(const std::vector<QueryOutcome>& queries, const Candidate& c) {
@@ -120,6 +157,12 @@ Score scoreOf(const std::vector<QueryOutcome>& queries, const Candidate& c) {
   }
   if (!(s.badness == 0.0)) s.clearance = -std::numeric_limits<double>::infinity();
   s.length = longestTube(c);
+  // A finalist's success rate: the least over the queries of its independent plans solved / made.
+  for (const QueryOutcome& q : queries)
+    if (!q.confirmation.empty()) {
+      const double rate = static_cast<double>(q.confirmationSolved()) / static_cast<double>(q.confirmation.size());
+      s.success_rate = s.confirmed() ? std::min(s.success_rate, rate) : rate;
+    }
   return s;
 }
 
@@ -128,6 +171,32 @@ std::optional<Evaluation> bestOf(const std::vector<Evaluation>& evaluations) {
   for (const Evaluation& e : evaluations)
     if (!best || e.score.better(best->score)) best = e;
   return best;
+}
+
+std::vector<std::size_t> finalistsOf(const std::vector<Evaluation>& evaluations, int count) {
+  std::vector<std::size_t> order;
+  for (std::size_t i = 0; i < evaluations.size(); ++i)
+    if (evaluations[i].score.solved()) order.push_back(i);
+  // Best first; the earliest of equals first.
+  std::stable_sort(order.begin(), order.end(),
+                   [&](std::size_t a, std::size_t b) { return evaluations[a].score.better(evaluations[b].score); });
+  std::vector<std::size_t> out;
+  for (std::size_t i : order) {
+    if (static_cast<int>(out.size()) >= count) break;
+    const bool same = std::any_of(
+        out.begin(), out.end(), [&](std::size_t j) { return evaluations[j].robot_yaml == evaluations[i].robot_yaml; });
+    if (!same) out.push_back(i);
+  }
+  return out;
+}
+
+std::vector<std::uint64_t> confirmationSeeds(std::uint64_t seed, int count) {
+  std::vector<std::uint64_t> seeds;
+  for (std::uint64_t j = 0; static_cast<int>(seeds.size()) < count; ++j) {
+    const std::uint64_t s = mix(seed, 0xc0f1c0f1ULL + j) >> 33;
+    if (std::find(seeds.begin(), seeds.end(), s) == seeds.end()) seeds.push_back(s);
+  }
+  return seeds;
 }
 
 // ---------------------------------------------------------------------------------------------------------------
@@ -188,12 +257,25 @@ std::vector<double> Decoder::encode(const Candidate& c) const {
 
 namespace {
 
+// Clears the paths of every evaluation but the best and the finalists (finalistsOf(evals, finalists)).
+void keepPathsOf(std::vector<Evaluation>& evals, int finalists) {
+  std::vector<std::size_t> keep = finalistsOf(evals, finalists);
+  std::size_t best = 0;
+  for (std::size_t i = 1; i < evals.size(); ++i)
+    if (evals[i].score.better(evals[best].score)) best = i;
+  keep.push_back(best);
+  for (std::size_t i = 0; i < evals.size(); ++i)
+    if (std::find(keep.begin(), keep.end(), i) == keep.end())
+      for (auto& q : evals[i].queries) q.path_csv.clear();
+}
+
 // What the problem's copies share (pagmo copies the problem into the population and the algorithm).
 struct SearchState {
   Decoder decoder;
   const EvaluateFn* evaluate = nullptr;
   const std::function<bool()>* stop = nullptr;
   int threads = 1;
+  int finalists = 0;       // the best this many that solve every query keep their paths
   std::size_t budget = 0;  // candidates of the start
   int start = 0, generation = 0;
   std::vector<Evaluation> evals;  // in the order of evaluation
@@ -223,26 +305,9 @@ class DesignProblem {
       cands[i] = s.decoder.decode(std::vector<double>(xs.begin() + static_cast<std::ptrdiff_t>(i * dim),
                                                       xs.begin() + static_cast<std::ptrdiff_t>((i + 1) * dim)));
     std::vector<std::optional<Evaluation>> results(m);
-    std::atomic<std::size_t> next{0};
-    std::exception_ptr error;
-    std::mutex error_mutex;
-    auto worker = [&] {
-      for (std::size_t i = next++; i < m; i = next++) {
-        if ((*s.stop)()) break;
-        try {
-          results[i] = (*s.evaluate)(cands[i], base + i);
-        } catch (...) {
-          std::lock_guard<std::mutex> lock(error_mutex);
-          if (!error) error = std::current_exception();
-        }
-      }
-    };
-    std::vector<std::thread> pool;
-    const int nt = std::min<int>(std::max(1, s.threads), static_cast<int>(m));
-    for (int k = 1; k < nt; ++k) pool.emplace_back(worker);
-    worker();
-    for (auto& th : pool) th.join();
-    if (error) std::rethrow_exception(error);
+    parallelFor(m, s.threads, [&](std::size_t i) {
+      if (!(*s.stop)()) results[i] = (*s.evaluate)(cands[i], base + i);
+    });
     pagmo::vector_double f(n, kUnevaluated);
     for (std::size_t i = 0; i < m; ++i) {
       if (!results[i]) continue;
@@ -254,13 +319,8 @@ class DesignProblem {
       f[i] = ev.score.fitness();
       s.evals.push_back(std::move(ev));
     }
-    // Only the best so far keeps its paths (the rest would only fill memory).
-    std::size_t best = 0;
-    for (std::size_t i = 1; i < s.evals.size(); ++i)
-      if (s.evals[i].score.better(s.evals[best].score)) best = i;
-    for (std::size_t i = 0; i < s.evals.size(); ++i)
-      if (i != best)
-        for (auto& q : s.evals[i].queries) q.path_csv.clear();
+    // Only the best so far and the finalists to be keep their paths (the rest would only fill memory).
+    keepPathsOf(s.evals, s.finalists);
     return f;
   }
 
@@ -278,7 +338,8 @@ std::vector<Evaluation> searchStart(const DesignSpace& space, int start, const D
   auto state = std::make_shared<SearchState>(space);
   state->evaluate = &evaluate;
   state->stop = &stop;
-  state->threads = o.threads > 0 ? o.threads : std::max(1, static_cast<int>(std::thread::hardware_concurrency()));
+  state->threads = threadCount(o);
+  state->finalists = o.finalist_plans > 0 ? o.finalists : 0;
   state->budget = static_cast<std::size_t>(o.evaluations);
   state->start = start;
   const pagmo::problem prob{DesignProblem(state)};
@@ -387,6 +448,48 @@ Robot Designer::robotOf(const Candidate& c) const {
   return makeRobot(space_, c, bases_.front(), bases_.front().name() + "_design");
 }
 
+planner::Query Designer::queryFor(std::size_t k, const Configuration& start, std::uint64_t seed,
+                                  const DesignOptions* search) const {
+  planner::Query q = queries_[k];
+  q.base_start.clear();  // the environment is already at its base pose
+  q.start = start;
+  q.seed = seed;
+  if (search && search->plan_time > 0) q.time_limit = search->plan_time;
+  if (search && !search->planner.empty()) q.planner = search->planner;
+  return q;
+}
+
+ConfirmationPlan Designer::planAgain(const planner::Query& q, const Robot& robot, std::size_t k) const {
+  ConfirmationPlan c;
+  c.seed = q.seed;
+  try {
+    planner::CtrPlanner p(q, robot, *envs_.at(k));
+    const planner::PlanResult r = p.solve();
+    c.path_found = r.planner_solved;
+    c.solved = r.solved;
+    c.planning_time = r.planning_time;
+    if (!r.replay.points.empty()) c.min_clearance = r.replay.min_clearance;
+    if (!r.solved) c.message = r.message;
+  } catch (const std::exception& ex) {
+    const auto* ie = dynamic_cast<const io::InputError*>(&ex);
+    c.message = ie ? ie->message() : ex.what();
+  }
+  return c;
+}
+
+ConfirmationPlan Designer::confirmPlan(const Evaluation& e, std::size_t k, std::uint64_t seed) const {
+  try {
+    // The robot as written (robot.yaml) and the query's own settings: what `ctr plan` of the written query plans.
+    const Robot robot = e.robot_yaml.empty() ? robotOf(e.candidate) : io::parseRobot(e.robot_yaml, "robot.yaml");
+    return planAgain(queryFor(k, e.queries.at(k).start, seed, nullptr), robot, k);
+  } catch (const std::exception& ex) {
+    ConfirmationPlan c;
+    c.seed = seed;
+    c.message = ex.what();
+    return c;
+  }
+}
+
 Evaluation Designer::evaluate(const Candidate& c, std::uint64_t seed, const DesignOptions& o) const {
   const auto t0 = Clock::now();
   Evaluation ev;
@@ -401,11 +504,6 @@ Evaluation Designer::evaluate(const Candidate& c, std::uint64_t seed, const Desi
   for (std::size_t k = 0; k < queries_.size(); ++k) {
     const auto tq = Clock::now();
     QueryOutcome& out = ev.queries[k];
-    planner::Query q = queries_[k];
-    q.base_start.clear();  // the environment is already at its base pose
-    q.seed = mix(seed, k);
-    if (o.plan_time > 0) q.time_limit = o.plan_time;
-    if (!o.planner.empty()) q.planner = o.planner;
     Configuration start;
     if (!adaptStart(bases_[k], queries_[k].start, robot, start)) {
       out.stage = St::StartInvalid;
@@ -413,7 +511,7 @@ Evaluation Designer::evaluate(const Candidate& c, std::uint64_t seed, const Desi
       all_goals = false;
       continue;
     }
-    q.start = start;
+    const planner::Query q = queryFor(k, start, mix(seed, k), &o);
     out.start = start;
     try {
       planners[k] = std::make_unique<planner::CtrPlanner>(q, robot, *envs_[k]);
@@ -532,12 +630,11 @@ Evaluation Designer::evaluate(const Candidate& c, std::uint64_t seed, const Desi
         QueryOutcome& out = ev.queries[k];
         planner::Query q = qs[k];
         q.seed = mix(seed, 7919 * static_cast<std::uint64_t>(s) + k);
-        planner::CtrPlanner p(q, robot, *envs_[k]);
-        const planner::PlanResult r = p.solve();
+        const ConfirmationPlan r = planAgain(q, robot, k);
         ++out.plans;
         if (r.solved) {
           ++out.plans_solved;
-          out.min_clearance = std::min(out.min_clearance, r.replay.min_clearance);
+          out.min_clearance = std::min(out.min_clearance, r.min_clearance);
         } else {
           out.stage = St::NoPath;
           out.message = "confirmation plan " + std::to_string(s) + " (seed " + std::to_string(q.seed) +
@@ -602,15 +699,50 @@ DesignResult Designer::run(const DesignOptions& o) const {
     for (auto& e : evals) res.evaluations.push_back(std::move(e));
   }
   res.budget_exhausted = out_of_time();
+  std::vector<std::string> names;
+  for (const auto& q : queries_) names.push_back(q.name);
+  // The finalists: planned again with independent seeds as `ctr plan` plans the written query, every (finalist, query,
+  // seed) on the threads; their success rate is counted in their score, so the best of them is the design kept.
+  if (o.finalist_plans > 0 && o.finalists > 0) {
+    res.finalists = finalistsOf(res.evaluations, o.finalists);
+    res.confirmation_seeds = confirmationSeeds(o.seed, o.finalist_plans);
+    keepPathsOf(res.evaluations, o.finalists);
+    struct Job {
+      std::size_t f, k, j;  // finalist, query, seed
+    };
+    std::vector<Job> jobs;
+    for (std::size_t f = 0; f < res.finalists.size(); ++f)
+      for (std::size_t k = 0; k < queries_.size(); ++k)
+        for (std::size_t j = 0; j < res.confirmation_seeds.size(); ++j) jobs.push_back({f, k, j});
+    std::vector<ConfirmationPlan> plans(jobs.size());
+    std::size_t confirmed = 0;
+    parallelFor(jobs.size(), threadCount(o), [&](std::size_t i) {
+      const Job& jb = jobs[i];
+      plans[i] = confirmPlan(res.evaluations[res.finalists[jb.f]], jb.k, res.confirmation_seeds[jb.j]);
+      std::lock_guard<std::mutex> lock(mutex);
+      ++confirmed;
+      if (o.progress)
+        o.progress(done + confirmed, done + jobs.size(),
+                   "independent plans of " + std::to_string(res.finalists.size()) + " finalist(s)");
+    });
+    for (std::size_t i = 0; i < jobs.size(); ++i)
+      res.evaluations[res.finalists[jobs[i].f]].queries[jobs[i].k].confirmation.push_back(std::move(plans[i]));
+    for (std::size_t f : res.finalists) {
+      Evaluation& e = res.evaluations[f];
+      e.score = scoreOf(e.queries, e.candidate);
+    }
+    std::stable_sort(res.finalists.begin(), res.finalists.end(), [&](std::size_t a, std::size_t b) {
+      return res.evaluations[a].score.better(res.evaluations[b].score);
+    });
+  }
   res.best = bestOf(res.evaluations);
   // Keep only the best's path among every start's.
   for (auto& e : res.evaluations)
     if (!res.best || e.start != res.best->start || e.index != res.best->index)
       for (auto& q : e.queries) q.path_csv.clear();
-  res.solved = res.best && res.best->score.solved();
-  std::vector<std::string> names;
-  for (const auto& q : queries_) names.push_back(q.name);
-  res.message = verdict(res.evaluations, res.best, names);
+  res.solved = res.best && res.best->score.solved() &&
+               (!res.best->score.confirmed() || res.best->score.success_rate >= o.finalist_rate);
+  res.message = verdict(res.evaluations, res.best, names, o.finalist_rate);
   res.wall_time = since(t0);
   return res;
 }
@@ -622,17 +754,33 @@ DesignResult designRobot(std::vector<planner::Query> queries, std::optional<Desi
 }
 
 std::string verdict(const std::vector<Evaluation>& evals, const std::optional<Evaluation>& best,
-                    const std::vector<std::string>& names) {
+                    const std::vector<std::string>& names, double required_rate) {
   if (!best) return "no candidate evaluated (time limit)";
-  if (best->score.solved())
-    return "every query solved with a clean replay; smallest clearance along the paths " + mm(best->score.clearance);
+  auto name = [&](std::size_t k) { return "'" + (k < names.size() ? names[k] : std::to_string(k)) + "'"; };
+  if (best->score.solved()) {
+    const std::string clear = "smallest clearance along the paths " + mm(best->score.clearance);
+    if (!best->score.confirmed()) return "every query solved with a clean replay; " + clear;
+    std::string per;
+    for (std::size_t k = 0; k < best->queries.size(); ++k)
+      per += (per.empty() ? "" : ", ") + name(k) + " " + std::to_string(best->queries[k].confirmationSolved()) + "/" +
+             std::to_string(best->queries[k].confirmation.size());
+    std::ostringstream rate;
+    rate << "success rate " << std::lround(best->score.success_rate * 100) << " %";
+    if (best->score.success_rate >= required_rate)
+      return "every query solved with a clean replay; independent plans (the written queries' settings) solved " + per +
+             " (" + rate.str() + "); " + clear;
+    std::ostringstream req;
+    req << std::lround(required_rate * 100);
+    return "no design plans reliably: the best finalist's independent plans (the written queries' settings) solved " +
+           per + " with a clean replay (" + rate.str() + ", required " + req.str() + " %); " + clear + " in the search";
+  }
   using St = QueryOutcome::Stage;
   std::string msg;
   for (std::size_t k = 0; k < best->queries.size(); ++k) {
     const QueryOutcome& q = best->queries[k];
     if (q.stage == St::Solved) continue;
     std::string m;
-    const std::string n = "'" + (k < names.size() ? names[k] : std::to_string(k)) + "'";
+    const std::string n = name(k);
     if (q.stage == St::Unreachable) {
       double closest = std::numeric_limits<double>::infinity();
       for (const Evaluation& e : evals)

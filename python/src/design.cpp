@@ -14,7 +14,7 @@ void registerDesign(pyb::module_& m) {
       [](const std::vector<std::filesystem::path>& queries, const std::optional<std::filesystem::path>& space,
          const std::optional<std::filesystem::path>& out, std::uint64_t seed, int evaluations, int population,
          int starts, double time_limit, int threads, double probe_time, double plan_time, const std::string& planner,
-         int confirm) {
+         int confirm, int finalists, int finalist_plans, double finalist_rate) {
         std::vector<planner::Query> qs;
         for (const auto& q : queries) qs.push_back(planner::loadQuery(q.string()));
         std::optional<design::DesignSpace> sp;
@@ -30,6 +30,9 @@ void registerDesign(pyb::module_& m) {
         o.plan_time = plan_time;
         o.planner = planner;
         o.confirm_seeds = confirm;
+        o.finalists = finalists;
+        o.finalist_plans = finalist_plans;
+        o.finalist_rate = finalist_rate;
         std::string text;
         {
           pyb::gil_scoped_release release;
@@ -42,9 +45,11 @@ void registerDesign(pyb::module_& m) {
       },
       arg("queries"), arg("space") = pyb::none(), arg("out") = pyb::none(), arg("seed") = 1, arg("evaluations") = 40,
       arg("population") = 8, arg("starts") = 1, arg("time_limit") = 0.0, arg("threads") = 0, arg("probe_time") = 2.0,
-      arg("plan_time") = 0.0, arg("planner") = "", arg("confirm") = 1,
+      arg("plan_time") = 0.0, arg("planner") = "", arg("confirm") = 1, arg("finalists") = 3, arg("finalist_plans") = 8,
+      arg("finalist_rate") = 0.8,
       "Designs one robot for the query files (docs/design.md): the dict of `ctr design`'s result.json (solved, "
-      "message, design with its robot YAML, per query the plan result of `ctr plan --json`, every evaluation). "
+      "message, design with its robot YAML, per query the plan result of `ctr plan --json`, the finalists' "
+      "independent plans and the kept design's success rate (confirmation), every evaluation). "
       "space: a design space YAML (None: derived from the first query's robot); out: also write the output folder "
       "(robot.yaml, queries/, paths/, result.json). Raises ctr.InputError for bad files.");
 }

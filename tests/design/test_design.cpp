@@ -1,5 +1,6 @@
 // Tests of ctr::design: the design space (parsing, constraints), the gaco search (never leaves the constraints,
-// seeded, the fitness's order), the verdict for a target no design reaches, and a small design run on an easy query.
+// seeded, the fitness's order), the finalists' independent plans (counted in the ranking, reported in result.json),
+// the verdict for a target no design reaches, and a small design run on an easy query.
 #include <gtest/gtest.h>
 
 #include <unistd.h>
@@ -102,13 +103,14 @@ std::string writeEasyProblem(const fs::path& dir) {
   return (dir / "robot.yaml").string();
 }
 
-std::string writeQuery(const fs::path& dir, const std::string& name, const std::string& target) {
+std::string writeQuery(const fs::path& dir, const std::string& name, const std::string& target,
+                       const std::string& time_limit = "2") {
   const fs::path p = dir / (name + ".yaml");
   std::ofstream q(p);
   q << "name: " << name << "\nrobot: robot.yaml\nenvironment: env.yaml\n"
     << "start: {alpha: [0, 0], beta: [-0.075, -0.105], history: positive}\n"
     << "goal: {target: " << target << ", tolerance: 0.003}\n"
-    << "mode: frictionless\nplanner: rrtconnect\ntime_limit: 2\nseed: 1\n"
+    << "mode: frictionless\nplanner: rrtconnect\ntime_limit: " << time_limit << "\nseed: 1\n"
     << "environment_resolution: 0.005\n";
   return p.string();
 }
@@ -270,7 +272,20 @@ TEST(DesignSearch, TheFitnessOrdersScoresLexicographically) {
     s.length = length;
     return s;
   };
-  const std::vector<Score> ranked{sc(0.0, 0.00125, 0.30),
+  // A finalist: the success rate of its independent plans first, then clearance and length; every finalist ranks
+  // above every candidate that was not confirmed.
+  auto fin = [&](double rate, double clearance, double length) {
+    Score s = sc(0.0, clearance, length);
+    s.success_rate = rate;
+    return s;
+  };
+  const std::vector<Score> ranked{fin(1.0, 0.0001, 0.30),
+                                  fin(1.0, 0.0001, 0.31),
+                                  fin(1.0, -0.0002, 0.01),
+                                  fin(0.875, 0.05, 0.05),
+                                  fin(0.8, 0.002, 0.1),
+                                  fin(0.0, 0.9, 0.01),
+                                  sc(0.0, 0.00125, 0.30),
                                   sc(0.0, 0.00125, 0.31),
                                   sc(0.0, 0.00119, 0.10),
                                   sc(0.0, 0.00015, 0.2),
@@ -288,6 +303,102 @@ TEST(DesignSearch, TheFitnessOrdersScoresLexicographically) {
       EXPECT_EQ(ranked[i].better(ranked[j]), i < j) << i << " vs " << j;
       EXPECT_EQ(ranked[i].fitness() < ranked[j].fitness(), i < j) << i << " vs " << j;
     }
+}
+
+// Two finalists of one query: `a` has the larger clearance (the search ranks it first) but its independent plans
+// fail, `b`'s pass. The success rate must rank `b` first, make it the design kept and be written to result.json.
+TEST(DesignSearch, AFinalistWhoseIndependentPlansFailRanksBelowOneWhosePlansPass) {
+  auto evaluation = [](std::size_t index, double clearance, const std::string& robot) {
+    Evaluation e;
+    e.index = index;
+    e.robot_yaml = robot;
+    e.candidate.tubes.resize(2);
+    e.candidate.tubes[0].straight_length = 0.05;
+    e.candidate.tubes[1].straight_length = 0.09;
+    QueryOutcome q;
+    q.stage = QueryOutcome::Stage::Solved;
+    q.plans = q.plans_solved = 2;
+    q.min_clearance = clearance;
+    e.queries = {q};
+    e.score = scoreOf(e.queries, e.candidate);
+    return e;
+  };
+  auto confirm = [](Evaluation& e, std::size_t k, const std::vector<bool>& solved) {
+    for (std::size_t j = 0; j < solved.size(); ++j) {
+      ConfirmationPlan p;
+      p.seed = 100 + j;
+      p.path_found = true;  // a path whose replay was not clean is not solved
+      p.solved = solved[j];
+      p.min_clearance = solved[j] ? 0.0002 : -0.0001;
+      e.queries[k].confirmation.push_back(p);
+    }
+    e.score = scoreOf(e.queries, e.candidate);
+  };
+  std::vector<Evaluation> evals{evaluation(0, 0.0005, "a"), evaluation(1, 0.0001, "b"), evaluation(2, 0.0004, "a"),
+                                evaluation(3, 0.0009, "c")};
+  evals[3].queries[0].stage = QueryOutcome::Stage::NoPath;  // unsolved: never a finalist
+  evals[3].score = scoreOf(evals[3].queries, evals[3].candidate);
+  // Before confirmation the search ranks a first; the finalists are the solved ones, distinct robots, best first.
+  EXPECT_TRUE(evals[0].score.better(evals[1].score));
+  EXPECT_FALSE(evals[0].score.confirmed());
+  EXPECT_EQ(finalistsOf(evals, 3), (std::vector<std::size_t>{0, 1}));
+  EXPECT_EQ(finalistsOf(evals, 1), (std::vector<std::size_t>{0}));
+  confirm(evals[0], 0, {true, false, false, true, false, false, true, false});
+  confirm(evals[1], 0, {true, true, true, true, true, true, true, true});
+  EXPECT_DOUBLE_EQ(evals[0].score.success_rate, 3.0 / 8.0);
+  EXPECT_DOUBLE_EQ(evals[1].score.success_rate, 1.0);
+  EXPECT_TRUE(evals[1].score.better(evals[0].score));
+  // A finalist that failed ranks above the candidates that were not confirmed (the kept design is a finalist).
+  EXPECT_TRUE(evals[0].score.better(evals[2].score));
+  const std::optional<Evaluation> best = bestOf(evals);
+  ASSERT_TRUE(best.has_value());
+  EXPECT_EQ(best->index, 1u);
+  EXPECT_NE(verdict(evals, best, {"q"}, 0.8).find("'q' 8/8"), std::string::npos) << verdict(evals, best, {"q"}, 0.8);
+  const std::string failed = verdict(evals, evals[0], {"q"}, 0.8);
+  EXPECT_NE(failed.find("no design plans reliably"), std::string::npos) << failed;
+  EXPECT_NE(failed.find("'q' 3/8"), std::string::npos) << failed;
+  // With several queries the rate is the least of theirs.
+  Evaluation two = evaluation(4, 0.0005, "d");
+  two.queries.push_back(two.queries[0]);
+  confirm(two, 0, {true, true, true, true});
+  confirm(two, 1, {true, false, true, false});
+  EXPECT_DOUBLE_EQ(two.score.success_rate, 0.5);
+
+  // result.json: the kept design's rate, seeds and counts; every finalist, best first; every plan in evaluations.
+  const fs::path dir = tempDir("finalists");
+  writeEasyProblem(dir);
+  const Designer d({planner::loadQuery(writeQuery(dir, "q", "near"))}, std::nullopt);
+  DesignResult r;
+  r.evaluations = evals;
+  r.finalists = {1, 0};
+  r.confirmation_seeds = {100, 101, 102, 103, 104, 105, 106, 107};
+  r.best = best;
+  DesignOptions o;
+  const nlohmann::json j = nlohmann::json::parse(resultJson(d, r, o, "0/1"));
+  EXPECT_EQ(j["options"]["finalists"], o.finalists);
+  EXPECT_EQ(j["options"]["finalist_plans"], o.finalist_plans);
+  EXPECT_DOUBLE_EQ(j["confirmation"]["success_rate"].get<double>(), 1.0);
+  EXPECT_EQ(j["confirmation"]["plans"], 8);
+  EXPECT_EQ(j["confirmation"]["solved"], 8);
+  EXPECT_EQ(j["confirmation"]["seeds"].size(), 8u);
+  EXPECT_TRUE(j["confirmation"]["passed"].get<bool>());
+  EXPECT_EQ(j["confirmation"]["queries"][0]["query"], "q");
+  EXPECT_EQ(j["queries"][0]["confirmation"]["solved"], 8);
+  EXPECT_DOUBLE_EQ(j["design"]["score"]["success_rate"].get<double>(), 1.0);
+  ASSERT_EQ(j["finalists"].size(), 2u);
+  EXPECT_EQ(j["finalists"][0]["index"], 1);
+  EXPECT_EQ(j["finalists"][1]["index"], 0);
+  EXPECT_EQ(j["finalists"][1]["solved"], 3);
+  EXPECT_DOUBLE_EQ(j["finalists"][1]["success_rate"].get<double>(), 0.375);
+  const auto& runs = j["evaluations"][0]["queries"][0]["confirmation"];
+  EXPECT_EQ(runs["paths_found"], 8);
+  EXPECT_EQ(runs["solved"], 3);
+  ASSERT_EQ(runs["runs"].size(), 8u);
+  EXPECT_EQ(runs["runs"][1]["seed"], 101);
+  EXPECT_FALSE(runs["runs"][1]["solved"].get<bool>());
+  EXPECT_TRUE(j["evaluations"][2]["score"]["success_rate"].is_null());
+  EXPECT_FALSE(j["evaluations"][2]["queries"][0].contains("confirmation"));
+  fs::remove_all(dir);
 }
 
 TEST(DesignSpace, DefaultSpaceOfALungRobotContainsIt) {
@@ -352,9 +463,18 @@ TEST(DesignSearch, ASmallRunSolvesAnEasyQueryAndWritesALoadableRobot) {
   o.probe_time = 0.5;
   o.plan_time = 2.0;
   o.confirm_seeds = 1;
+  o.finalists = 2;
+  o.finalist_plans = 3;
   const DesignResult r = d.run(o);
   ASSERT_TRUE(r.best.has_value());
   EXPECT_TRUE(r.solved) << r.message;
+  // The design kept is the best finalist, confirmed by 3 independent plans.
+  ASSERT_FALSE(r.finalists.empty());
+  EXPECT_EQ(r.best->index, r.evaluations[r.finalists.front()].index);
+  ASSERT_EQ(r.best->queries[0].confirmation.size(), 3u);
+  EXPECT_EQ(r.confirmation_seeds, confirmationSeeds(o.seed, 3));
+  EXPECT_DOUBLE_EQ(r.best->score.success_rate, r.best->queries[0].confirmationSolved() / 3.0);
+  EXPECT_GE(r.best->score.success_rate, o.finalist_rate);
   const fs::path out = dir / "out";
   writeDesign(d, r, o, "0/1", out.string());
   // The robot loads, lies in the space and within the strain limit; the query copy plans with it.
@@ -369,10 +489,45 @@ TEST(DesignSearch, ASmallRunSolvesAnEasyQueryAndWritesALoadableRobot) {
   EXPECT_EQ(j["solved"], r.solved);
   EXPECT_EQ(j["evaluations"].size(), 4u);
   EXPECT_TRUE(j["queries"][0]["plan"]["solved"].get<bool>());
+  EXPECT_DOUBLE_EQ(j["confirmation"]["success_rate"].get<double>(), r.best->score.success_rate);
+  EXPECT_EQ(j["confirmation"]["seeds"].size(), 3u);
+  EXPECT_EQ(j["finalists"].size(), r.finalists.size());
   EXPECT_TRUE(fs::exists(out / "paths" / "easy.csv"));
   // Merging the run as a single shard reproduces its design.
   const std::string merged = mergeDesigns({out.string()}, (dir / "merged").string(), false);
   EXPECT_EQ(io::readFile((dir / "merged" / "robot.yaml").string()), io::readFile((out / "robot.yaml").string()));
+  fs::remove_all(dir);
+}
+
+// The finalists are planned as `ctr plan` plans the written query: with the query's own time limit, not the search's
+// --plan-time. A query whose own limit is far too short for any plan is solved in the search (2 s), but no design
+// passes its independent plans, so the run is not solved; without finalists the same search is.
+TEST(DesignSearch, TheFinalistsArePlannedWithTheWrittenQuerysSettings) {
+  const fs::path dir = tempDir("written");
+  writeEasyProblem(dir);
+  const Designer d({planner::loadQuery(writeQuery(dir, "easy", "near", "0.000001"))}, std::nullopt);
+  DesignOptions o;
+  o.evaluations = 2;
+  o.population = 2;
+  o.threads = 2;
+  o.probe_time = 0.5;
+  o.plan_time = 2.0;
+  o.confirm_seeds = 0;
+  o.finalists = 0;
+  const DesignResult search_only = d.run(o);
+  ASSERT_TRUE(search_only.best.has_value());
+  ASSERT_TRUE(search_only.solved) << search_only.message;
+  EXPECT_FALSE(search_only.best->score.confirmed());
+  o.finalists = 2;
+  o.finalist_plans = 2;
+  const DesignResult r = d.run(o);
+  ASSERT_TRUE(r.best.has_value());
+  EXPECT_TRUE(r.best->score.solved());  // the search's plans
+  EXPECT_TRUE(r.best->score.confirmed());
+  EXPECT_EQ(r.best->score.success_rate, 0.0);
+  EXPECT_FALSE(r.solved);
+  EXPECT_NE(r.message.find("no design plans reliably"), std::string::npos) << r.message;
+  for (const ConfirmationPlan& p : r.best->queries[0].confirmation) EXPECT_FALSE(p.solved) << p.seed;
   fs::remove_all(dir);
 }
 
@@ -389,6 +544,7 @@ TEST(DesignSearch, ShardsOfARunMergeIntoTheBestDesignAndAMissingShardIsAnError) 
   o.probe_time = 0.3;
   o.plan_time = 1.0;
   o.confirm_seeds = 0;
+  o.finalist_plans = 2;
   std::vector<DesignResult> parts;
   for (int s = 0; s < 2; ++s) {
     DesignOptions os = o;
@@ -411,6 +567,7 @@ TEST(DesignSearch, ShardsOfARunMergeIntoTheBestDesignAndAMissingShardIsAnError) 
       nlohmann::json::parse(mergeDesigns({(dir / "run").string()}, (dir / "merged").string(), false));
   EXPECT_EQ(m["evaluations"].size(), 4u);
   EXPECT_EQ(m["shards"].size(), 2u);
+  EXPECT_EQ(m["finalists"].size(), parts[0].finalists.size() + parts[1].finalists.size());
   // The merged design is the better of the two shards' bests.
   const Evaluation& b =
       parts[0].best->score.better(parts[1].best->score) || !parts[1].best ? *parts[0].best : *parts[1].best;

@@ -2,7 +2,8 @@
 /// @brief Patient-specific robot design (docs/design.md): a seeded search (pagmo's gaco) over a DesignSpace in which
 /// every candidate is scored by what the planner does with it on one or several queries: a goal probe (can a valid,
 /// collision-free configuration put the tip on the target?) as a cheap first filter, then a friction-aware plan in
-/// each query's mode whose replay must be clean.
+/// each query's mode whose replay must be clean. The best few candidates (the finalists) are then planned again with
+/// several independent seeds, as `ctr plan` plans the written query, and their success rate ranks them.
 /// @code
 ///   std::vector<ctr::planner::Query> qs{ctr::planner::loadQuery("examples/queries/medmpd_lung_patient1.yaml")};
 ///   ctr::design::DesignResult r = ctr::design::designRobot(qs, std::nullopt, {});  // default space of the robot
@@ -43,8 +44,26 @@ struct DesignOptions {
   /// A candidate that solves every query is planned again with this many further seeds; it counts as solved only if
   /// every plan replays clean (a design whose goals are rare would otherwise fail an independent `ctr plan`).
   int confirm_seeds = 1;
+  /// After the search, the best this many candidates that solve every query (the finalists) are planned
+  /// `finalist_plans` times per query with independent seeds and the written query's settings (confirmPlan()); their
+  /// success rate ranks them before clearance and length (Score), and the kept design is the best finalist.
+  /// 0: no finalists (the best candidate of the search is kept unconfirmed).
+  int finalists = 3;
+  int finalist_plans = 8;  ///< Independent plans per finalist and query (0: no finalists).
+  /// The kept design counts as solved only when its success rate (the smallest over the queries) reaches this.
+  double finalist_rate = 0.8;
   /// Called after every evaluation (from the thread that ran it; calls are serialised).
   std::function<void(std::size_t done, std::size_t total, const std::string& detail)> progress;
+};
+
+/// @brief One independent plan of a finalist (Designer::confirmPlan()): `ctr plan` of the written query with `seed`.
+struct ConfirmationPlan {
+  std::uint64_t seed = 0;
+  bool path_found = false;  ///< The planner found a path (`planner_solved`).
+  bool solved = false;      ///< ... and its replay was clean (`solved` of `ctr plan`).
+  double min_clearance = -std::numeric_limits<double>::infinity();  ///< Smallest replay clearance (m).
+  double planning_time = 0.0;                                       ///< Seconds in the planner.
+  std::string message;                                              ///< Why not solved ("" if solved).
 };
 
 /// @brief What one query made of one candidate.
@@ -67,19 +86,30 @@ struct QueryOutcome {
   std::string path_csv;   ///< Its replayed path (`ctr plan --path`; "" if not planned).
   Configuration start;    ///< The query's start for the designed robot (distal ends kept).
   double seconds = 0.0;
+  /// A finalist's independent plans (empty for a candidate that is not one); not counted in `plans`.
+  std::vector<ConfirmationPlan> confirmation;
+  /// @brief Independent plans solved with a clean replay.
+  int confirmationSolved() const;
 };
 
 const char* toString(QueryOutcome::Stage s);
 
 /// @brief The objective, compared lexicographically (docs/design.md "Objective"): feasibility first (the sum over
-/// queries of the stage reached plus a continuous progress within it, in steps of 1e-6), then the largest minimum
-/// clearance along the replayed paths (0.1 mm bins), then the shortest robot.
+/// queries of the stage reached plus a continuous progress within it, in steps of 1e-6), then for a finalist the
+/// success rate of its independent plans (a confirmed finalist ranks above every unconfirmed candidate), then the
+/// largest minimum clearance along the replayed paths (0.1 mm bins), then the shortest robot.
 struct Score {
   double badness = std::numeric_limits<double>::infinity();     ///< 0: every query solved.
   double clearance = -std::numeric_limits<double>::infinity();  ///< Min over queries of the replay clearance (m).
   double length = std::numeric_limits<double>::infinity();      ///< Length of the longest tube (m).
+  /// A finalist's success rate in [0, 1]: the smallest over the queries of its independent plans solved with a clean
+  /// replay / made; -1 for a candidate that was not confirmed.
+  double success_rate = -1.0;
   bool solved() const { return badness == 0.0; }
-  /// @brief The lexicographic order as one number to minimise (the search's fitness): solved designs
+  /// @brief Has a success rate (a finalist whose independent plans were made).
+  bool confirmed() const { return success_rate >= 0.0; }
+  /// @brief The lexicographic order as one number to minimise (the search's fitness): confirmed solved designs
+  /// -2.2e6 x (1 + round(1000 x success_rate)) - bin(clearance) + l / (1 + l), other solved designs
   /// -bin(clearance) + l / (1 + l) (bins of 0.1 mm, clamped to +-1e6), others 2e6 + round(badness x 1e6) +
   /// l / (1 + l), with l the length in m; 1e15 for a score never evaluated.
   double fitness() const;
@@ -100,10 +130,15 @@ struct Evaluation {
 
 /// @brief Result of a design run.
 struct DesignResult {
-  bool solved = false;  ///< The best candidate solves every query with clean replays.
+  /// The best candidate solves every query with clean replays (and, when confirmed, its success rate reaches
+  /// DesignOptions::finalist_rate).
+  bool solved = false;
   std::string message;  ///< Why not (one line), e.g. the closest distance reached when no design reaches a target.
-  std::optional<Evaluation> best;
+  std::optional<Evaluation> best;  ///< The best finalist (when there are finalists), else the best evaluation.
   std::vector<Evaluation> evaluations;
+  /// Indices into `evaluations` of the finalists (those with independent plans), best first by their final score.
+  std::vector<std::size_t> finalists;
+  std::vector<std::uint64_t> confirmation_seeds;  ///< The seeds of the finalists' independent plans.
   double wall_time = 0.0;
   bool budget_exhausted = false;  ///< Stopped by the time limit.
 };
@@ -161,12 +196,24 @@ class Designer {
   std::optional<Candidate> baseCandidate() const;
   /// @brief Scores one candidate on every query (thread-safe). `seed` seeds the probe and the plans.
   Evaluation evaluate(const Candidate& c, std::uint64_t seed, const DesignOptions& o) const;
+  /// @brief One independent plan of query `k` for an evaluated design (thread-safe): its robot from its start, with
+  /// the query's own settings (mode, planner, time limit; not the search's `plan_time` and `planner`) and `seed`, as
+  /// `ctr plan DIR/queries/NAME.yaml --seed SEED` plans the written query.
+  ConfirmationPlan confirmPlan(const Evaluation& e, std::size_t k, std::uint64_t seed) const;
   /// @brief Runs the search.
   DesignResult run(const DesignOptions& o) const;
   /// @brief The robot of a candidate (named after the first query's robot, "_design" appended).
   Robot robotOf(const Candidate& c) const;
 
  private:
+  // Query k as planned for a design from `start` with `seed`: the query's settings, with the search's `plan_time` and
+  // `planner` when `search` is given.
+  planner::Query queryFor(std::size_t k, const Configuration& start, std::uint64_t seed,
+                          const DesignOptions* search) const;
+  // One further plan of query k (`q`, a fresh planner and goal pool) for `robot`: the search's confirmations and the
+  // finalists' independent plans.
+  ConfirmationPlan planAgain(const planner::Query& q, const Robot& robot, std::size_t k) const;
+
   std::vector<planner::Query> queries_;
   std::vector<Robot> bases_;
   std::vector<std::shared_ptr<const environments::Environment>> envs_;
@@ -188,9 +235,18 @@ Score scoreOf(const std::vector<QueryOutcome>& queries, const Candidate& c);
 /// @brief Picks the best evaluation (the earliest of equals); nullopt for none.
 std::optional<Evaluation> bestOf(const std::vector<Evaluation>& evaluations);
 
+/// @brief The finalists of a run: the indices into `evaluations` of the best `count` that solve every query (distinct
+/// robots), best first.
+std::vector<std::size_t> finalistsOf(const std::vector<Evaluation>& evaluations, int count);
+
+/// @brief The seeds of a run's independent plans: `count` seeds derived from the run's `seed` (each < 2^31, so that
+/// `ctr plan --seed` takes it), the same for every finalist.
+std::vector<std::uint64_t> confirmationSeeds(std::uint64_t seed, int count);
+
 /// @brief The one-line verdict of a run from its best evaluation: per unsolved query the stage it reached (the
-/// closest tip distance over every evaluation when no design reaches a target). `names`: the queries' names.
+/// closest tip distance over every evaluation when no design reaches a target), and a confirmed design's
+/// independent plans per query (below `required_rate`: not reliable). `names`: the queries' names.
 std::string verdict(const std::vector<Evaluation>& evaluations, const std::optional<Evaluation>& best,
-                    const std::vector<std::string>& names);
+                    const std::vector<std::string>& names, double required_rate = 0.0);
 
 }  // namespace ctr::design

@@ -44,19 +44,31 @@ const outcome = (ev, k) => {
   return [q.stage, mm(q.closest), q.stage === 'solved' ? mm(q.min_clearance) : mm(q.goal_clearance) + ' (goal)'];
 };
 const viewerOf = (name) => (d.paths || []).find((p) => p.query === name && p.viewer);
-app.appendChild(h('section', { class: 'card', id: 'queries' }, h('h2', {}, 'Queries'),
-  table(['query', 'own robot: stage', 'closest', 'clearance', 'design: stage', 'closest', 'clearance', 'plans clean', 'viewer'],
-    queries.map((q, k) => {
-      const o = outcome(baseEval, k);
-      const n = outcome(best, k);
-      const bq = best && best.queries ? best.queries[k] : null;
-      const v = viewerOf(q.query);
-      return [q.query, ...o, ...n, bq ? `${bq.plans_solved}/${bq.plans}` : '–',
-        v ? h('a', { href: v.viewer }, 'open') : '–'];
-    }), { id: 'queries-table' }),
-  h('p', {}, 'Stages, worst first: start_invalid, unreachable (the tip never reaches the target), no_valid_goal (it ' +
-    'reaches it only in collision or unstably), no_path, solved (planned with clean replays). Clearance: the smallest ' +
-    'along the replayed paths when solved, else the best clearance of a shape with the tip on the target.')));
+app.appendChild(h(
+    'section', {class: 'card', id: 'queries'}, h('h2', {}, 'Queries'),
+    table(
+        [
+          'query', 'own robot: stage', 'closest', 'clearance', 'design: stage', 'closest', 'clearance', 'plans clean',
+          'independent plans', 'viewer'
+        ],
+        queries.map((q, k) => {
+          const o = outcome(baseEval, k);
+          const n = outcome(best, k);
+          const bq = best && best.queries ? best.queries[k] : null;
+          const v = viewerOf(q.query);
+          const c = bq && bq.confirmation ? bq.confirmation : null;
+          return [
+            q.query, ...o, ...n, bq ? `${bq.plans_solved}/${bq.plans}` : '–',
+            c ? `${c.solved}/${c.plans} (${pct(c.success_rate)})` : '–', v ? h('a', {href: v.viewer}, 'open') : '–'
+          ];
+        }),
+        {id: 'queries-table'}),
+    h('p', {},
+      'Stages, worst first: start_invalid, unreachable (the tip never reaches the target), no_valid_goal (it ' +
+          'reaches it only in collision or unstably), no_path, solved (planned with clean replays). Clearance: the smallest ' +
+          'along the replayed paths when solved, else the best clearance of a shape with the tip on the target. ' +
+          'Independent plans: the design kept (the best finalist) planned again with other seeds as `ctr plan` plans the ' +
+          'written query, solved with a clean replay / made (docs/design.md "Finalists").')));
 
 const grid = h('div', { class: 'grid' });
 app.appendChild(grid);

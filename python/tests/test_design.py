@@ -41,10 +41,18 @@ def test_design_returns_the_result_of_the_cli_and_writes_a_loadable_robot(tmp_pa
     (tmp_path / "env.yaml").write_text(ENV)
     (tmp_path / "robot.yaml").write_text(ROBOT)
     (tmp_path / "easy.yaml").write_text(QUERY)
-    r = ctr.design([tmp_path / "easy.yaml"], out=tmp_path / "out", evaluations=2, population=2, probe_time=0.3)
+    r = ctr.design([tmp_path / "easy.yaml"], out=tmp_path / "out", evaluations=2, population=2, probe_time=0.3,
+                   finalists=2, finalist_plans=3)
     assert r["solved"], r["message"]
     assert len(r["evaluations"]) == 2
     assert r["queries"][0]["plan"]["solved"]
+    # The design kept is the best finalist, planned again with 3 independent seeds (docs/design.md "Finalists").
+    assert r["options"]["finalist_plans"] == 3
+    assert len(r["confirmation"]["seeds"]) == 3
+    assert r["confirmation"]["plans"] == 3
+    assert r["confirmation"]["success_rate"] == r["confirmation"]["solved"] / 3
+    assert r["confirmation"]["success_rate"] >= r["options"]["finalist_rate"]
+    assert r["finalists"][0]["index"] == r["design"]["index"]
     robot = ctr.load_robot(str(tmp_path / "out" / "robot.yaml"))
     assert robot is not None
     with pytest.raises(ctr.InputError):

@@ -23,6 +23,7 @@ BUILD_DIR/apps/ctr is first copied to OUT_DIR/ctr and that copy is run (the buil
 JSON is already in OUT_DIR/runs/ are kept (a run interrupted can be resumed with the same arguments).
 --quick: 2 example and 2 unseen queries, 1 seed, 5 CPU s (a smoke run).
 
+Each run leaves OUT_DIR/runs/NAME.json (ctr plan --json) and NAME.path.csv (the replayed path, ctr plan --path).
 Writes OUT_DIR/runs.csv and OUT_DIR/runs.json (every run: outcome, planning time, message, replay), OUT_DIR/table.md
 (the Markdown table of docs/planning.md "Robust vs exact, measured") and prints the table. Needs the Med-MPD data set
 (scripts/fetch-data.sh fetches it) in the data folder: $CTR_DATA, else ../shared/data beside the checkout, else data/
@@ -214,8 +215,10 @@ def plan(ctr, query, mode, seed, limit, out):
     if os.path.exists(base + '.record.json'):
         with open(base + '.record.json') as f:
             return json.load(f)
+    # The replayed path is kept (--path) so that a run whose replay fails can be examined: a seed of the portfolio
+    # planner does not repeat its path (its threads race).
     cmd = [ctr, 'plan', query, '--mode', mode, '--seed', str(seed), '--cpu-time', '--time', '%g' % limit,
-           '--json', base + '.json']
+           '--json', base + '.json', '--path', base + '.path.csv']
     t0 = time.time()
     try:
         r = subprocess.run(cmd, capture_output=True, text=True, timeout=max(600, 20 * limit))

@@ -157,11 +157,13 @@ void CtrPlanner::init(Robot robot, environments::Environment e) {
       throw io::InputError(query.file, query.lineOf("loads"), "loads", ex.what());
     }
   }
-  if (query.mode == Mode::Robust && !robot.loads().empty())
-    throw io::InputError(query.file, query.lineOf(query.loads ? "loads" : "mode"), query.loads ? "loads" : "mode",
+  if (query.mode == Mode::Robust && !robot.loads().empty()) {
+    const std::string key = query.loads ? "loads" : "mode";  // the query's loads, or the robot's own
+    throw io::InputError(query.file, query.lineOf(key), key,
                          "robust mode plans for every history only where one equilibrium per contact torque is "
                          "certified, and the certificate covers the load-free model (docs/planning.md, \"What robust "
                          "mode guarantees\"): plan with loads in exact mode");
+  }
   env_ = std::make_shared<const environments::Environment>(std::move(e));
 
   ContextOptions co;

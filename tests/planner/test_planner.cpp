@@ -16,6 +16,7 @@
 #include <regex>
 
 #include "../data_sets.hpp"
+#include "../model/tube_factory.hpp"
 #include "ctr/environments/robot_geometry.hpp"
 #include "ctr/io/input_error.hpp"
 #include "ctr/io/robot_yaml.hpp"
@@ -748,14 +749,7 @@ namespace {
 // rotation of pi), 0.1 lumped friction.
 Robot interactingPair() {
   auto tube = [](const char* name, double straight, double od) {
-    Tube t;
-    t.name = name;
-    t.straight_length = straight;
-    t.curved_length = 0.08;
-    t.curvature = 25.0;
-    t.bending_stiffness = 0.02;
-    t.torsional_stiffness = 0.02 / 1.3;
-    t.poisson_ratio = 0.3;
+    Tube t = test::makeTube(name, straight, 0.08, 25.0, 0.02, 0.3);
     t.outer_diameter = od;
     t.inner_diameter = od - 0.3e-3;
     return t;

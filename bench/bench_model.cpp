@@ -221,29 +221,59 @@ void BM_LoadedStickSlipStep(benchmark::State& st) {
 
 }  // namespace
 
+// The lung robot (mu' 0.1) at a planning configuration and its friction band (vertices; with the tubes' angles).
+struct LungBand {
+  ctr::Robot robot = loadExample("medmpd_lung.yaml").withFriction({0.1, 0.0});
+  ctr::Configuration q{Eigen::Vector3d(0.0, 1.2, -0.7), Eigen::Vector3d(-0.06, -0.14, -0.2)};
+  ctr::Workspace ws;
+  ctr::FrictionBand band;
+  LungBand() {
+    ctr::FrictionBandOptions o;
+    o.interior_samples = 0;
+    o.kinematics.record_tube_states = true;
+    band = ctr::frictionBand(robot, q, ws, o);
+  }
+};
+
 // The certificate of one equilibrium per torque vector: for every rotation (translations only), and around the
 // friction band of the lung robot at a planning configuration (the band itself not timed).
 template <bool kBand>
 void BM_Uniqueness(benchmark::State& st) {
-  const ctr::Robot robot = loadExample("medmpd_lung.yaml").withFriction({0.1, 0.0});
-  const ctr::Configuration q(Eigen::Vector3d(0.0, 1.2, -0.7), Eigen::Vector3d(-0.06, -0.14, -0.2));
-  ctr::Workspace ws;
-  ctr::FrictionBandOptions o;
-  o.interior_samples = 0;
-  o.kinematics.record_tube_states = true;
-  const ctr::FrictionBand band = ctr::frictionBand(robot, q, ws, o);
-  if (!band.converged) {
+  const LungBand l;
+  if (!l.band.converged) {
     st.SkipWithError("band did not converge");
     return;
   }
   for (auto _ : st) {
     const ctr::UniquenessCertificate c =
-        kBand ? ctr::uniquenessCertificate(robot, band) : ctr::uniquenessCertificate(robot, q);
+        kBand ? ctr::uniquenessCertificate(l.robot, l.band) : ctr::uniquenessCertificate(l.robot, l.q);
     benchmark::DoNotOptimize(c.status);
   }
 }
 
+// A final approach checked for every history (robust mode's approach goals): from every shape of the lung robot's
+// friction band (the band itself not timed), each contact stuck at its torque (stuckStateAt), the stick-slip step
+// along a move that turns neighbouring tubes against each other by 0.5 rad.
+void BM_FinalApproach(benchmark::State& st) {
+  LungBand l;
+  if (!l.band.converged) {
+    st.SkipWithError("band did not converge");
+    return;
+  }
+  const ctr::Configuration to(l.q.alpha + Eigen::Vector3d(0.5, 0.0, -0.5), l.q.beta);
+  ctr::FrictionOptions fo;
+  fo.kinematics.record_backbone = false;
+  for (auto _ : st) {
+    for (const ctr::Solution& shape : l.band.shapes) {
+      const ctr::StepResult r = ctr::step(l.robot, ctr::stuckStateAt(l.robot, shape), to, l.ws, fo);
+      benchmark::DoNotOptimize(r.solution.tip_position);
+    }
+  }
+  st.counters["shapes"] = static_cast<double>(l.band.shapes.size());
+}
+
 BENCHMARK(BM_SolveWarm<false, false>)->Name("solve_warm/pairB/tip");
+BENCHMARK(BM_FinalApproach)->Name("final_approach/lung/from_every_band_shape")->Unit(benchmark::kMillisecond);
 BENCHMARK(BM_Uniqueness<false>)->Name("uniqueness/lung/every_rotation");
 BENCHMARK(BM_Uniqueness<true>)->Name("uniqueness/lung/around_band");
 BENCHMARK(BM_SolveWarm<false, true>)->Name("solve_warm/pairB/shape100");

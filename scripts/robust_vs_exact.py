@@ -239,7 +239,7 @@ def reason(msg):
     m = msg or ''
     if 'no friction band reaches' in m:
         return 'no band within tolerance'
-    if 'whole friction band, but none is valid' in m:
+    if 'whole friction band' in m and 'but none is valid' in m:
         return 'band goals all invalid'
     if 'no valid goal configuration' in m:
         return 'no valid goal'

@@ -33,7 +33,7 @@ RELIABILITY_BUILD=${CTR_RELIABILITY_BUILD_DIR:-build-asan}
 # and MultiRecording.SharedPlay tests); docs/reliability.md ("Sanitizers"). The
 # time-limited benchmark campaigns (Campaign.BenchCampaign*) and the Slurm job-array test (label slurm) run once, in
 # the normal build.
-export CTR_CTEST_ARGS=${CTR_CTEST_ARGS:--LE test_diagnosis_concealed|slurm -E Planning\.ExactMode|Planning\.FrictionlessMode|Planning\.TheMotionCheckAndTheReplayAgreeOnEvery|Planning\.RobustModeSolves|Planning\.Portfolio|Planning\.InfeasibleLung|Cli\.BenchWrites|Cli\.BenchFills|Cli\.DemoPlans|DesignSearch\.|Campaign\.|LoadsDiagnosis\.|PoseSet\.|RealDesign\.|RealLogTwoDrives\.|OutsideTheLibrary\.|pub_precurvature_coarse_walk_T3|fetch_data\.|Planning\.RobustModePlansForRanges|Planning\.RobustModeSaysWhyEveryBand|MultiRecording\.ADriveOffset|MultiRecording\.ALatency|cli\.DiagnoseSeveralRecordings}
+export CTR_CTEST_ARGS=${CTR_CTEST_ARGS:--LE test_diagnosis_concealed|slurm -E Planning\.ExactMode|Planning\.FrictionlessMode|Planning\.TheMotionCheckAndTheReplayAgreeOnEvery|Planning\.RobustModeSolves|Planning\.Portfolio|Planning\.InfeasibleLung|Cli\.BenchWrites|Cli\.BenchFills|Cli\.DemoPlans|DesignSearch\.|Campaign\.|LoadsDiagnosis\.|PoseSet\.|RealDesign\.|RealLogTwoDrives\.|OutsideTheLibrary\.|pub_precurvature_coarse_walk_T3|fetch_data\.|Planning\.RobustModePlansForRanges|Planning\.RobustModeSaysWhyEveryBand|Planning\.RobustModeHoldsATarget|MultiRecording\.ADriveOffset|MultiRecording\.ALatency|cli\.DiagnoseSeveralRecordings}
 if [ "${CI:-}" = true ] || [ "${CTR_SKIP_SANITIZERS:-0}" != 1 ]; then
   scripts/run-sanitizers.sh "$RELIABILITY_BUILD"
 fi

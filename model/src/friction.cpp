@@ -351,6 +351,24 @@ StepResult initialState(const Robot& robot, const Configuration& q, Workspace& w
   return r;
 }
 
+HysteresisState stuckStateAt(const Robot& robot, const Solution& shape) {
+  if (hasActuation(robot))
+    throw std::invalid_argument("stuckStateAt: the robot has drives (pass its tubes: Robot::withoutActuation)");
+  if (!shape.converged() || shape.q.size() != robot.size())
+    throw std::invalid_argument("stuckStateAt: the shape is not a converged equilibrium of this robot");
+  const std::vector<ContactSite> sites = contactSites(robot, shape.q);
+  if (sites.size() != shape.contacts.size())
+    throw std::invalid_argument("stuckStateAt: the shape's contact sites are not the robot's at its configuration");
+  HysteresisState st = stateFrom(shape, std::vector<ContactMode>(sites.size(), ContactMode::Stick), shape.q,
+                                 Eigen::VectorXd::Zero(robot.size()));
+  for (std::size_t c = 0; c < st.contacts.size(); ++c) {
+    if (!(st.contacts[c].site == sites[c]))
+      throw std::invalid_argument("stuckStateAt: the shape's contact sites are not the robot's at its configuration");
+    st.contacts[c].bound = robot.friction().boundary * shape.contacts[c].moment;
+  }
+  return st;
+}
+
 StepResult step(const Robot& robot, const HysteresisState& from, const Configuration& q, Workspace& ws,
                 const FrictionOptions& opt) {
   if (!from.valid) throw std::invalid_argument("step: the hysteresis state is not initialised (use initialState)");

@@ -2,6 +2,7 @@
 
 #include <ompl/base/SpaceInformation.h>
 
+#include "ctr/model/friction.hpp"
 #include "ctr/model/ik.hpp"
 #include "ctr/planner/stopwatch.hpp"
 #include "ctr/planner/validity.hpp"
@@ -81,7 +82,172 @@ double TipGoal::bandDistance(const Configuration& q, Eigen::Vector3d* center) co
   return d;
 }
 
+namespace {
+
+bool sameConfiguration(const Configuration& a, const Configuration& b) {
+  return a.size() == b.size() && a.alpha == b.alpha && a.beta == b.beta;
+}
+
+}  // namespace
+
+std::optional<Configuration> TipGoal::approachMove(const ob::State* st) const {
+  if (ctx_->options().mode != Mode::Robust) return std::nullopt;
+  const Configuration q = space_->configuration(st);
+  std::lock_guard<std::mutex> lock(mutex_);
+  for (std::size_t k = 0; k < pool_.size(); ++k)
+    if (approach_[k].size() > 0 && sameConfiguration(pool_[k], q)) return approach_[k];
+  return std::nullopt;
+}
+
+double TipGoal::approachDistance(const Configuration& q, const Configuration& move, bool vertices,
+                                 Eigen::Vector3d* centre) const {
+  constexpr double kInf = std::numeric_limits<double>::infinity();
+  FrictionOptions fo = ctx_->options().friction;
+  fo.kinematics.record_backbone = false;
+  FrictionBandOptions bo;
+  bo.interior_samples = 0;
+  bo.kinematics = fo.kinematics;
+  const Configuration to(q.alpha + move.alpha, q.beta + move.beta);
+  // The corners carry friction at the upper end of its range; the end of an approach also depends on the lower end.
+  double lower = -1.0;
+  for (const RangeDimension& d : ctx_->options().ranges)
+    if (d.kind == RangeDimension::Kind::BoundaryFriction && d.lo < d.hi) lower = d.lo;
+  ThreadScratch& t = scratch();
+  double dist = 0.0;
+  Eigen::Vector3d lo = Eigen::Vector3d::Constant(kInf), hi = -lo;
+  for (const RobustCorner& corner : ctx_->robustCorners()) {
+    std::vector<Robot> robots{corner.tubes};
+    if (lower >= 0.0) robots.push_back(corner.tubes.withFriction({lower, corner.tubes.friction().distributed}));
+    const Configuration a = corner.joints(q), b = corner.joints(to);
+    for (const Robot& robot : robots) {
+      std::vector<HysteresisState> starts;
+      if (vertices) {
+        const FrictionBand band = frictionBand(robot, a, t.ws, bo);
+        if (!band.converged) return kInf;
+        for (const Solution& shape : band.shapes) starts.push_back(stuckStateAt(robot, shape));
+      } else {
+        const StepResult rest = initialState(robot, a, t.ws, fo);
+        if (!rest.summary.converged) return kInf;
+        starts.push_back(rest.state);
+      }
+      for (const HysteresisState& from : starts) {
+        const StepResult r = step(robot, from, b, t.ws, fo);
+        if (!r.summary.converged || r.summary.snapped) return kInf;
+        const Eigen::Vector3d tip = ctx_->basePose() * r.solution.tip_position;
+        dist = std::max(dist, goalDistance(tip, ctx_->basePose().linear() * r.solution.tipTangent()));
+        lo = lo.cwiseMin(tip);
+        hi = hi.cwiseMax(tip);
+      }
+    }
+  }
+  if (centre) *centre = 0.5 * (lo + hi);
+  return dist;
+}
+
+bool TipGoal::tryApproach(const Configuration& q0, Configuration& start, Configuration& move, double& distance) const {
+  const int n = q0.size();
+  if (n < 2 || ctx_->robustCorners().empty()) return false;
+  // How far a contact can stick: the widest range of relative twist at a contact site over the band at the goal.
+  const RobustCorner& corner = ctx_->robustCorners().front();
+  FrictionBandOptions bo;
+  bo.interior_samples = 0;
+  bo.kinematics = ctx_->options().friction.kinematics;
+  bo.kinematics.record_backbone = false;
+  const Configuration goal0 = ctx_->commandAt(q0);
+  if (!goal0.alpha.allFinite() || !goal0.beta.allFinite()) return false;
+  const FrictionBand band = frictionBand(corner.tubes, corner.joints(goal0), scratch().ws, bo);
+  if (!band.converged) return false;
+  double width = 0.0;
+  for (std::size_t c = 0; c < band.sites.size(); ++c) {
+    double lo = std::numeric_limits<double>::infinity(), hi = -lo;
+    for (const Solution& s : band.shapes) {
+      if (c >= s.contacts.size()) return false;
+      lo = std::min(lo, s.contacts[c].relative_twist);
+      hi = std::max(hi, s.contacts[c].relative_twist);
+    }
+    width = std::max(width, hi - lo);
+  }
+  double sense = 1.0;
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    sense = (gen_() & 1u) ? 1.0 : -1.0;
+  }
+  // Moves of growing length in one sense, then in the other: a longer move slips more contacts (a narrower band at
+  // its end) but sweeps the robot further; the first that holds the target and is valid is kept.
+  bool tried = false, held = false, valid = false;
+  Failure rejected = Failure::None;
+  double best = std::numeric_limits<double>::infinity();
+  for (int attempt = 0; attempt < 6; ++attempt) {
+    const double s = attempt < 3 ? sense : -sense;
+    const double relative = std::clamp((2.0 / (1 << (attempt % 3))) * width + 0.05, 0.1, 1.5);
+    // Neighbours turned against each other by `relative` (rad); the whole turned so that the mean of the rotations
+    // weighted by each tube's bending stiffness times precurvature stays (the robot turns as a whole as little as it
+    // can).
+    move = Configuration(Eigen::VectorXd::Zero(n), Eigen::VectorXd::Zero(n));
+    double weight = 0.0, mean = 0.0;
+    for (int i = 0; i < n; ++i) {
+      move.alpha[i] = s * relative * (0.5 * (n - 1) - i);
+      const double w = corner.tubes.tube(i).bending_stiffness * std::abs(corner.tubes.tube(i).curvature);
+      weight += w;
+      mean += w * move.alpha[i];
+    }
+    if (weight > 0.0) move.alpha.array() -= mean / weight;
+    // Aim the frictionless tip so that where the approach ends (estimated from the frictionless start) is on the
+    // target.
+    Configuration q = q0;
+    Eigen::Vector3d aim = spec_.position, centre;
+    bool aimed = true;
+    for (int it = 0;; ++it) {
+      const Configuration goal = ctx_->commandAt(q);
+      aimed = goal.alpha.allFinite() && goal.beta.allFinite();
+      if (!aimed) break;
+      start = Configuration(goal.alpha - move.alpha, goal.beta - move.beta);
+      const double d = approachDistance(start, move, false, &centre);
+      aimed = std::isfinite(d);
+      if (!aimed || d <= 0.25 * spec_.tolerance || it == 3) break;
+      aim += spec_.position - centre;
+      aimed = inverseKinematics(*ctx_, aim, q) < 0.5 * spec_.tolerance;
+      if (!aimed) break;
+    }
+    if (!aimed) continue;
+    // Every history: every shape of the band at the start.
+    tried = true;
+    distance = approachDistance(start, move, true);
+    best = std::min(best, distance);
+    if (!(distance <= spec_.tolerance)) continue;
+    held = true;
+    ob::State* st = si_->allocState();
+    space_->setConfiguration(st, start);
+    start = space_->configuration(st);  // as the state space stores it (rotations wrapped)
+    si_->freeState(st);
+    // Valid: the band at the start, and the approach itself (every band branch followed along it, as the motion
+    // validity of a path's last motion).
+    ConfigurationCheck c = checkRobust(*ctx_, start, scratch());
+    if (c.ok) {
+      const Configuration to(start.alpha + move.alpha, start.beta + move.beta);
+      c.ok = checkMotionForward(*ctx_, start, to, scratch(), nullptr, &c.failure) >= 1.0;
+    }
+    valid = c.ok;
+    if (valid) break;
+    rejected = c.failure;
+  }
+  std::lock_guard<std::mutex> lock(mutex_);
+  approach_tried_ += tried;
+  best_approach_ = std::min(best_approach_, best);
+  band_reached_ += held;
+  if (held && !valid) countRejected(rejected);
+  return valid;
+}
+
 double TipGoal::distanceGoal(const ob::State* st) const {
+  // An approach goal's start: the goal holds after its final approach (every history's end is within the distance
+  // found when it was accepted).
+  if (ctx_->options().mode == Mode::Robust) {
+    const Configuration q = space_->configuration(st);
+    std::lock_guard<std::mutex> lock(mutex_);
+    for (std::size_t k = 0; k < pool_.size(); ++k)
+      if (approach_[k].size() > 0 && sameConfiguration(pool_[k], q)) return approach_distance_[k];
+  }
   Eigen::Vector3d tip, tangent;
   if (!tipOf(*ctx_, *space_, st, tip, &tangent)) return std::numeric_limits<double>::infinity();
   const double d = goalDistance(tip, tangent);
@@ -124,6 +290,7 @@ bool TipGoal::tryCandidate() const {
     ++ik_reached_;
   }
   const bool robust = ctx_->options().mode == Mode::Robust;
+  const Configuration on_target = q;  // the frictionless tip on the target
   double band = 0.0;
   if (robust) {
     // Centre the friction band's tips on the target: aim the frictionless tip at the target minus the offset of the
@@ -140,23 +307,32 @@ bool TipGoal::tryCandidate() const {
     best_band_ = std::min(best_band_, band);
     band_reached_ += band <= spec_.tolerance;
   }
-  q = ctx_->commandAt(q);
+  // Robust mode, no band on the target: a final approach move may still bring every history's end onto it.
+  Configuration move;  // the approach goal's move (size 0: none)
+  double approach_distance = 0.0;
+  if (robust && band > spec_.tolerance) {
+    if (!spec_.final_approach) return false;
+    // An approach costs a stick-slip move from every band shape: only while no band holds the target directly.
+    {
+      std::lock_guard<std::mutex> lock(mutex_);
+      if (std::count_if(approach_.begin(), approach_.end(), [](const Configuration& m) { return m.size() == 0; }) > 0)
+        return false;
+    }
+    Configuration start;
+    if (!tryApproach(on_target, start, move, approach_distance)) return false;
+    q = start;  // wrapped as the state space stores it, and valid
+  } else {
+    q = ctx_->commandAt(q);
+  }
   if (!q.alpha.allFinite() || !q.beta.allFinite()) return false;  // the drives cannot be inverted there
   ob::State* st = si_->allocState();
   space_->setConfiguration(st, q);
   q = space_->configuration(st);  // as the state space stores it (rotations wrapped)
   si_->freeState(st);
   bool ok = false;
-  // Why a goal configuration on the target was rejected (for the one-line reason of an empty pool; under the lock).
-  auto countRejected = [&](Failure f) {
-    if (f == Failure::Collision)
-      ++rejected_collision_;
-    else if (f == Failure::Unstable)
-      ++rejected_unstable_;
-    else if (f == Failure::NotUnique)
-      ++rejected_not_unique_;
-  };
-  if (robust) {
+  if (move.size() > 0) {
+    ok = true;  // tryApproach checked it
+  } else if (robust) {
     if (band <= spec_.tolerance) {
       const ConfigurationCheck c = checkRobust(*ctx_, q, scratch());
       ok = c.ok;
@@ -182,7 +358,18 @@ bool TipGoal::tryCandidate() const {
   std::lock_guard<std::mutex> lock(mutex_);
   if (pool_.size() >= target_) return false;
   pool_.push_back(std::move(q));
+  approach_.push_back(std::move(move));
+  approach_distance_.push_back(approach_distance);
   return true;
+}
+
+void TipGoal::countRejected(Failure f) const {
+  if (f == Failure::Collision)
+    ++rejected_collision_;
+  else if (f == Failure::Unstable)
+    ++rejected_unstable_;
+  else if (f == Failure::NotUnique)
+    ++rejected_not_unique_;
 }
 
 std::size_t TipGoal::fillPool(std::size_t count, double seconds, std::uint64_t seed, bool cpu_clock,
@@ -208,16 +395,25 @@ std::string TipGoal::emptyPoolReason() const {
   };
   if (ik_reached_ == 0) return "no configuration found by inverse kinematics puts the tip on the target";
   const std::string n = std::to_string(ik_reached_) + " inverse-kinematics solution" + (ik_reached_ > 1 ? "s" : "");
-  if (ctx_->options().mode == Mode::Robust && band_reached_ == 0)
+  if (ctx_->options().mode == Mode::Robust && band_reached_ == 0) {
+    std::string approach;
+    if (spec_.final_approach)
+      approach = ", nor does one after a final approach move (" +
+                 (approach_tried_ == 0
+                      ? std::string("none could be aimed at it: a stick-slip step did not converge or snapped")
+                      : std::to_string(approach_tried_) + " tried, closest: every end within " + mm(best_approach_)) +
+                 ")";
     return "robust mode: " + n +
-           " put the frictionless tip on the target, but no friction band reaches it as a "
-           "whole (closest: every band tip within " +
-           mm(best_band_) + ", tolerance " + mm(spec_.tolerance) + ")";
+           " put the frictionless tip on the target, but no friction band reaches it as a whole (closest: every band "
+           "tip within " +
+           mm(best_band_) + ", tolerance " + mm(spec_.tolerance) + ")" + approach;
+  }
   if (ctx_->options().mode == Mode::Robust) {
     const std::size_t other =
         band_reached_ - std::min(band_reached_, rejected_collision_ + rejected_unstable_ + rejected_not_unique_);
     return "robust mode: " + std::to_string(band_reached_) + " of " + n +
-           " reach the target with their whole friction band, but none is valid: in " +
+           " reach the target with their whole friction band (directly or after a final approach move), but none is "
+           "valid: in " +
            std::to_string(rejected_collision_) + " a band shape collides with the anatomy, in " +
            std::to_string(rejected_unstable_) + " one is elastically unstable, in " +
            std::to_string(rejected_not_unique_) + " the band is not certified unique, in " + std::to_string(other) +

@@ -419,6 +419,19 @@ PlanResult CtrPlanner::replaySolution(const std::string& planner, double plannin
     }
     r.path_length += space.distance(states[k - 1], states[k]);
   }
+  // Robust mode: a path that ends at an approach goal's start ends with its final approach, checked with the goal.
+  if (goal_) {
+    if (const std::optional<Configuration> move = goal_->approachMove(states.back())) {
+      const Configuration& last = r.path.back();
+      r.path.push_back(Configuration(last.alpha + move->alpha, last.beta + move->beta));
+      const Configuration from = space.configuration(states.back());
+      ob::State* end = space.allocState();
+      space.setConfiguration(end, Configuration(from.alpha + move->alpha, from.beta + move->beta));
+      r.path_length += space.distance(states.back(), end);
+      space.freeState(end);
+      r.final_approach = *move;
+    }
+  }
   const auto t0 = std::chrono::steady_clock::now();
   GoalTest test;
   if (goal_) {

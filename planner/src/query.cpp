@@ -200,7 +200,8 @@ Query parseQueryYaml(const std::string& text, const std::string& source, const s
   }
   const YAML::Node g = root["goal"];
   if (!g.IsMap()) c.fail(g, "goal", "must be a map");
-  c.allowOnly(g, "goal", {"target", "position", "tolerance", "direction", "cone_angle", "configuration"});
+  c.allowOnly(g, "goal",
+              {"target", "position", "tolerance", "direction", "cone_angle", "configuration", "final_approach"});
   const int kinds = (g["target"] ? 1 : 0) + (g["position"] ? 1 : 0) + (g["configuration"] ? 1 : 0);
   if (kinds != 1) c.fail(g, "goal", "give exactly one of target (a named target), position [x,y,z] or configuration");
   if (g["configuration"]) {
@@ -208,6 +209,9 @@ Query parseQueryYaml(const std::string& text, const std::string& source, const s
     if (q.goal_configuration->size() != q.start.size())
       c.fail(g["configuration"], "goal.configuration", "has a different number of tubes than start");
     if (g["tolerance"]) q.goal_configuration_tolerance = c.number(g["tolerance"], "goal.tolerance");
+    if (g["final_approach"])
+      c.fail(g["final_approach"], "goal.final_approach",
+             "applies to a tip goal (target or position), not a configuration");
   } else {
     TipGoalSpec spec;
     if (g["position"]) spec.position = c.vec(g["position"], "goal.position", 3);
@@ -220,6 +224,7 @@ Query parseQueryYaml(const std::string& text, const std::string& source, const s
       spec.direction = d.normalized();
     }
     if (g["cone_angle"]) spec.cone_angle = c.number(g["cone_angle"], "goal.cone_angle");
+    if (g["final_approach"]) spec.final_approach = c.boolean(g["final_approach"], "goal.final_approach");
     q.tip_goal = spec;
   }
   if (root["mode"]) {

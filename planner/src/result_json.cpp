@@ -19,6 +19,10 @@ std::string resultJson(const Query& q, const PlanResult& r, int indent) {
   j["path_length"] = r.path_length;
   j["waypoints"] = r.path.size();
   j["goal_pool"] = r.goal_pool;
+  if (r.final_approach) {
+    const auto list = [](const Eigen::VectorXd& v) { return std::vector<double>(v.data(), v.data() + v.size()); };
+    j["final_approach"] = {{"alpha", list(r.final_approach->alpha)}, {"beta", list(r.final_approach->beta)}};
+  }
   j["replay"] = nlohmann::json::parse(replayJson(r));
   if (r.range_replay) {
     const RangeReplay& rr = *r.range_replay;

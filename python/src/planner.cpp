@@ -125,9 +125,11 @@ void registerPlanner(pyb::module_& m) {
             d["tolerance"] = q.tip_goal->tolerance;
             d["direction"] = q.tip_goal->direction ? pyb::object(array3(*q.tip_goal->direction)) : pyb::none();
             d["cone_angle"] = q.tip_goal->cone_angle;
+            d["final_approach"] = q.tip_goal->final_approach;
             return std::move(d);
           },
-          "Tip goal (world): position, tolerance, direction, cone_angle; None for a goal configuration. A named "
+          "Tip goal (world): position, tolerance, direction, cone_angle, final_approach; None for a goal "
+          "configuration. A named "
           "target's "
           "position is resolved in the environment by CtrPlanner: read it from planner.query.")
       .def_property_readonly("goal_configuration",
@@ -330,6 +332,14 @@ void registerPlanner(pyb::module_& m) {
       .def_property_readonly("replay_time", [](const Result& x) { return x.r->replay_time; })
       .def_property_readonly("path_length", [](const Result& x) { return x.r->path_length; })
       .def_property_readonly("goal_pool", [](const Result& x) { return x.r->goal_pool; })
+      .def_property_readonly(
+          "final_approach",
+          [](const Result& x) -> pyb::object {
+            if (!x.r->final_approach) return pyb::none();
+            return pathArray({*x.r->final_approach}, x.ctx->robot().size());
+          },
+          "Robust mode: the final approach move the path ends with, (1, 2n) [alpha_1..alpha_n, beta_1..beta_n], or "
+          "None.")
       .def_property_readonly("message", [](const Result& x) { return x.r->message; })
       .def_property_readonly(
           "path", [](const Result& x) { return pathArray(x.r->path, x.ctx->robot().size()); },

@@ -31,6 +31,7 @@ def test_plan_equals_cli(cli, tmp_path):
     # the path and the replay as arrays
     n = planner.robot.size
     assert r.solved and r.path.shape == (expected["waypoints"], 2 * n)
+    assert r.final_approach is None and "final_approach" not in expected  # robust mode's approach goals only
     alpha0, beta0 = planner.query.start
     assert np.allclose(r.path[0, :n], alpha0) and np.allclose(r.path[0, n:], beta0)
     assert np.array_equal(r.path_alpha, r.path[:, :n]) and np.array_equal(r.path_beta, r.path[:, n:])
@@ -51,6 +52,7 @@ def test_plan_equals_cli(cli, tmp_path):
 def test_query_fields_and_errors():
     q = ctr.load_query(QUERY)
     assert q.tip_goal["tolerance"] == pytest.approx(0.003) and q.friction == {"boundary": 0.1, "distributed": 0.0}
+    assert q.tip_goal["final_approach"]
     assert q.history["kind"] == "positive" and q.line_of("goal") > 0
     q.mode = "robust"
     assert q.mode == "robust"
@@ -113,3 +115,23 @@ def test_invalid_start_raises_the_cli_message(cli, tmp_path):
     with pytest.raises(ctr.InputError) as e:
         planner.solve()
     assert str(e.value) == cli_error(proc) and e.value.key == "start" and "collision" in str(e.value)
+
+
+def test_robust_final_approach():
+    # A 0.5 mm target no friction band of the intracardiac robot holds: robust mode ends the path with a final approach.
+    text = QUERY.read_text()
+    text = (text.replace("robot: ../robots/", f"robot: {EXAMPLES}/robots/")
+            .replace("environment: ../environments/", f"environment: {EXAMPLES}/environments/")
+            .replace("tolerance: 0.003", "tolerance: 0.0005"))
+    q = ctr.parse_query(text, "q.yaml")
+    q.mode, q.planner, q.time_limit, q.cpu_time_limit = "robust", "rrtconnect", 20.0, True
+    r = ctr.CtrPlanner(q).solve()
+    if not r.solved:  # OMPL's seed is process-wide: one more randomised attempt
+        r = ctr.CtrPlanner(q).solve()
+    assert r.solved, r.message
+    n = r.path.shape[1] // 2
+    assert r.final_approach.shape == (1, 2 * n)
+    assert np.allclose(r.final_approach[0], r.path[-1] - r.path[-2], atol=1e-12)
+    d = r.to_dict()
+    assert np.allclose(d["final_approach"]["alpha"], r.final_approach[0, :n])
+    assert d["replay"]["tip_error"] <= 5e-4

@@ -174,6 +174,42 @@ TEST(Friction, BandVerticesAreTheEnvelopeBranches) {
   }
 }
 
+TEST(Friction, ALongEnoughMoveFromEveryBandShapeForgetsTheHistory) {
+  // From every shape of the band at 150 deg (each contact stuck at its torque there: stuckStateAt), turning the inner
+  // tube on to 270 deg slips every contact positively and ends on the branch reached from rest at 0 deg: the band
+  // collapses to one equilibrium. A 5 deg move does not (the contacts stick through it).
+  const Robot r = pairB(0.12);
+  Workspace ws;
+  const FrictionOptions fo = fastOptions();
+  FrictionBandOptions bo;
+  bo.kinematics.record_backbone = false;
+  const FrictionBand band = frictionBand(r, cfgB(150 * M_PI / 180), ws, bo);
+  ASSERT_TRUE(band.converged) << band.message;
+  ASSERT_GE(band.shapes.size(), 3u);
+  const double from_rest = twists(r, range(0, 270, 5)).back();
+  double short_lo = 1e9, short_hi = -1e9;
+  for (const Solution& shape : band.shapes) {
+    const HysteresisState st = stuckStateAt(r, shape);
+    ASSERT_TRUE(st.valid);
+    ASSERT_EQ(st.contacts.size(), shape.contacts.size());
+    const StepResult longer = step(r, st, cfgB(270 * M_PI / 180), ws, fo);
+    ASSERT_TRUE(longer.summary.converged) << longer.summary.message;
+    EXPECT_NEAR(longer.solution.twist[0], from_rest, 1e-6);
+    for (const ContactMemory& m : longer.state.contacts) EXPECT_EQ(m.mode, ContactMode::SlipPositive);
+    const StepResult shorter = step(r, st, cfgB(155 * M_PI / 180), ws, fo);
+    ASSERT_TRUE(shorter.summary.converged) << shorter.summary.message;
+    short_lo = std::min(short_lo, shorter.solution.twist[0]);
+    short_hi = std::max(short_hi, shorter.solution.twist[0]);
+  }
+  EXPECT_GT(short_hi - short_lo, 0.5 * (band.twist_max[0] - band.twist_min[0]));
+  // Misuse: a shape of another robot.
+  const Robot three("three",
+                    {makeTube("a", 0.05, 0.10, 4.0, 0.04, 0.3), makeTube("b", 0.08, 0.10, 6.0, 0.02, 0.3),
+                     makeTube("c", 0.15, 0.06, 12.0, 0.006, 0.3)},
+                    {0.1, 0.0});
+  EXPECT_THROW(stuckStateAt(three, band.shapes[0]), std::invalid_argument);
+}
+
 TEST(Friction, TorqueBalanceHoldsWithFrictionTorques) {
   const Robot r = pairB(0.12);
   Workspace ws;

@@ -103,6 +103,13 @@ struct StepResult {
 StepResult initialState(const Robot& robot, const Configuration& q, Workspace& ws, const FrictionOptions& options = {},
                         const Solution* branch = nullptr);
 
+/// @brief Memory of a robot at rest in the equilibrium `shape` with every contact stuck at the torque it carries there.
+/// A shape of the friction band (frictionBand) is where some history left the robot; this is that history's memory,
+/// from which step() continues (e.g. the end of a final approach move from every vertex of a band). `robot` is solved
+/// at joints (no drives: use Robot::withoutActuation) and `shape` is one of its converged equilibria at shape.q.
+/// Throws std::invalid_argument otherwise.
+HysteresisState stuckStateAt(const Robot& robot, const Solution& shape);
+
 /// @brief Quasi-static move from the state `from` to the command q, sub-stepped so that the result does not depend
 /// on how the caller slices a path (see docs/friction.md for the tolerance rule at stick/slip changes). A robot with
 /// actuation moves from the state's joints to the joints of q (jointsOf with the state's plays, which the new state

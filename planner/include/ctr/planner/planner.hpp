@@ -31,6 +31,9 @@ struct PlanResult {
   double path_length = 0.0;         ///< Joint-space length of the path (state-space metric).
   std::size_t goal_pool = 0;        ///< Goal configurations found by IK (sampleable goal), at the end of planning.
   std::vector<Configuration> path;  ///< Waypoints, unwrapped, from the start.
+  /// Robust mode: the path ends with this final approach move (the last waypoint minus the one before it) because its
+  /// goal holds only after it: the move leaves every history's robot on the target (TipGoal::approachMove).
+  std::optional<Configuration> final_approach;
   ReplayReport replay;              ///< At the robot as planned (each range at its middle).
   /// With ranges (robust mode): the path replayed at every corner of the ranges and at 20 random samples inside them
   /// (when the replay above is clean); solved needs every one clean.

@@ -77,6 +77,12 @@ void registerPlan(CLI::App& app, Action& action) {
       if (r.range_replay)
         std::cerr << "replayed at " << r.range_replay->corners << " corners and " << r.range_replay->samples
                   << " samples of the ranges: " << r.range_replay->clean << " clean\n";
+      if (r.final_approach) {
+        std::cerr << "the path ends with a final approach (every contact slips; docs/planning.md \"Final approach\"): "
+                     "tube rotations";
+        for (int i = 0; i < r.final_approach->size(); ++i) std::cerr << " " << r.final_approach->alpha[i];
+        std::cerr << " rad\n";
+      }
       if (!r.solved) {
         std::cerr << "not solved: " << r.message << "\n";
         return static_cast<int>(kRuntimeFailure);

@@ -1221,6 +1221,41 @@ TEST(Planning, RobustModePlansForRangesAndReplaysCleanAtEveryCornerAndSample) {
 
 // robot_uncertainty: the 95 % intervals of a diagnosis's named friction, plays and offsets become ranges (a query's
 // own range of the same value replaces the diagnosis's); its other named effects are listed; another JSON is refused.
+// With ranges of friction and play at a 2 mm tolerance the corners' bands spread further than the tolerance near the
+// target: the plan ends with a final approach whose ends were checked at both friction ends and every play corner,
+// and its replays at the corners and samples of the ranges end on the target.
+TEST(Planning, RobustModeHoldsATargetWithRangesByAFinalApproach) {
+  Query q = parseQuery(queryText("target: tricuspid",
+                                 "friction: {boundary: [0.06, 0.12]}\n"
+                                 "actuation: [{tube: 2, rotation: {play: [0.05, 0.15]}}]\n"),
+                       src("examples/queries/q.yaml"), src("examples/queries"));
+  q = onCpuClock(q, Mode::Robust, "rrtconnect", 30);
+  const double tol = 2e-3;
+  q.tip_goal->tolerance = tol;
+  CtrPlanner p(q);
+  const PlanResult r = solveWithRetry(p);
+  ASSERT_TRUE(r.solved) << r.message;
+  ASSERT_TRUE(r.final_approach.has_value());
+  ASSERT_TRUE(r.range_replay.has_value());
+  const RangeReplay& rr = *r.range_replay;
+  EXPECT_EQ(rr.clean, rr.corners + rr.samples);
+  EXPECT_EQ(rr.clean, 24);
+  for (const RangeReplay::Point& pt : rr.points) EXPECT_LE(pt.tip_error, tol) << rr.describe(pt);
+  // The approach was needed: at the end, some corner's band reaches beyond the tolerance.
+  const Context& ctx = *p.context();
+  FrictionBandOptions bo;
+  bo.interior_samples = 0;
+  bo.kinematics = ctx.options().friction.kinematics;
+  double spread = 0.0;
+  for (const RobustCorner& corner : ctx.robustCorners()) {
+    const FrictionBand band = frictionBand(corner.tubes, corner.joints(r.path.back()), scratch().ws, bo);
+    ASSERT_TRUE(band.converged) << band.message;
+    for (const Solution& sh : band.shapes)
+      spread = std::max(spread, (ctx.basePose() * sh.tip_position - p.query().tip_goal->position).norm());
+  }
+  EXPECT_GT(spread, tol);
+}
+
 TEST(Query, RobotUncertaintyTakesTheDiagnosisIntervals) {
   const fs::path dir = fs::temp_directory_path() / ("ctr_uncertainty_" + std::to_string(::getpid()));
   fs::create_directories(dir);

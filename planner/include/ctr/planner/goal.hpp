@@ -58,9 +58,9 @@ class TipGoal : public ompl::base::GoalSampleableRegion {
   const TipGoalSpec& spec() const { return spec_; }
   /// @brief Tip error and direction error (rad) of a shape (base-frame solution).
   std::pair<double, double> errors(const Solution& sol) const;
-  /// @brief Robust mode: the final approach move (a command difference: every tube turned, neighbours in opposite
-  /// senses) that a path ending at the pool state `st` must append, when `st` is the start of an approach goal;
-  /// nullopt for any other state.
+  /// @brief Robust mode: the final approach move (a command difference: neighbouring tubes turned against each other,
+  /// no translation) that a path ending at the pool state `st` must append, when `st` is the start of an approach
+  /// goal; nullopt for any other state.
   std::optional<Configuration> approachMove(const ompl::base::State* st) const;
   /// @brief Robust mode: the goal distance (as distanceGoal) of every equilibrium the move q -> q + `move` can end in
   /// from any history, i.e. from every shape of the friction band at q (each contact stuck at its torque there:

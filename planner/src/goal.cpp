@@ -60,11 +60,21 @@ double TipGoal::goalDistance(const Eigen::Vector3d& tip, const Eigen::Vector3d& 
   return d;
 }
 
-double TipGoal::bandDistance(const Configuration& q, Eigen::Vector3d* center) const {
+namespace {
+
+// The goal's friction bands: vertices only, with the planner's kinematics, no backbone.
+FrictionBandOptions vertexBandOptions(const Context& ctx) {
   FrictionBandOptions o;
   o.interior_samples = 0;
-  o.kinematics = ctx_->options().friction.kinematics;
+  o.kinematics = ctx.options().friction.kinematics;
   o.kinematics.record_backbone = false;
+  return o;
+}
+
+}  // namespace
+
+double TipGoal::bandDistance(const Configuration& q, Eigen::Vector3d* center) const {
+  const FrictionBandOptions o = vertexBandOptions(*ctx_);
   // Every shape of every robust corner's band (the ranges' corners; one without ranges and plays).
   double d = 0.0;
   Eigen::Vector3d lo = Eigen::Vector3d::Constant(std::numeric_limits<double>::infinity()), hi = -lo;
@@ -82,21 +92,27 @@ double TipGoal::bandDistance(const Configuration& q, Eigen::Vector3d* center) co
   return d;
 }
 
-namespace {
-
-bool sameConfiguration(const Configuration& a, const Configuration& b) {
-  return a.size() == b.size() && a.alpha == b.alpha && a.beta == b.beta;
+long TipGoal::approachEntry(const Configuration& q) const {
+  for (std::size_t k = 0; k < pool_.size(); ++k)
+    if (approach_[k].size() > 0 && pool_[k].alpha == q.alpha && pool_[k].beta == q.beta) return static_cast<long>(k);
+  return -1;
 }
 
-}  // namespace
+Configuration TipGoal::stored(const Configuration& q) const {
+  ob::State* st = si_->allocState();
+  space_->setConfiguration(st, q);
+  const Configuration out = space_->configuration(st);
+  si_->freeState(st);
+  return out;
+}
 
 std::optional<Configuration> TipGoal::approachMove(const ob::State* st) const {
   if (ctx_->options().mode != Mode::Robust) return std::nullopt;
   const Configuration q = space_->configuration(st);
   std::lock_guard<std::mutex> lock(mutex_);
-  for (std::size_t k = 0; k < pool_.size(); ++k)
-    if (approach_[k].size() > 0 && sameConfiguration(pool_[k], q)) return approach_[k];
-  return std::nullopt;
+  const long k = approachEntry(q);
+  if (k < 0) return std::nullopt;
+  return approach_[static_cast<std::size_t>(k)];
 }
 
 double TipGoal::approachDistance(const Configuration& q, const Configuration& move, bool vertices,
@@ -104,9 +120,7 @@ double TipGoal::approachDistance(const Configuration& q, const Configuration& mo
   constexpr double kInf = std::numeric_limits<double>::infinity();
   FrictionOptions fo = ctx_->options().friction;
   fo.kinematics.record_backbone = false;
-  FrictionBandOptions bo;
-  bo.interior_samples = 0;
-  bo.kinematics = fo.kinematics;
+  const FrictionBandOptions bo = vertexBandOptions(*ctx_);
   const Configuration to(q.alpha + move.alpha, q.beta + move.beta);
   // The corners carry friction at the upper end of its range; the end of an approach also depends on the lower end.
   double lower = -1.0;
@@ -149,10 +163,7 @@ bool TipGoal::tryApproach(const Configuration& q0, Configuration& start, Configu
   if (n < 2 || ctx_->robustCorners().empty()) return false;
   // How far a contact can stick: the widest range of relative twist at a contact site over the band at the goal.
   const RobustCorner& corner = ctx_->robustCorners().front();
-  FrictionBandOptions bo;
-  bo.interior_samples = 0;
-  bo.kinematics = ctx_->options().friction.kinematics;
-  bo.kinematics.record_backbone = false;
+  const FrictionBandOptions bo = vertexBandOptions(*ctx_);
   const Configuration goal0 = ctx_->commandAt(q0);
   if (!goal0.alpha.allFinite() || !goal0.beta.allFinite()) return false;
   const FrictionBand band = frictionBand(corner.tubes, corner.joints(goal0), scratch().ws, bo);
@@ -216,10 +227,7 @@ bool TipGoal::tryApproach(const Configuration& q0, Configuration& start, Configu
     best = std::min(best, distance);
     if (!(distance <= spec_.tolerance)) continue;
     held = true;
-    ob::State* st = si_->allocState();
-    space_->setConfiguration(st, start);
-    start = space_->configuration(st);  // as the state space stores it (rotations wrapped)
-    si_->freeState(st);
+    start = stored(start);
     // Valid: the band at the start, and the approach itself (every band branch followed along it, as the motion
     // validity of a path's last motion).
     ConfigurationCheck c = checkRobust(*ctx_, start, scratch());
@@ -245,8 +253,8 @@ double TipGoal::distanceGoal(const ob::State* st) const {
   if (ctx_->options().mode == Mode::Robust) {
     const Configuration q = space_->configuration(st);
     std::lock_guard<std::mutex> lock(mutex_);
-    for (std::size_t k = 0; k < pool_.size(); ++k)
-      if (approach_[k].size() > 0 && sameConfiguration(pool_[k], q)) return approach_distance_[k];
+    const long k = approachEntry(q);
+    if (k >= 0) return approach_distance_[static_cast<std::size_t>(k)];
   }
   Eigen::Vector3d tip, tangent;
   if (!tipOf(*ctx_, *space_, st, tip, &tangent)) return std::numeric_limits<double>::infinity();
@@ -325,10 +333,7 @@ bool TipGoal::tryCandidate() const {
     q = ctx_->commandAt(q);
   }
   if (!q.alpha.allFinite() || !q.beta.allFinite()) return false;  // the drives cannot be inverted there
-  ob::State* st = si_->allocState();
-  space_->setConfiguration(st, q);
-  q = space_->configuration(st);  // as the state space stores it (rotations wrapped)
-  si_->freeState(st);
+  q = stored(q);
   bool ok = false;
   if (move.size() > 0) {
     ok = true;  // tryApproach checked it

@@ -83,6 +83,10 @@ class TipGoal : public ompl::base::GoalSampleableRegion {
   bool tryApproach(const Configuration& q, Configuration& start, Configuration& move, double& distance) const;
   /// Counts why a goal configuration on the target was rejected (the caller holds the lock).
   void countRejected(Failure f) const;
+  /// The pool entry of the approach goal whose start is q (as stored), -1 if none (the caller holds the lock).
+  long approachEntry(const Configuration& q) const;
+  /// q as the state space stores it (rotations wrapped).
+  Configuration stored(const Configuration& q) const;
   std::shared_ptr<const Context> ctx_;
   const CtrStateSpace* space_;
   TipGoalSpec spec_;
